@@ -1,0 +1,11 @@
+//! (placeholder: filled by the camera work)
+use serde::{Deserialize, Serialize};
+use crate::validation::Problems;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraConfig {}
+
+impl CameraConfig {
+    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
+}

@@ -1,0 +1,25 @@
+//! geneva-vision: validates camera-based motion measurement of Geneva drives with synthetic
+//! data and a known truth.
+//!
+//! Data flows one way (see ARCHITECTURE.md):
+//! scenario → mechanism (truth) → timing + camera → render → detect → estimate → budget → report.
+//!
+//! The pure core (everything except [`detect`] and [`io`]) does no I/O and does not link OpenCV.
+
+pub mod budget;
+pub mod camera;
+#[cfg(feature = "opencv-detector")]
+pub mod detect;
+pub mod estimate;
+pub mod io;
+pub mod marker;
+pub mod mechanism;
+pub mod plot;
+pub mod render;
+pub mod rng;
+pub mod scenario;
+pub mod timing;
+pub mod validation;
+
+#[cfg(test)]
+pub mod proptest_utils;

@@ -1,0 +1,27 @@
+//! (placeholder: filled by the mechanism work)
+use serde::{Deserialize, Serialize};
+use crate::validation::Problems;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MechanismConfig {}
+
+impl MechanismConfig {
+    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DriveSpeedConfig {}
+
+impl DriveSpeedConfig {
+    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DynamicsConfig {}
+
+impl DynamicsConfig {
+    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
+}

@@ -1,0 +1,1 @@
+//! Proptest generators shared by all tests (one place, like imageproc's).
