@@ -4,11 +4,11 @@
 //! Data flows one way (see ARCHITECTURE.md):
 //! scenario → mechanism (truth) → timing + camera → render → detect → estimate → budget → report.
 //!
-//! The pure core (everything except [`detect`] and [`io`]) does no I/O and does not link OpenCV.
+//! The pure core (everything except [`detect`]'s OpenCV part and [`io`]) does no I/O and does not
+//! link OpenCV.
 
 pub mod budget;
 pub mod camera;
-#[cfg(feature = "opencv-detector")]
 pub mod detect;
 pub mod estimate;
 pub mod io;
@@ -18,6 +18,7 @@ pub mod plot;
 pub mod render;
 pub mod rng;
 pub mod scenario;
+pub mod scene;
 pub mod timing;
 pub mod validation;
 

@@ -1,14 +1,8 @@
 //! (placeholder: filled by the render work)
-use serde::{Deserialize, Serialize};
 use crate::validation::Problems;
+use serde::{Deserialize, Serialize};
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SceneConfig {}
-
-impl SceneConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
+pub mod shapes;
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

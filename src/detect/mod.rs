@@ -1,0 +1,11 @@
+//! (placeholder: filled by the detect work)
+use crate::validation::Problems;
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DetectorConfig {}
+
+impl DetectorConfig {
+    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
+}
