@@ -1,1 +1,7 @@
-//! (placeholder)
+//! All file formats in one place: CSV tables, PNG frames, images and video in (ffmpeg), JSON.
+//!
+//! Architecture invariant: the pure core never opens a file; it hands rows and images to this
+//! module. Every error names the file (and the row or frame where there is one).
+
+pub mod csv_out;
+pub mod png_out;

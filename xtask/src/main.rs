@@ -1,1 +1,104 @@
-fn main() {}
+//! `cargo xtask`: the project's set-up and maintenance tasks.
+//!
+//! - `cargo xtask demo`    — install what is missing, then run the main job on the embedded
+//!   default scenario (output under `out/demo/`).
+//! - `cargo xtask test`    — install what is missing, then run the whole test suite.
+//! - `cargo xtask bench`   — run the benchmarks and print their figures.
+//! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
+//! - `cargo xtask deps`    — only check/install the system packages.
+//!
+//! Architecture invariant: xtask has no dependencies and builds without OpenCV, so it can run on
+//! a machine where nothing but Rust is installed and set that machine up.
+
+use std::process::{exit, Command};
+
+mod system;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let task = args.first().map(String::as_str).unwrap_or("help");
+    let rest = &args[args.len().min(1)..];
+    let result = match task {
+        "deps" => system::ensure_packages(),
+        "demo" => system::ensure_packages().and_then(|_| demo(rest)),
+        "test" => system::ensure_packages().and_then(|_| test(rest)),
+        "bench" => system::ensure_packages().and_then(|_| bench(rest)),
+        "reports" => system::ensure_packages().and_then(|_| reports(rest)),
+        _ => {
+            eprintln!(
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  deps     check and install the system packages"
+            );
+            Ok(())
+        }
+    };
+    if let Err(message) = result {
+        eprintln!("xtask {task}: {message}");
+        exit(1);
+    }
+}
+
+fn cargo() -> Command {
+    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string()))
+}
+
+fn run(mut command: Command) -> Result<(), String> {
+    eprintln!("xtask: running {command:?}");
+    let status = command
+        .status()
+        .map_err(|e| format!("could not start {command:?}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{command:?} failed with {status}"))
+    }
+}
+
+fn demo(extra: &[String]) -> Result<(), String> {
+    let mut command = cargo();
+    command.args([
+        "run",
+        "--release",
+        "--bin",
+        "geneva",
+        "--",
+        "demo",
+        "--out",
+        "out/demo",
+    ]);
+    command.args(extra);
+    run(command)
+}
+
+fn test(extra: &[String]) -> Result<(), String> {
+    let mut command = cargo();
+    command.args(["test", "--workspace", "--all-targets"]);
+    command.args(extra);
+    run(command)?;
+    // Doc tests are not part of --all-targets.
+    let mut docs = cargo();
+    docs.args(["test", "--workspace", "--doc"]);
+    run(docs)
+}
+
+fn bench(extra: &[String]) -> Result<(), String> {
+    let mut command = cargo();
+    command.args(["bench", "--workspace"]);
+    command.args(extra);
+    run(command)
+}
+
+fn reports(extra: &[String]) -> Result<(), String> {
+    let mut command = cargo();
+    command.args([
+        "run",
+        "--release",
+        "--bin",
+        "geneva",
+        "--",
+        "reports",
+        "--out",
+        "reports",
+    ]);
+    command.args(extra);
+    run(command)
+}

@@ -1,0 +1,100 @@
+//! Loader tests: extend, paths, error messages naming file and field.
+
+use super::*;
+use std::fs;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn builtins_load_and_validate() {
+    for name in builtin_names() {
+        let s = load_builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(s.name, name);
+    }
+}
+
+#[test]
+fn extend_overrides_fields_of_a_builtin_and_of_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "base.toml",
+        "extend = \"fast\"\nname = \"base\"\nduration_s = 3.0\n",
+    );
+    let child = write(
+        dir.path(),
+        "child.toml",
+        "extend = \"base.toml\"\nname = \"child\"\n",
+    );
+    let s = load(&child).unwrap();
+    assert_eq!(s.name, "child");
+    assert_eq!(s.duration_s, 3.0);
+    assert_eq!(s.seed, load_builtin("fast").unwrap().seed);
+}
+
+#[test]
+fn extend_cycle_and_missing_target_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "a.toml", "extend = \"b.toml\"\nname = \"a\"\n");
+    write(dir.path(), "b.toml", "extend = \"a.toml\"\nname = \"b\"\n");
+    let msg = load(&a).unwrap_err().to_string();
+    assert!(msg.contains("cycle"), "{msg}");
+    let c = write(dir.path(), "c.toml", "extend = \"nowhere.toml\"\n");
+    let msg = load(&c).unwrap_err().to_string();
+    assert!(
+        msg.contains("c.toml") && msg.contains("nowhere.toml"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn syntax_errors_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "bad.toml", "name = \n");
+    let msg = load(&p).unwrap_err().to_string();
+    assert!(msg.contains("bad.toml") && msg.contains("TOML"), "{msg}");
+}
+
+#[test]
+fn unknown_fields_are_rejected_with_their_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "u.toml", "extend = \"fast\"\nnmae = \"typo\"\n");
+    let msg = load(&p).unwrap_err().to_string();
+    assert!(msg.contains("u.toml") && msg.contains("nmae"), "{msg}");
+    let p = write(
+        dir.path(),
+        "t.toml",
+        "extend = \"fast\"\nduration_s = \"long\"\n",
+    );
+    let msg = load(&p).unwrap_err().to_string();
+    assert!(msg.contains("duration_s"), "{msg}");
+}
+
+#[test]
+fn out_of_range_values_name_field_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "r.toml",
+        "extend = \"fast\"\nduration_s = -2.0\n",
+    );
+    let err = load(&p).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("r.toml") && msg.contains("duration_s") && msg.contains("must be in"),
+        "{msg}"
+    );
+    assert_eq!(err.problems().len(), 1);
+}
+
+#[test]
+fn resolved_scenario_round_trips_through_toml() {
+    let s = load_builtin(DEFAULT_SCENARIO).unwrap();
+    let text = s.to_toml();
+    let back = from_str(&text, Path::new("shown.toml")).unwrap();
+    assert_eq!(s, back);
+}
