@@ -20,8 +20,15 @@ pub struct CsvWriter {
 
 impl CsvWriter {
     pub fn create(path: &Path, header: &[&str]) -> Result<Self, CsvError> {
-        let file = File::create(path).map_err(|e| CsvError { file: path.into(), message: format!("cannot create: {e}") })?;
-        let mut w = Self { path: path.into(), out: BufWriter::new(file), columns: header.len() };
+        let file = File::create(path).map_err(|e| CsvError {
+            file: path.into(),
+            message: format!("cannot create: {e}"),
+        })?;
+        let mut w = Self {
+            path: path.into(),
+            out: BufWriter::new(file),
+            columns: header.len(),
+        };
         w.line(&header.iter().map(|s| s.to_string()).collect::<Vec<_>>())?;
         Ok(w)
     }
@@ -39,11 +46,17 @@ impl CsvWriter {
 
     fn line(&mut self, cells: &[String]) -> Result<(), CsvError> {
         let text = cells.join(",");
-        writeln!(self.out, "{text}").map_err(|e| CsvError { file: self.path.clone(), message: e.to_string() })
+        writeln!(self.out, "{text}").map_err(|e| CsvError {
+            file: self.path.clone(),
+            message: e.to_string(),
+        })
     }
 
     pub fn finish(mut self) -> Result<(), CsvError> {
-        self.out.flush().map_err(|e| CsvError { file: self.path.clone(), message: e.to_string() })
+        self.out.flush().map_err(|e| CsvError {
+            file: self.path.clone(),
+            message: e.to_string(),
+        })
     }
 }
 

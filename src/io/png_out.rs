@@ -11,9 +11,15 @@ pub struct PngError {
 
 /// Writes a row-major 8-bit grey image.
 pub fn write_gray_png(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), PngError> {
-    let err = |m: String| PngError { file: path.display().to_string(), message: m };
+    let err = |m: String| PngError {
+        file: path.display().to_string(),
+        message: m,
+    };
     if data.len() != (width as usize) * (height as usize) {
-        return Err(err(format!("{} bytes for a {width}x{height} image", data.len())));
+        return Err(err(format!(
+            "{} bytes for a {width}x{height} image",
+            data.len()
+        )));
     }
     let file = std::fs::File::create(path).map_err(|e| err(format!("cannot create: {e}")))?;
     let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
@@ -22,7 +28,9 @@ pub fn write_gray_png(path: &Path, width: u32, height: u32, data: &[u8]) -> Resu
     // Frames are written once and read by detection; fast compression keeps rendering I/O-light.
     encoder.set_compression(png::Compression::Fast);
     let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
-    writer.write_image_data(data).map_err(|e| err(e.to_string()))?;
+    writer
+        .write_image_data(data)
+        .map_err(|e| err(e.to_string()))?;
     writer.finish().map_err(|e| err(e.to_string()))
 }
 
@@ -36,7 +44,9 @@ mod tests {
         let p = dir.path().join("f.png");
         let data: Vec<u8> = (0..12u8).collect();
         write_gray_png(&p, 4, 3, &data).unwrap();
-        let mut reader = png::Decoder::new(std::fs::File::open(&p).unwrap()).read_info().unwrap();
+        let mut reader = png::Decoder::new(std::fs::File::open(&p).unwrap())
+            .read_info()
+            .unwrap();
         let mut buf = vec![0; reader.output_buffer_size()];
         let info = reader.next_frame(&mut buf).unwrap();
         assert_eq!((info.width, info.height), (4, 3));
