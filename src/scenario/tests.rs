@@ -98,3 +98,33 @@ fn resolved_scenario_round_trips_through_toml() {
     let back = from_str(&text, Path::new("shown.toml")).unwrap();
     assert_eq!(s, back);
 }
+
+/// Every field of every built-in scenario is documented in scenarios/README.md (as `section.key`
+/// or, for top-level fields, `key`), so the documentation cannot silently fall behind the code.
+#[test]
+fn every_field_is_documented_in_scenarios_readme() {
+    let readme = include_str!("../../scenarios/README.md");
+    fn keys(prefix: &str, v: &toml::Value, out: &mut Vec<String>) {
+        if let toml::Value::Table(t) = v {
+            for (k, child) in t {
+                let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                match child {
+                    toml::Value::Table(_) => keys(&path, child, out),
+                    _ => out.push(path),
+                }
+            }
+        }
+    }
+    let mut missing = Vec::new();
+    for name in builtin_names() {
+        let value = toml::Value::try_from(load_builtin(name).unwrap()).unwrap();
+        let mut all = Vec::new();
+        keys("", &value, &mut all);
+        for k in all {
+            if !readme.contains(&format!("`{k}`")) && !missing.contains(&k) {
+                missing.push(k);
+            }
+        }
+    }
+    assert!(missing.is_empty(), "fields not documented in scenarios/README.md: {missing:?}");
+}
