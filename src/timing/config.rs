@@ -26,26 +26,24 @@ pub struct FrameTimingConfig {
 
 impl Default for FrameTimingConfig {
     fn default() -> Self {
-        Self { fps: 30.0, model: TimingModel::Constant }
+        Self {
+            fps: 30.0,
+            model: TimingModel::Constant,
+        }
     }
 }
 
 /// The frame-time model, selected by `kind`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum TimingModel {
     /// Frame k at exactly k / fps.
+    #[default]
     Constant,
     /// Variable frame rate like a phone camera: long first interval, alternation, jitter, drops.
     Vfr(VfrModel),
     /// Real timestamps read from a log file.
     Log(LogModel),
-}
-
-impl Default for TimingModel {
-    fn default() -> Self {
-        TimingModel::Constant
-    }
 }
 
 /// Variable frame rate. Frame 0 is at 0 s; grid slot m ≥ 1 is at
@@ -134,8 +132,18 @@ impl FrameTimingConfig {
 impl VfrModel {
     fn validate(&self, path: &str, nominal_fps: f64, problems: &mut Problems) {
         let before = problems.len();
-        problems.range(join(path, "rate_error_ppm"), self.rate_error_ppm, -100_000.0, 100_000.0);
-        problems.range(join(path, "drop_probability"), self.drop_probability, 0.0, 0.5);
+        problems.range(
+            join(path, "rate_error_ppm"),
+            self.rate_error_ppm,
+            -100_000.0,
+            100_000.0,
+        );
+        problems.range(
+            join(path, "drop_probability"),
+            self.drop_probability,
+            0.0,
+            0.5,
+        );
         problems.non_negative(join(path, "jitter_s"), self.jitter_s);
         problems.non_negative(join(path, "pair_alternation_s"), self.pair_alternation_s);
         if problems.len() > before || !nominal_fps.is_finite() || nominal_fps <= 0.0 {
@@ -154,7 +162,12 @@ impl VfrModel {
             );
         }
         if self.first_interval_s != 0.0 {
-            problems.range(join(path, "first_interval_s"), self.first_interval_s, budget_s, 10.0);
+            problems.range(
+                join(path, "first_interval_s"),
+                self.first_interval_s,
+                budget_s,
+                10.0,
+            );
         }
     }
 }
@@ -162,10 +175,16 @@ impl VfrModel {
 impl LogModel {
     fn validate(&self, path: &str, problems: &mut Problems) {
         if self.file.trim().is_empty() {
-            problems.push(join(path, "file"), "must name the timing log file, got an empty path");
+            problems.push(
+                join(path, "file"),
+                "must name the timing log file, got an empty path",
+            );
         }
         if !self.offset_s.is_finite() {
-            problems.push(join(path, "offset_s"), format!("must be finite, got {}", self.offset_s));
+            problems.push(
+                join(path, "offset_s"),
+                format!("must be finite, got {}", self.offset_s),
+            );
         }
     }
 }

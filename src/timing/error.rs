@@ -10,16 +10,31 @@ pub enum TimingError {
     NotFinite { frame: usize, value_s: f64 },
     /// A timestamp equals its predecessor.
     #[error("frame {frame}: timestamp {value_s} s repeats frame {} ({previous_s} s); timestamps must strictly increase", frame - 1)]
-    Repeated { frame: usize, previous_s: f64, value_s: f64 },
+    Repeated {
+        frame: usize,
+        previous_s: f64,
+        value_s: f64,
+    },
     /// A timestamp is earlier than its predecessor.
     #[error("frame {frame}: timestamp {value_s} s goes backwards from frame {} ({previous_s} s); timestamps must strictly increase", frame - 1)]
-    Backwards { frame: usize, previous_s: f64, value_s: f64 },
+    Backwards {
+        frame: usize,
+        previous_s: f64,
+        value_s: f64,
+    },
     /// A line of a log could not be understood; `line` is 1-based.
     #[error("{format} line {line}: {message}")]
-    Parse { format: &'static str, line: usize, message: String },
+    Parse {
+        format: &'static str,
+        line: usize,
+        message: String,
+    },
     /// The log held no frames, or frame numbering has gaps or duplicates.
     #[error("{format}: {message}")]
-    Content { format: &'static str, message: String },
+    Content {
+        format: &'static str,
+        message: String,
+    },
     /// An operation needs more frames than it was given.
     #[error("need at least {needed} frames, got {got}")]
     TooFewFrames { needed: usize, got: usize },

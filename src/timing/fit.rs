@@ -38,14 +38,21 @@ pub struct TimingFit {
 /// Needs at least 5 frames.
 pub fn fit_vfr(ts: &Timestamps) -> Result<TimingFit, TimingError> {
     if ts.len() < 5 {
-        return Err(TimingError::TooFewFrames { needed: 5, got: ts.len() });
+        return Err(TimingError::TooFewFrames {
+            needed: 5,
+            got: ts.len(),
+        });
     }
     let t = ts.as_slice();
     let d = ts.intervals_s();
     let nominal_s = median(&d[1..]);
     let mut slots = vec![1u64];
     for &dk in &d[1..] {
-        let step = if dk > DROP_THRESHOLD * nominal_s { (dk / nominal_s).round() as u64 } else { 1 };
+        let step = if dk > DROP_THRESHOLD * nominal_s {
+            (dk / nominal_s).round() as u64
+        } else {
+            1
+        };
         slots.push(slots[slots.len() - 1] + step.max(1));
     }
     let last_slot = slots[slots.len() - 1];
@@ -87,7 +94,10 @@ pub fn fit_vfr(ts: &Timestamps) -> Result<TimingFit, TimingError> {
         rate_error_ppm: 0.0,
     };
     Ok(TimingFit {
-        config: FrameTimingConfig { fps, model: TimingModel::Vfr(vfr) },
+        config: FrameTimingConfig {
+            fps,
+            model: TimingModel::Vfr(vfr),
+        },
         fps,
         fps_stderr: interval_stderr_s / (interval_s * interval_s),
         first_interval_s,
@@ -123,7 +133,8 @@ fn least_squares(rows: &[[f64; 3]], y: &[f64]) -> Option<([f64; 3], [[f64; 3]; 3
 }
 
 fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let c = |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    let c =
+        |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
     let cof = [
         [c(1, 2, 1, 2), -c(1, 2, 0, 2), c(1, 2, 0, 1)],
         [-c(0, 2, 1, 2), c(0, 2, 0, 2), -c(0, 2, 0, 1)],
@@ -148,10 +159,33 @@ impl fmt::Display for TimingFit {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let ms = |s: f64| s * 1e3;
         writeln!(f, "VFR fit over {} frames", self.frames)?;
-        writeln!(f, "rate               {:.4} ± {:.4} fps", self.fps, self.fps_stderr)?;
-        writeln!(f, "first interval     {:.4} ± {:.4} ms", ms(self.first_interval_s), ms(self.first_interval_stderr_s))?;
-        writeln!(f, "pair alternation   {:.4} ± {:.4} ms", ms(self.pair_alternation_s), ms(self.pair_alternation_stderr_s))?;
-        writeln!(f, "jitter σ (residual) {:.4} ms, max |residual| {:.4} ms", ms(self.jitter_s), ms(self.max_abs_residual_s))?;
-        write!(f, "dropped frames     {} (drop probability {:.5})", self.dropped_frames, self.drop_probability)
+        writeln!(
+            f,
+            "rate               {:.4} ± {:.4} fps",
+            self.fps, self.fps_stderr
+        )?;
+        writeln!(
+            f,
+            "first interval     {:.4} ± {:.4} ms",
+            ms(self.first_interval_s),
+            ms(self.first_interval_stderr_s)
+        )?;
+        writeln!(
+            f,
+            "pair alternation   {:.4} ± {:.4} ms",
+            ms(self.pair_alternation_s),
+            ms(self.pair_alternation_stderr_s)
+        )?;
+        writeln!(
+            f,
+            "jitter σ (residual) {:.4} ms, max |residual| {:.4} ms",
+            ms(self.jitter_s),
+            ms(self.max_abs_residual_s)
+        )?;
+        write!(
+            f,
+            "dropped frames     {} (drop probability {:.5})",
+            self.dropped_frames, self.drop_probability
+        )
     }
 }

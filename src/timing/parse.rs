@@ -82,13 +82,19 @@ pub fn parse_showinfo(text: &str) -> Result<Timestamps, TimingError> {
         let mut rest = record;
         while let Some(pos) = rest.find("[Parsed_showinfo") {
             let segment = &rest[pos..];
-            let Some(close) = segment.find(']') else { break };
+            let Some(close) = segment.find(']') else {
+                break;
+            };
             let body = segment[close + 1..].trim_start();
             rest = &segment[close + 1..];
             if !body.starts_with("n:") {
                 continue; // config / colour / side-data lines of the filter
             }
-            let parse_err = |message: String| TimingError::Parse { format: SHOWINFO, line, message };
+            let parse_err = |message: String| TimingError::Parse {
+                format: SHOWINFO,
+                line,
+                message,
+            };
             let n_text = first_token(&body[2..]);
             let n: u64 = n_text
                 .parse()
@@ -97,10 +103,14 @@ pub fn parse_showinfo(text: &str) -> Result<Timestamps, TimingError> {
                 .map(first_token)
                 .ok_or_else(|| parse_err(format!("frame n:{n} has no pts_time field")))?;
             let t: f64 = pts_text.parse().map_err(|_| {
-                parse_err(format!("frame n:{n}: pts_time `{pts_text}` is not a number"))
+                parse_err(format!(
+                    "frame n:{n}: pts_time `{pts_text}` is not a number"
+                ))
             })?;
             if !t.is_finite() {
-                return Err(parse_err(format!("frame n:{n}: pts_time `{pts_text}` is not finite")));
+                return Err(parse_err(format!(
+                    "frame n:{n}: pts_time `{pts_text}` is not finite"
+                )));
             }
             frames.push((n, t, line));
         }
@@ -114,7 +124,10 @@ fn ordered_by_index(
     mut frames: Vec<(u64, f64, usize)>,
 ) -> Result<Timestamps, TimingError> {
     if frames.is_empty() {
-        return Err(TimingError::Content { format, message: "no frame lines found".into() });
+        return Err(TimingError::Content {
+            format,
+            message: "no frame lines found".into(),
+        });
     }
     frames.sort_by_key(|f| f.0);
     for (expected, &(n, _, line)) in frames.iter().enumerate() {
@@ -160,7 +173,10 @@ pub fn parse_ffprobe_csv(text: &str) -> Result<Timestamps, TimingError> {
         times.push(t);
     }
     if times.is_empty() {
-        return Err(TimingError::Content { format: FFPROBE_CSV, message: "no frames found".into() });
+        return Err(TimingError::Content {
+            format: FFPROBE_CSV,
+            message: "no frames found".into(),
+        });
     }
     Timestamps::new(times)
 }
@@ -170,13 +186,15 @@ const FFPROBE_JSON: &str = "ffprobe_json";
 /// ffprobe JSON: `{"frames": [{"pts_time": "0.033", ...}, ...]}`; `best_effort_timestamp_time`
 /// is used when `pts_time` is absent; non-video frames (`media_type` ≠ `video`) are skipped.
 pub fn parse_ffprobe_json(text: &str) -> Result<Timestamps, TimingError> {
-    let content = |message: String| TimingError::Content { format: FFPROBE_JSON, message };
-    let root: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| TimingError::Parse {
-            format: FFPROBE_JSON,
-            line: e.line(),
-            message: e.to_string(),
-        })?;
+    let content = |message: String| TimingError::Content {
+        format: FFPROBE_JSON,
+        message,
+    };
+    let root: serde_json::Value = serde_json::from_str(text).map_err(|e| TimingError::Parse {
+        format: FFPROBE_JSON,
+        line: e.line(),
+        message: e.to_string(),
+    })?;
     let frames = root
         .get("frames")
         .and_then(|f| f.as_array())
@@ -192,7 +210,9 @@ pub fn parse_ffprobe_json(text: &str) -> Result<Timestamps, TimingError> {
             .get("pts_time")
             .or_else(|| frame.get("best_effort_timestamp_time"))
             .ok_or_else(|| {
-                content(format!("frames[{i}] has neither pts_time nor best_effort_timestamp_time"))
+                content(format!(
+                    "frames[{i}] has neither pts_time nor best_effort_timestamp_time"
+                ))
             })?;
         let t = match value {
             serde_json::Value::String(s) => s.trim().parse::<f64>().ok(),
@@ -218,32 +238,48 @@ pub fn parse_frames_csv(text: &str) -> Result<Timestamps, TimingError> {
         line,
         message,
     };
-    let (line, header) = rows
-        .next()
-        .ok_or_else(|| TimingError::Content { format: FRAMES_CSV, message: "empty file".into() })?;
+    let (line, header) = rows.next().ok_or_else(|| TimingError::Content {
+        format: FRAMES_CSV,
+        message: "empty file".into(),
+    })?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     if cols != ["frame", "t_s"] {
-        return Err(parse_err(line, format!("header must be `frame,t_s`, got `{}`", header.trim())));
+        return Err(parse_err(
+            line,
+            format!("header must be `frame,t_s`, got `{}`", header.trim()),
+        ));
     }
     let mut frames = Vec::new();
     for (line, row) in rows {
         let fields: Vec<&str> = row.split(',').map(str::trim).collect();
         if fields.len() != 2 {
-            return Err(parse_err(line, format!("expected 2 fields `frame,t_s`, got `{}`", row.trim())));
+            return Err(parse_err(
+                line,
+                format!("expected 2 fields `frame,t_s`, got `{}`", row.trim()),
+            ));
         }
         let n: u64 = fields[0]
             .parse()
             .map_err(|_| parse_err(line, format!("frame `{}` is not an integer", fields[0])))?;
-        let t: f64 = fields[1]
-            .parse()
-            .map_err(|_| parse_err(line, format!("frame {n}: t_s `{}` is not a number", fields[1])))?;
+        let t: f64 = fields[1].parse().map_err(|_| {
+            parse_err(
+                line,
+                format!("frame {n}: t_s `{}` is not a number", fields[1]),
+            )
+        })?;
         if n != frames.len() as u64 {
-            return Err(parse_err(line, format!("frame index {n} out of order, expected {}", frames.len())));
+            return Err(parse_err(
+                line,
+                format!("frame index {n} out of order, expected {}", frames.len()),
+            ));
         }
         frames.push(t);
     }
     if frames.is_empty() {
-        return Err(TimingError::Content { format: FRAMES_CSV, message: "no frame rows".into() });
+        return Err(TimingError::Content {
+            format: FRAMES_CSV,
+            message: "no frame rows".into(),
+        });
     }
     Timestamps::new(frames)
 }

@@ -32,7 +32,9 @@ impl FrameTimingConfig {
         match &self.model {
             TimingModel::Constant => constant(self.fps, duration_s),
             TimingModel::Vfr(v) => vfr(v, self.fps, duration_s, seed),
-            TimingModel::Log(l) => from_log(l, duration_s, loaded_log.ok_or(TimingError::MissingLog)?),
+            TimingModel::Log(l) => {
+                from_log(l, duration_s, loaded_log.ok_or(TimingError::MissingLog)?)
+            }
         }
     }
 }
@@ -48,7 +50,11 @@ fn constant(fps: f64, duration_s: f64) -> Result<Timestamps, TimingError> {
 fn vfr(v: &VfrModel, fps: f64, duration_s: f64, seed: u64) -> Result<Timestamps, TimingError> {
     let mut rng = stream(seed, Stream::FrameTiming, 0);
     let interval_s = 1.0 / v.actual_fps(fps);
-    let first_s = if v.first_interval_s == 0.0 { interval_s } else { v.first_interval_s };
+    let first_s = if v.first_interval_s == 0.0 {
+        interval_s
+    } else {
+        v.first_interval_s
+    };
     let half_alternation_s = 0.5 * v.pair_alternation_s;
     let mut times = vec![0.0];
     for slot in 1u64.. {
@@ -62,7 +68,8 @@ fn vfr(v: &VfrModel, fps: f64, duration_s: f64, seed: u64) -> Result<Timestamps,
             }
         };
         let sign = if slot % 2 == 0 { 1.0 } else { -1.0 };
-        let t = first_s + (slot - 1) as f64 * interval_s + sign * half_alternation_s + v.jitter_s * z;
+        let t =
+            first_s + (slot - 1) as f64 * interval_s + sign * half_alternation_s + v.jitter_s * z;
         // Validation bounds the displacement to a quarter interval, so once one slot lands
         // past the end every later slot does too.
         if t >= duration_s {
@@ -76,6 +83,12 @@ fn vfr(v: &VfrModel, fps: f64, duration_s: f64, seed: u64) -> Result<Timestamps,
 }
 
 fn from_log(l: &LogModel, duration_s: f64, log: &Timestamps) -> Result<Timestamps, TimingError> {
-    let rebase_s = if l.rebase_to_zero { -log.as_slice().first().copied().unwrap_or(0.0) } else { 0.0 };
-    Ok(log.shifted(rebase_s + l.offset_s)?.truncated_before(duration_s))
+    let rebase_s = if l.rebase_to_zero {
+        -log.as_slice().first().copied().unwrap_or(0.0)
+    } else {
+        0.0
+    };
+    Ok(log
+        .shifted(rebase_s + l.offset_s)?
+        .truncated_before(duration_s))
 }

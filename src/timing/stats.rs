@@ -72,7 +72,10 @@ impl TimingStats {
     /// Needs at least 3 frames (a first interval plus one steady interval).
     pub fn of(ts: &Timestamps) -> Result<Self, TimingError> {
         if ts.len() < 3 {
-            return Err(TimingError::TooFewFrames { needed: 3, got: ts.len() });
+            return Err(TimingError::TooFewFrames {
+                needed: 3,
+                got: ts.len(),
+            });
         }
         let t = ts.as_slice();
         let d = ts.intervals_s();
@@ -94,7 +97,13 @@ impl TimingStats {
         let coherent = steady
             .iter()
             .enumerate()
-            .map(|(i, x)| if i % 2 == 0 { x - steady_mean } else { steady_mean - x })
+            .map(|(i, x)| {
+                if i % 2 == 0 {
+                    x - steady_mean
+                } else {
+                    steady_mean - x
+                }
+            })
             .sum::<f64>()
             / steady.len() as f64;
         let span_s = t[t.len() - 1] - t[0];
@@ -121,14 +130,48 @@ impl fmt::Display for TimingStats {
         let ms = |s: f64| s * 1e3;
         writeln!(f, "frames               {}", self.count)?;
         writeln!(f, "span                 {:.6} s", self.span_s)?;
-        writeln!(f, "mean rate            {:.4} fps (mean interval {:.4} ms)", self.mean_fps, ms(self.mean_interval_s))?;
-        writeln!(f, "steady rate          {:.4} fps (after the first interval)", self.steady_fps)?;
-        writeln!(f, "first interval       {:.4} ms", ms(self.first_interval_s))?;
-        writeln!(f, "median interval      {:.4} ms", ms(self.median_interval_s))?;
-        writeln!(f, "interval min / max   {:.4} / {:.4} ms", ms(self.min_interval_s), ms(self.max_interval_s))?;
+        writeln!(
+            f,
+            "mean rate            {:.4} fps (mean interval {:.4} ms)",
+            self.mean_fps,
+            ms(self.mean_interval_s)
+        )?;
+        writeln!(
+            f,
+            "steady rate          {:.4} fps (after the first interval)",
+            self.steady_fps
+        )?;
+        writeln!(
+            f,
+            "first interval       {:.4} ms",
+            ms(self.first_interval_s)
+        )?;
+        writeln!(
+            f,
+            "median interval      {:.4} ms",
+            ms(self.median_interval_s)
+        )?;
+        writeln!(
+            f,
+            "interval min / max   {:.4} / {:.4} ms",
+            ms(self.min_interval_s),
+            ms(self.max_interval_s)
+        )?;
         writeln!(f, "interval std (jitter) {:.4} ms", ms(self.interval_std_s))?;
-        writeln!(f, "paired |Δi−Δi+1|/2   {:.4} ms mean", ms(self.mean_abs_alternation_s))?;
-        writeln!(f, "coherent alternation {:.4} ms", ms(self.coherent_alternation_s))?;
-        write!(f, "dropped frames       {} (intervals > {DROP_THRESHOLD} × median)", self.dropped_frames)
+        writeln!(
+            f,
+            "paired |Δi−Δi+1|/2   {:.4} ms mean",
+            ms(self.mean_abs_alternation_s)
+        )?;
+        writeln!(
+            f,
+            "coherent alternation {:.4} ms",
+            ms(self.coherent_alternation_s)
+        )?;
+        write!(
+            f,
+            "dropped frames       {} (intervals > {DROP_THRESHOLD} × median)",
+            self.dropped_frames
+        )
     }
 }

@@ -24,16 +24,28 @@ fn showinfo_whole_second_interleaved_crlf_and_garbage() {
 
 #[test]
 fn showinfo_frames_out_of_order_are_sorted_by_n() {
-    let text = [showinfo_line(1, "0.1"), showinfo_line(0, "0"), showinfo_line(2, "0.2")].join("\n");
+    let text = [
+        showinfo_line(1, "0.1"),
+        showinfo_line(0, "0"),
+        showinfo_line(2, "0.2"),
+    ]
+    .join("\n");
     assert_eq!(parse_showinfo(&text).unwrap().as_slice(), &[0.0, 0.1, 0.2]);
 }
 
 #[test]
 fn showinfo_malformed_frame_line_names_the_line() {
-    let text = format!("header\n{}\n{}\n", showinfo_line(0, "0"), showinfo_line(1, "0.0x3"));
+    let text = format!(
+        "header\n{}\n{}\n",
+        showinfo_line(0, "0"),
+        showinfo_line(1, "0.0x3")
+    );
     let err = parse_showinfo(&text).unwrap_err();
     assert!(matches!(err, TimingError::Parse { line: 3, .. }), "{err:?}");
-    assert!(err.to_string().contains("line 3") && err.to_string().contains("0.0x3"), "{err}");
+    assert!(
+        err.to_string().contains("line 3") && err.to_string().contains("0.0x3"),
+        "{err}"
+    );
     let truncated = format!("{}\n{SI} n:   1 pts:  3000 pts_", showinfo_line(0, "0"));
     let err = parse_showinfo(&truncated).unwrap_err();
     assert!(matches!(err, TimingError::Parse { line: 2, .. }), "{err:?}");
@@ -44,36 +56,76 @@ fn showinfo_missing_or_duplicate_n_is_reported() {
     let gap = [showinfo_line(0, "0"), showinfo_line(2, "0.2")].join("\n");
     let err = parse_showinfo(&gap).unwrap_err();
     assert!(err.to_string().contains("frame 1 is missing"), "{err}");
-    let dup = [showinfo_line(0, "0"), showinfo_line(1, "0.1"), showinfo_line(1, "0.2")].join("\n");
+    let dup = [
+        showinfo_line(0, "0"),
+        showinfo_line(1, "0.1"),
+        showinfo_line(1, "0.2"),
+    ]
+    .join("\n");
     let err = parse_showinfo(&dup).unwrap_err();
-    assert!(err.to_string().contains("frame 1 appears more than once"), "{err}");
+    assert!(
+        err.to_string().contains("frame 1 appears more than once"),
+        "{err}"
+    );
     assert!(parse_showinfo("no frames here\n").is_err());
 }
 
 #[test]
 fn showinfo_backwards_and_repeated_times_name_the_frame() {
-    let back = [showinfo_line(0, "0"), showinfo_line(1, "0.2"), showinfo_line(2, "0.1")].join("\n");
+    let back = [
+        showinfo_line(0, "0"),
+        showinfo_line(1, "0.2"),
+        showinfo_line(2, "0.1"),
+    ]
+    .join("\n");
     let err = parse_showinfo(&back).unwrap_err();
-    assert_eq!(err, TimingError::Backwards { frame: 2, previous_s: 0.2, value_s: 0.1 });
-    let rep = [showinfo_line(0, "0"), showinfo_line(1, "1"), showinfo_line(2, "1.0")].join("\n");
+    assert_eq!(
+        err,
+        TimingError::Backwards {
+            frame: 2,
+            previous_s: 0.2,
+            value_s: 0.1
+        }
+    );
+    let rep = [
+        showinfo_line(0, "0"),
+        showinfo_line(1, "1"),
+        showinfo_line(2, "1.0"),
+    ]
+    .join("\n");
     let err = parse_showinfo(&rep).unwrap_err();
-    assert_eq!(err, TimingError::Repeated { frame: 2, previous_s: 1.0, value_s: 1.0 });
+    assert_eq!(
+        err,
+        TimingError::Repeated {
+            frame: 2,
+            previous_s: 1.0,
+            value_s: 1.0
+        }
+    );
 }
 
 #[test]
 fn ffprobe_csv_variants() {
     let plain = "0.000000\r\n0.033367\r\n1\r\n\r\n";
-    assert_eq!(parse_ffprobe_csv(plain).unwrap().as_slice(), &[0.0, 0.033367, 1.0]);
+    assert_eq!(
+        parse_ffprobe_csv(plain).unwrap().as_slice(),
+        &[0.0, 0.033367, 1.0]
+    );
     let tagged = "frame,0.0\nside_data,Display Matrix\nframe,0.0333\nframe,0.0667,0.0667\n";
     assert_eq!(
-        load_from_text(LogFormat::FfprobeCsv, tagged).unwrap().as_slice(),
+        load_from_text(LogFormat::FfprobeCsv, tagged)
+            .unwrap()
+            .as_slice(),
         &[0.0, 0.0333, 0.0667]
     );
     let bad = "0.0\nN/A\n";
     let err = parse_ffprobe_csv(bad).unwrap_err();
     assert!(matches!(err, TimingError::Parse { line: 2, .. }), "{err:?}");
     let back = "0.0\n0.1\n0.05\n";
-    assert!(matches!(parse_ffprobe_csv(back), Err(TimingError::Backwards { frame: 2, .. })));
+    assert!(matches!(
+        parse_ffprobe_csv(back),
+        Err(TimingError::Backwards { frame: 2, .. })
+    ));
 }
 
 #[test]
@@ -82,14 +134,22 @@ fn ffprobe_json_variants() {
         {"media_type":"audio","pts_time":"0.010000"},
         {"best_effort_timestamp_time":"0.033"},{"pts_time":1}]}"#;
     assert_eq!(
-        load_from_text(LogFormat::FfprobeJson, text).unwrap().as_slice(),
+        load_from_text(LogFormat::FfprobeJson, text)
+            .unwrap()
+            .as_slice(),
         &[0.0, 0.033, 1.0]
     );
     let missing = r#"{"frames":[{"pts_time":"0"},{"pkt_size":"5"}]}"#;
-    assert!(parse_ffprobe_json(missing).unwrap_err().to_string().contains("frames[1]"));
+    assert!(parse_ffprobe_json(missing)
+        .unwrap_err()
+        .to_string()
+        .contains("frames[1]"));
     assert!(parse_ffprobe_json("{\"frames\": [").is_err());
     let rep = r#"{"frames":[{"pts_time":"0.5"},{"pts_time":"0.5"}]}"#;
-    assert!(matches!(parse_ffprobe_json(rep), Err(TimingError::Repeated { frame: 1, .. })));
+    assert!(matches!(
+        parse_ffprobe_json(rep),
+        Err(TimingError::Repeated { frame: 1, .. })
+    ));
 }
 
 #[test]
@@ -97,18 +157,38 @@ fn frames_csv_requires_header_and_round_trips() {
     let ts = Timestamps::new(vec![0.0, 0.1 / 3.0, 0.0667, 1.0, 1e-9 + 1.0]).unwrap();
     let text = to_frames_csv(&ts);
     assert_eq!(parse_frames_csv(&text).unwrap(), ts);
-    assert_eq!(load_from_text(LogFormat::FramesCsv, &text.replace('\n', "\r\n")).unwrap(), ts);
+    assert_eq!(
+        load_from_text(LogFormat::FramesCsv, &text.replace('\n', "\r\n")).unwrap(),
+        ts
+    );
     let no_header = "0,0.0\n1,0.1\n";
-    assert!(matches!(parse_frames_csv(no_header), Err(TimingError::Parse { line: 1, .. })));
+    assert!(matches!(
+        parse_frames_csv(no_header),
+        Err(TimingError::Parse { line: 1, .. })
+    ));
     let skipped = "frame,t_s\n0,0.0\n2,0.1\n";
-    assert!(matches!(parse_frames_csv(skipped), Err(TimingError::Parse { line: 3, .. })));
+    assert!(matches!(
+        parse_frames_csv(skipped),
+        Err(TimingError::Parse { line: 3, .. })
+    ));
     let nan = "frame,t_s\n0,0.0\n1,NaN\n";
-    assert!(matches!(parse_frames_csv(nan), Err(TimingError::NotFinite { frame: 1, .. })));
+    assert!(matches!(
+        parse_frames_csv(nan),
+        Err(TimingError::NotFinite { frame: 1, .. })
+    ));
 }
 
 #[test]
 fn log_format_names_match_serde() {
-    for f in [LogFormat::Showinfo, LogFormat::FfprobeCsv, LogFormat::FfprobeJson, LogFormat::FramesCsv] {
-        assert_eq!(serde_json::to_string(&f).unwrap(), format!("\"{}\"", f.name()));
+    for f in [
+        LogFormat::Showinfo,
+        LogFormat::FfprobeCsv,
+        LogFormat::FfprobeJson,
+        LogFormat::FramesCsv,
+    ] {
+        assert_eq!(
+            serde_json::to_string(&f).unwrap(),
+            format!("\"{}\"", f.name())
+        );
     }
 }

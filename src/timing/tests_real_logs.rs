@@ -18,8 +18,17 @@ macro_rules! log {
     };
 }
 
-const LOGS: [(&str, &str); 9] =
-    [log!("1"), log!("2"), log!("3"), log!("4"), log!("5"), log!("6"), log!("7"), log!("8"), log!("9")];
+const LOGS: [(&str, &str); 9] = [
+    log!("1"),
+    log!("2"),
+    log!("3"),
+    log!("4"),
+    log!("5"),
+    log!("6"),
+    log!("7"),
+    log!("8"),
+    log!("9"),
+];
 
 /// The `n:` values as a plain substring scan finds them (independent of the parser).
 fn n_fields(text: &str) -> Vec<u64> {
@@ -42,7 +51,11 @@ fn every_real_log_parses_to_its_own_frame_count() {
         let unique: BTreeSet<u64> = ns.iter().copied().collect();
         assert_eq!(unique.len(), ns.len(), "{name}: some n: repeats");
         let max_n = *unique.last().unwrap();
-        assert_eq!(unique.len() as u64, max_n + 1, "{name}: n: values not contiguous");
+        assert_eq!(
+            unique.len() as u64,
+            max_n + 1,
+            "{name}: n: values not contiguous"
+        );
         let ts = parse_showinfo(text).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(ts.len() as u64, max_n + 1, "{name}");
     }
@@ -57,7 +70,9 @@ fn real_logs_contain_whole_second_and_interleaved_frames() {
         let ts = parse_showinfo(text).unwrap();
         // Physical lines: a progress record, a bare `\r`, then the showinfo record.
         for record in text.split('\n') {
-            let Some(i) = record.find("] n:") else { continue };
+            let Some(i) = record.find("] n:") else {
+                continue;
+            };
             let n = n_fields(&record[i..])[0] as usize;
             if record.starts_with("frame=") {
                 interleaved += 1;
@@ -70,11 +85,21 @@ fn real_logs_contain_whole_second_and_interleaved_frames() {
     }
     // Only model_test9 has a frame exactly at 1 s (the seed's regex parser lost it).
     assert_eq!(whole_seconds, 1);
-    assert!(interleaved > 100, "only {interleaved} interleaved frame lines");
+    assert!(
+        interleaved > 100,
+        "only {interleaved} interleaved frame lines"
+    );
 }
 
 fn all_stats() -> Vec<(&'static str, TimingStats)> {
-    LOGS.iter().map(|(name, text)| (*name, TimingStats::of(&parse_showinfo(text).unwrap()).unwrap())).collect()
+    LOGS.iter()
+        .map(|(name, text)| {
+            (
+                *name,
+                TimingStats::of(&parse_showinfo(text).unwrap()).unwrap(),
+            )
+        })
+        .collect()
 }
 
 #[test]
@@ -91,13 +116,24 @@ fn real_log_statistics_against_the_brief() {
         steady_intervals += (s.count - 2) as f64;
         steady_span += s.span_s - s.first_interval_s;
         // Steady rate: the brief's 29.865 fps, within 0.02 fps, in every log.
-        assert!((s.steady_fps - 29.865).abs() < 0.02, "{name}: steady {} fps", s.steady_fps);
+        assert!(
+            (s.steady_fps - 29.865).abs() < 0.02,
+            "{name}: steady {} fps",
+            s.steady_fps
+        );
         // No drops; intervals within ±0.15 ms of 33.48 ms once the first gap is over.
         assert_eq!(s.dropped_frames, 0, "{name}");
-        assert!(s.min_interval_s > 0.03329 && s.max_interval_s < 0.03362, "{name}");
+        assert!(
+            s.min_interval_s > 0.03329 && s.max_interval_s < 0.03362,
+            "{name}"
+        );
         // The "paired ±0.1 ms" excursions: the largest deviation is 0.1–0.2 ms ...
-        let excursion = (s.max_interval_s - s.median_interval_s).max(s.median_interval_s - s.min_interval_s);
-        assert!(excursion > 0.00008 && excursion < 0.0002, "{name}: {excursion}");
+        let excursion =
+            (s.max_interval_s - s.median_interval_s).max(s.median_interval_s - s.min_interval_s);
+        assert!(
+            excursion > 0.00008 && excursion < 0.0002,
+            "{name}: {excursion}"
+        );
         // ... but they are sporadic: the mean paired difference is far below 0.1 ms.
         assert!(s.mean_abs_alternation_s < 0.00004, "{name}");
         assert!(s.coherent_alternation_s < 0.00001, "{name}");
@@ -105,7 +141,10 @@ fn real_log_statistics_against_the_brief() {
     let pooled_fps = total_intervals / total_span;
     let pooled_steady_fps = steady_intervals / steady_span;
     eprintln!("pooled mean {pooled_fps:.4} fps, pooled steady {pooled_steady_fps:.4} fps");
-    assert!((pooled_steady_fps - 29.865).abs() < 0.005, "{pooled_steady_fps}");
+    assert!(
+        (pooled_steady_fps - 29.865).abs() < 0.005,
+        "{pooled_steady_fps}"
+    );
     // First gap: the brief says 36–67 ms. The logs give 33.5–63.4 ms (one log has no gap).
     let firsts: Vec<f64> = stats.iter().map(|(_, s)| s.first_interval_s).collect();
     let lo = firsts.iter().copied().fold(f64::INFINITY, f64::min);
@@ -123,8 +162,16 @@ fn fit_of_real_logs_is_close_to_stats() {
         let s = TimingStats::of(&ts).unwrap();
         let fit = fit_vfr(&ts).unwrap();
         eprintln!("--- {name}\n{fit}");
-        assert!((fit.fps - s.steady_fps).abs() < 0.01, "{name}: {} vs {}", fit.fps, s.steady_fps);
-        assert!((fit.first_interval_s - s.first_interval_s).abs() < 1e-4, "{name}");
+        assert!(
+            (fit.fps - s.steady_fps).abs() < 0.01,
+            "{name}: {} vs {}",
+            fit.fps,
+            s.steady_fps
+        );
+        assert!(
+            (fit.first_interval_s - s.first_interval_s).abs() < 1e-4,
+            "{name}"
+        );
         assert!(fit.jitter_s < 1e-4, "{name}");
         assert_eq!(fit.dropped_frames, 0);
         // The fitted config is valid and schedulable.

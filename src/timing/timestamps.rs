@@ -18,10 +18,18 @@ impl Timestamps {
             if frame > 0 {
                 let previous_s = times_s[frame - 1];
                 if value_s == previous_s {
-                    return Err(TimingError::Repeated { frame, previous_s, value_s });
+                    return Err(TimingError::Repeated {
+                        frame,
+                        previous_s,
+                        value_s,
+                    });
                 }
                 if value_s < previous_s {
-                    return Err(TimingError::Backwards { frame, previous_s, value_s });
+                    return Err(TimingError::Backwards {
+                        frame,
+                        previous_s,
+                        value_s,
+                    });
                 }
             }
         }
@@ -58,7 +66,9 @@ impl Timestamps {
     /// The frames with `t < end_s`.
     pub fn truncated_before(&self, end_s: f64) -> Self {
         let n = self.times_s.partition_point(|&t| t < end_s);
-        Self { times_s: self.times_s[..n].to_vec() }
+        Self {
+            times_s: self.times_s[..n].to_vec(),
+        }
     }
 }
 
@@ -66,7 +76,9 @@ impl Timestamps {
 /// constant frame rate would use. `fps` must be finite and > 0.
 pub fn timebase(n: usize, fps: f64) -> Result<Timestamps, TimingError> {
     if !fps.is_finite() || fps <= 0.0 {
-        return Err(TimingError::InvalidConfig(format!("timebase fps must be > 0, got {fps}")));
+        return Err(TimingError::InvalidConfig(format!(
+            "timebase fps must be > 0, got {fps}"
+        )));
     }
     Timestamps::new((0..n).map(|k| k as f64 / fps).collect())
 }
@@ -78,15 +90,32 @@ mod tests {
     #[test]
     fn repeated_timestamp_names_frame_and_values() {
         let err = Timestamps::new(vec![0.0, 0.033, 0.033]).unwrap_err();
-        assert_eq!(err, TimingError::Repeated { frame: 2, previous_s: 0.033, value_s: 0.033 });
+        assert_eq!(
+            err,
+            TimingError::Repeated {
+                frame: 2,
+                previous_s: 0.033,
+                value_s: 0.033
+            }
+        );
         let msg = err.to_string();
-        assert!(msg.contains("frame 2") && msg.contains("frame 1") && msg.contains("0.033"), "{msg}");
+        assert!(
+            msg.contains("frame 2") && msg.contains("frame 1") && msg.contains("0.033"),
+            "{msg}"
+        );
     }
 
     #[test]
     fn backwards_timestamp_names_frame_and_values() {
         let err = Timestamps::new(vec![0.0, 0.05, 0.04, 0.1]).unwrap_err();
-        assert_eq!(err, TimingError::Backwards { frame: 2, previous_s: 0.05, value_s: 0.04 });
+        assert_eq!(
+            err,
+            TimingError::Backwards {
+                frame: 2,
+                previous_s: 0.05,
+                value_s: 0.04
+            }
+        );
         assert!(err.to_string().contains("goes backwards"));
     }
 
@@ -107,7 +136,10 @@ mod tests {
         let tb = timebase(31, 30.0).unwrap();
         assert_eq!(tb.len(), 31);
         assert_eq!(tb.as_slice()[30], 1.0);
-        assert!(tb.intervals_s().iter().all(|d| (d - 1.0 / 30.0).abs() < 1e-12));
+        assert!(tb
+            .intervals_s()
+            .iter()
+            .all(|d| (d - 1.0 / 30.0).abs() < 1e-12));
         assert!(timebase(3, 0.0).is_err());
     }
 
