@@ -98,7 +98,7 @@ impl VfrModel {
 pub struct LogModel {
     /// Path of the log file (relative to the scenario file). Required, no default.
     pub file: String,
-    /// Log format: `showinfo` | `ffprobe_csv` | `ffprobe_json` | `frames_csv`. Default `showinfo`.
+    /// Log format: `showinfo` | `showinfo_pts` | `ffprobe_csv` | `ffprobe_json` | `frames_csv`. Default `showinfo`.
     pub format: LogFormat,
     /// Subtract the first frame's time so the schedule starts at 0 s. Default true.
     pub rebase_to_zero: bool,

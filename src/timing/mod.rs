@@ -24,7 +24,7 @@ pub use error::TimingError;
 pub use fit::{fit_vfr, TimingFit};
 pub use parse::{
     load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv, parse_showinfo,
-    to_frames_csv, LogFormat,
+    parse_showinfo_pts, to_frames_csv, LogFormat,
 };
 pub use schedule::JITTER_TRUNCATION_SIGMA;
 pub use stats::{TimingStats, DROP_THRESHOLD};

@@ -12,6 +12,9 @@ use super::timestamps::Timestamps;
 pub enum LogFormat {
     /// `ffmpeg -vf showinfo` stderr (the `n:` and `pts_time:` fields of each frame line).
     Showinfo,
+    /// The same log, but times from the exact integer `pts:` × the `time_base` of the filter's
+    /// `config in time_base:` line (`pts_time` is printed to 6 significant digits only).
+    ShowinfoPts,
     /// `ffprobe -show_entries frame=pts_time -of csv=p=0` (or `frame,<t>` lines with `p=1`).
     FfprobeCsv,
     /// `ffprobe -show_entries frame=pts_time -of json`.
@@ -24,6 +27,7 @@ impl LogFormat {
     pub fn name(self) -> &'static str {
         match self {
             LogFormat::Showinfo => "showinfo",
+            LogFormat::ShowinfoPts => "showinfo_pts",
             LogFormat::FfprobeCsv => "ffprobe_csv",
             LogFormat::FfprobeJson => "ffprobe_json",
             LogFormat::FramesCsv => "frames_csv",
@@ -35,6 +39,7 @@ impl LogFormat {
 pub fn load_from_text(format: LogFormat, text: &str) -> Result<Timestamps, TimingError> {
     match format {
         LogFormat::Showinfo => parse_showinfo(text),
+        LogFormat::ShowinfoPts => parse_showinfo_pts(text),
         LogFormat::FfprobeCsv => parse_ffprobe_csv(text),
         LogFormat::FfprobeJson => parse_ffprobe_json(text),
         LogFormat::FramesCsv => parse_frames_csv(text),
@@ -77,7 +82,21 @@ fn first_token(s: &str) -> &str {
 /// `[Parsed_showinfo_0 @ 0x..] n:  12 pts: 36162 pts_time:0.4018 ...`, possibly preceded on the
 /// same line by a `frame= ... speed=..` progress record; `pts_time:1` may have no decimal point.
 pub fn parse_showinfo(text: &str) -> Result<Timestamps, TimingError> {
+    showinfo(text, SHOWINFO, false)
+}
+
+/// Like [`parse_showinfo`] but computes each time as `pts × time_base` from the filter's
+/// `config in time_base: a/b` line. ffmpeg prints `pts_time` with 6 significant digits, which
+/// rounds by up to 50 µs beyond 10 s; the integer `pts` is exact.
+pub fn parse_showinfo_pts(text: &str) -> Result<Timestamps, TimingError> {
+    showinfo(text, SHOWINFO_PTS, true)
+}
+
+const SHOWINFO_PTS: &str = "showinfo_pts";
+
+fn showinfo(text: &str, format: &'static str, exact_pts: bool) -> Result<Timestamps, TimingError> {
     let mut frames: Vec<(u64, f64, usize)> = Vec::new();
+    let mut time_base_s: Option<f64> = None;
     for (line, record) in records(text) {
         let mut rest = record;
         while let Some(pos) = rest.find("[Parsed_showinfo") {
@@ -87,35 +106,65 @@ pub fn parse_showinfo(text: &str) -> Result<Timestamps, TimingError> {
             };
             let body = segment[close + 1..].trim_start();
             rest = &segment[close + 1..];
-            if !body.starts_with("n:") {
-                continue; // config / colour / side-data lines of the filter
-            }
             let parse_err = |message: String| TimingError::Parse {
-                format: SHOWINFO,
+                format,
                 line,
                 message,
             };
+            if let Some(tb) = body.strip_prefix("config in time_base:") {
+                let tb = first_token(tb).trim_end_matches(',');
+                time_base_s = parse_ratio(tb);
+                if time_base_s.is_none() && exact_pts {
+                    return Err(parse_err(format!(
+                        "time_base `{tb}` is not a ratio a/b > 0"
+                    )));
+                }
+            }
+            if !body.starts_with("n:") {
+                continue; // config / colour / side-data lines of the filter
+            }
             let n_text = first_token(&body[2..]);
             let n: u64 = n_text
                 .parse()
                 .map_err(|_| parse_err(format!("frame number `n:{n_text}` is not an integer")))?;
-            let pts_text = after_key(body, "pts_time:")
+            let key = if exact_pts { "pts:" } else { "pts_time:" };
+            let value_text = after_key(body, key)
                 .map(first_token)
-                .ok_or_else(|| parse_err(format!("frame n:{n} has no pts_time field")))?;
-            let t: f64 = pts_text.parse().map_err(|_| {
-                parse_err(format!(
-                    "frame n:{n}: pts_time `{pts_text}` is not a number"
-                ))
-            })?;
+                .ok_or_else(|| parse_err(format!("frame n:{n} has no {key} field")))?;
+            let t = if exact_pts {
+                let tb = time_base_s.ok_or_else(|| {
+                    parse_err(format!(
+                        "frame n:{n} comes before any `config in time_base:` line"
+                    ))
+                })?;
+                let pts: i64 = value_text.parse().map_err(|_| {
+                    parse_err(format!("frame n:{n}: pts `{value_text}` is not an integer"))
+                })?;
+                pts as f64 * tb
+            } else {
+                value_text.parse::<f64>().map_err(|_| {
+                    parse_err(format!(
+                        "frame n:{n}: pts_time `{value_text}` is not a number"
+                    ))
+                })?
+            };
             if !t.is_finite() {
                 return Err(parse_err(format!(
-                    "frame n:{n}: pts_time `{pts_text}` is not finite"
+                    "frame n:{n}: time `{value_text}` is not finite"
                 )));
             }
             frames.push((n, t, line));
         }
     }
-    ordered_by_index(SHOWINFO, frames)
+    ordered_by_index(format, frames)
+}
+
+/// `a/b` with b ≠ 0 and a/b > 0, as seconds.
+fn parse_ratio(text: &str) -> Option<f64> {
+    let (a, b) = text.split_once('/')?;
+    let (a, b): (f64, f64) = (a.trim().parse().ok()?, b.trim().parse().ok()?);
+    let r = a / b;
+    (r.is_finite() && r > 0.0).then_some(r)
 }
 
 /// Sorts `(index, time, line)` by index and insists the indices are exactly `0..N`, each once.

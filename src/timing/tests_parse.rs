@@ -182,6 +182,7 @@ fn frames_csv_requires_header_and_round_trips() {
 fn log_format_names_match_serde() {
     for f in [
         LogFormat::Showinfo,
+        LogFormat::ShowinfoPts,
         LogFormat::FfprobeCsv,
         LogFormat::FfprobeJson,
         LogFormat::FramesCsv,
@@ -191,4 +192,28 @@ fn log_format_names_match_serde() {
             format!("\"{}\"", f.name())
         );
     }
+}
+
+#[test]
+fn showinfo_pts_uses_time_base_and_requires_it() {
+    let text = format!(
+        "{SI} config in time_base: 1/90000, frame_rate: 179/6\r\n{}\r\nframe=  2 speed=1x   \r{}\r\n",
+        showinfo_line(0, "0"),
+        showinfo_line(3, "0.0333"),
+    )
+    .replace(" n:   3", " n:   1");
+    // showinfo_line writes pts = n·1000, so frame "3" carries pts 3000 → 3000/90000 s.
+    let ts = load_from_text(LogFormat::ShowinfoPts, &text).unwrap();
+    assert_eq!(ts.as_slice(), &[0.0, 3000.0 / 90000.0]);
+    let no_tb = [showinfo_line(0, "0"), showinfo_line(1, "0.1")].join("\n");
+    let err = parse_showinfo_pts(&no_tb).unwrap_err();
+    assert!(
+        matches!(err, TimingError::Parse { line: 1, .. }) && err.to_string().contains("time_base"),
+        "{err}"
+    );
+    let bad_tb = format!("{SI} config in time_base: 0/0, frame_rate: 0/0\n");
+    assert!(matches!(
+        parse_showinfo_pts(&bad_tb),
+        Err(TimingError::Parse { line: 1, .. })
+    ));
 }

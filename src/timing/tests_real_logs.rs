@@ -180,3 +180,31 @@ fn fit_of_real_logs_is_close_to_stats() {
         assert!(problems.is_empty(), "{name}: {:?}", problems);
     }
 }
+
+#[test]
+fn exact_pts_agree_with_printed_pts_time_to_print_precision() {
+    for (name, text) in LOGS {
+        let printed = parse_showinfo(text).unwrap();
+        let exact = parse_showinfo_pts(text).unwrap();
+        assert_eq!(printed.len(), exact.len(), "{name}");
+        for (k, (p, e)) in printed.as_slice().iter().zip(exact.as_slice()).enumerate() {
+            // 6 significant digits: half a unit in the last place.
+            let ulp = 10f64.powi(e.abs().max(1e-9).log10().floor() as i32 - 5);
+            assert!(
+                (p - e).abs() <= 0.5 * ulp + 1e-12,
+                "{name} frame {k}: {p} vs {e}"
+            );
+        }
+        let s_exact = TimingStats::of(&exact).unwrap();
+        let s_printed = TimingStats::of(&printed).unwrap();
+        eprintln!(
+            "{name}: interval std exact {:.4} ms, printed {:.4} ms",
+            s_exact.interval_std_s * 1e3,
+            s_printed.interval_std_s * 1e3
+        );
+        assert!(
+            s_exact.interval_std_s <= s_printed.interval_std_s + 1e-6,
+            "{name}"
+        );
+    }
+}
