@@ -39,6 +39,13 @@ impl FrameTimingConfig {
     }
 }
 
+impl FrameTimingConfig {
+    /// The analysis timebase for `n` frames: `k / fps` at the nominal rate, whatever the model.
+    pub fn timebase(&self, n: usize) -> Result<Timestamps, TimingError> {
+        super::timestamps::timebase(n, self.fps)
+    }
+}
+
 fn constant(fps: f64, duration_s: f64) -> Result<Timestamps, TimingError> {
     let times = (0u64..)
         .map(|k| k as f64 / fps)

@@ -157,7 +157,11 @@ impl fmt::Display for TimingStats {
             ms(self.min_interval_s),
             ms(self.max_interval_s)
         )?;
-        writeln!(f, "interval std (jitter) {:.4} ms", ms(self.interval_std_s))?;
+        writeln!(
+            f,
+            "interval std         {:.4} ms (jitter)",
+            ms(self.interval_std_s)
+        )?;
         writeln!(
             f,
             "paired |Δi−Δi+1|/2   {:.4} ms mean",

@@ -125,6 +125,10 @@ fn constant_schedule_is_k_over_fps_in_half_open_duration() {
     assert_eq!(ts.len(), 60);
     assert_eq!(ts, timebase(60, 30.0).unwrap());
     assert_eq!(c.schedule(2.01, 0, None).unwrap().len(), 61);
+    // The analysis timebase ignores the model: the same k / fps for a VFR camera.
+    let v = vfr(30.0, VfrModel::default());
+    assert_eq!(v.timebase(60).unwrap(), ts);
+    assert_ne!(v.schedule(2.0, 0, None).unwrap(), ts);
 }
 
 #[test]
