@@ -1,11 +1,31 @@
-//! (placeholder: filled by the timing work)
-use crate::validation::Problems;
-use serde::{Deserialize, Serialize};
+//! Frame timing: when each frame is taken. Parsers for real timing logs, summary statistics,
+//! the configurable frame-time models (constant, VFR, log), deterministic schedules and the fit
+//! of the VFR model to a real log.
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FrameTimingConfig {}
+mod config;
+mod error;
+mod fit;
+mod parse;
+mod schedule;
+mod stats;
+mod timestamps;
 
-impl FrameTimingConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
+#[cfg(test)]
+mod tests_fit;
+#[cfg(test)]
+mod tests_parse;
+#[cfg(test)]
+mod tests_real_logs;
+#[cfg(test)]
+mod tests_schedule;
+
+pub use config::{FrameTimingConfig, LogModel, TimingModel, VfrModel};
+pub use error::TimingError;
+pub use fit::{fit_vfr, TimingFit};
+pub use parse::{
+    load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv, parse_showinfo,
+    parse_showinfo_pts, to_frames_csv, LogFormat,
+};
+pub use schedule::JITTER_TRUNCATION_SIGMA;
+pub use stats::{TimingStats, DROP_THRESHOLD};
+pub use timestamps::{timebase, Timestamps};
