@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 mod scenario_cmd;
+mod timing_cmd;
 
 /// Validates camera-based motion measurement of Geneva drives with synthetic data.
 #[derive(Parser, Debug)]
@@ -25,6 +26,9 @@ enum Command {
     /// Check or print scenario files.
     #[command(subcommand)]
     Scenario(scenario_cmd::ScenarioCmd),
+    /// Frame-timing logs: statistics and VFR model fit.
+    #[command(subcommand)]
+    Timing(timing_cmd::TimingCmd),
 }
 
 pub fn main() -> Result<()> {
@@ -32,6 +36,7 @@ pub fn main() -> Result<()> {
     match cli.command {
         Command::Demo { out } => demo(&out),
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
+        Command::Timing(cmd) => timing_cmd::run(cmd),
     }
 }
 

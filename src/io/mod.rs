@@ -5,3 +5,4 @@
 
 pub mod csv_out;
 pub mod png_out;
+pub mod timing_log;

@@ -1,4 +1,4 @@
-//! Tests on the seed's nine real phone logs (copied into tests/data/phone-frame-timing/).
+//! Tests on the seed's nine real phone logs (copied into data/phone-frame-timing/).
 
 use std::collections::BTreeSet;
 
@@ -10,7 +10,7 @@ macro_rules! log {
             concat!("model_test", $n),
             include_str!(concat!(
                 env!("CARGO_MANIFEST_DIR"),
-                "/tests/data/phone-frame-timing/model_test",
+                "/data/phone-frame-timing/model_test",
                 $n,
                 ".showinfo.log"
             )),
