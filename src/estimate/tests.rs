@@ -1,0 +1,1 @@
+//! Integration tests of the estimation stage (see the individual files for unit tests).
