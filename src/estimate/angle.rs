@@ -39,7 +39,13 @@ pub fn fuse(theta: &[Vec<f64>], radii_px: &[f64], reference: usize) -> Vec<f64> 
     let wsum: f64 = radii_px.iter().map(|r| r * r).sum();
     let offsets: Vec<f64> = theta
         .iter()
-        .map(|t| t.iter().zip(&theta[reference]).map(|(a, b)| a - b).sum::<f64>() / n.max(1) as f64)
+        .map(|t| {
+            t.iter()
+                .zip(&theta[reference])
+                .map(|(a, b)| a - b)
+                .sum::<f64>()
+                / n.max(1) as f64
+        })
         .collect();
     (0..n)
         .map(|k| {

@@ -35,12 +35,18 @@ pub fn fit_rotation_centre(
 ) -> Result<RotationCentre, EstimateError> {
     let n = tracks.iter().map(|t| t.len()).min().unwrap_or(0);
     if tracks.is_empty() || n < 3 {
-        return Err(EstimateError::TooFewFrames { what: "rotation centre", got: n, need: 3 });
+        return Err(EstimateError::TooFewFrames {
+            what: "rotation centre",
+            got: n,
+            need: 3,
+        });
     }
     let centre = match method {
         RotationCentreMethod::Seed => {
             if tracks.len() < 3 {
-                return Err(EstimateError::Degenerate("seed method needs corner 0 and corner 2 tracks".into()));
+                return Err(EstimateError::Degenerate(
+                    "seed method needs corner 0 and corner 2 tracks".into(),
+                ));
             }
             seed_centre(&tracks[0], &tracks[2])?
         }
@@ -50,7 +56,10 @@ pub fn fit_rotation_centre(
     };
     let span = arc_span_deg(tracks, centre);
     if span < min_arc_deg {
-        return Err(EstimateError::ArcTooShort { span_deg: span, min_deg: min_arc_deg });
+        return Err(EstimateError::ArcTooShort {
+            span_deg: span,
+            min_deg: min_arc_deg,
+        });
     }
     Ok(with_uncertainty(tracks, centre, method))
 }
@@ -62,7 +71,11 @@ pub fn fit_rotation_centre(
 pub fn seed_centre(corner0: &[[f64; 2]], corner2: &[[f64; 2]]) -> Result<[f64; 2], EstimateError> {
     let n = corner0.len().min(corner2.len());
     if n < 3 {
-        return Err(EstimateError::TooFewFrames { what: "seed rotation centre", got: n, need: 3 });
+        return Err(EstimateError::TooFewFrames {
+            what: "seed rotation centre",
+            got: n,
+            need: 3,
+        });
     }
     let i1 = n / 2;
     let i2 = (3 * n) / 4;
@@ -73,20 +86,28 @@ pub fn seed_centre(corner0: &[[f64; 2]], corner2: &[[f64; 2]]) -> Result<[f64; 2
                 "seed bisector undefined: equal y ({y1}) in frames {i1} and {i2} (eq. 3.1 divides by y2 - y1)"
             )));
         }
-        let f = |x: f64| (y1 + y2) / 2.0 + (x2 - x1) / (y2 - y1) * (x1 + x2) / 2.0 - (x2 - x1) / (y2 - y1) * x;
+        let f = |x: f64| {
+            (y1 + y2) / 2.0 + (x2 - x1) / (y2 - y1) * (x1 + x2) / 2.0 - (x2 - x1) / (y2 - y1) * x
+        };
         Ok(cross([0.0, f(0.0), 1.0], [100.0, f(100.0), 1.0]))
     };
     let l1 = line(corner0[i1], corner0[i2])?;
     let l2 = line(corner2[i1], corner2[i2])?;
     let [x, y, z] = cross(l1, l2);
     if z == 0.0 || !(x / z).is_finite() || !(y / z).is_finite() {
-        return Err(EstimateError::Degenerate("seed bisectors are parallel".into()));
+        return Err(EstimateError::Degenerate(
+            "seed bisectors are parallel".into(),
+        ));
     }
     Ok([(x / z).trunc(), (y / z).trunc()])
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// Centroid and scale of all points, so the algebraic fits work on O(1) numbers.
@@ -95,7 +116,12 @@ fn normalisation(tracks: &[Vec<[f64; 2]>]) -> ([f64; 2], f64) {
     let n = all.len() as f64;
     let mx = all.iter().map(|p| p[0]).sum::<f64>() / n;
     let my = all.iter().map(|p| p[1]).sum::<f64>() / n;
-    let s = (all.iter().map(|p| (p[0] - mx).powi(2) + (p[1] - my).powi(2)).sum::<f64>() / n).sqrt();
+    let s = (all
+        .iter()
+        .map(|p| (p[0] - mx).powi(2) + (p[1] - my).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
     ([mx, my], if s > 0.0 { s } else { 1.0 })
 }
 
@@ -136,7 +162,11 @@ pub fn kasa(tracks: &[Vec<[f64; 2]>]) -> Result<[f64; 2], EstimateError> {
     let (mom, _) = centred_moments(tracks, m, s);
     let a = vec![vec![mom[1][1], mom[1][2]], vec![mom[2][1], mom[2][2]]];
     let b = vec![-mom[1][0], -mom[2][0]];
-    let de = linalg::solve(&a, &b).ok_or_else(|| EstimateError::Degenerate("points are collinear or coincident (Kasa system singular)".into()))?;
+    let de = linalg::solve(&a, &b).ok_or_else(|| {
+        EstimateError::Degenerate(
+            "points are collinear or coincident (Kasa system singular)".into(),
+        )
+    })?;
     let c = [m[0] - de[0] / 2.0 * s, m[1] - de[1] / 2.0 * s];
     finite_centre(c)
 }
@@ -147,15 +177,22 @@ pub fn taubin(tracks: &[Vec<[f64; 2]>]) -> Result<[f64; 2], EstimateError> {
     let (m, s) = normalisation(tracks);
     let (mom, z_mean) = centred_moments(tracks, m, s);
     let nd = [(4.0 * z_mean).sqrt(), 1.0, 1.0];
-    let sym: Vec<Vec<f64>> = (0..3).map(|a| (0..3).map(|b| mom[a][b] / (nd[a] * nd[b])).collect()).collect();
+    let sym: Vec<Vec<f64>> = (0..3)
+        .map(|a| (0..3).map(|b| mom[a][b] / (nd[a] * nd[b])).collect())
+        .collect();
     let (w, v) = linalg::sym_eigen(&sym);
     let k = (0..3).min_by(|&i, &j| w[i].total_cmp(&w[j])).unwrap_or(0);
     let coef = [v[0][k] / nd[0], v[1][k] / nd[1], v[2][k] / nd[2]];
     let scale = coef.iter().fold(0.0_f64, |a, c| a.max(c.abs()));
     if coef[0].abs() <= 1e-12 * scale {
-        return Err(EstimateError::Degenerate("points are collinear (Taubin fit is a line)".into()));
+        return Err(EstimateError::Degenerate(
+            "points are collinear (Taubin fit is a line)".into(),
+        ));
     }
-    let c = [m[0] - coef[1] / (2.0 * coef[0]) * s, m[1] - coef[2] / (2.0 * coef[0]) * s];
+    let c = [
+        m[0] - coef[1] / (2.0 * coef[0]) * s,
+        m[1] - coef[2] / (2.0 * coef[0]) * s,
+    ];
     finite_centre(c)
 }
 
@@ -163,12 +200,18 @@ fn finite_centre(c: [f64; 2]) -> Result<[f64; 2], EstimateError> {
     if c[0].is_finite() && c[1].is_finite() {
         Ok(c)
     } else {
-        Err(EstimateError::Degenerate("centre is not finite (collinear points)".into()))
+        Err(EstimateError::Degenerate(
+            "centre is not finite (collinear points)".into(),
+        ))
     }
 }
 
 fn mean_radius(track: &[[f64; 2]], c: [f64; 2]) -> f64 {
-    track.iter().map(|p| (p[0] - c[0]).hypot(p[1] - c[1])).sum::<f64>() / track.len() as f64
+    track
+        .iter()
+        .map(|p| (p[0] - c[0]).hypot(p[1] - c[1]))
+        .sum::<f64>()
+        / track.len() as f64
 }
 
 fn sum_sq(tracks: &[Vec<[f64; 2]>], c: [f64; 2]) -> f64 {
@@ -176,13 +219,19 @@ fn sum_sq(tracks: &[Vec<[f64; 2]>], c: [f64; 2]) -> f64 {
         .iter()
         .map(|tr| {
             let r = mean_radius(tr, c);
-            tr.iter().map(|p| ((p[0] - c[0]).hypot(p[1] - c[1]) - r).powi(2)).sum::<f64>()
+            tr.iter()
+                .map(|p| ((p[0] - c[0]).hypot(p[1] - c[1]) - r).powi(2))
+                .sum::<f64>()
         })
         .sum()
 }
 
 /// Normal matrix JᵀJ of the orthogonal distances for parameters (cx, cy, r_0..r_S), and Jᵀd.
-fn normal_equations(tracks: &[Vec<[f64; 2]>], c: [f64; 2], radii: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
+fn normal_equations(
+    tracks: &[Vec<[f64; 2]>],
+    c: [f64; 2],
+    radii: &[f64],
+) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
     let np = 2 + tracks.len();
     let mut jtj = vec![vec![0.0; np]; np];
     let mut jtd = vec![0.0; np];
@@ -254,7 +303,10 @@ pub fn arc_span_deg(tracks: &[Vec<[f64; 2]>], c: [f64; 2]) -> f64 {
     tracks
         .iter()
         .map(|tr| {
-            let mut a: Vec<f64> = tr.iter().map(|p| (p[1] - c[1]).atan2(p[0] - c[0])).collect();
+            let mut a: Vec<f64> = tr
+                .iter()
+                .map(|p| (p[1] - c[1]).atan2(p[0] - c[0]))
+                .collect();
             a.sort_by(f64::total_cmp);
             let mut gap = a[0] + std::f64::consts::TAU - a[a.len() - 1];
             for w in a.windows(2) {
@@ -265,14 +317,21 @@ pub fn arc_span_deg(tracks: &[Vec<[f64; 2]>], c: [f64; 2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn with_uncertainty(tracks: &[Vec<[f64; 2]>], c: [f64; 2], method: RotationCentreMethod) -> RotationCentre {
+fn with_uncertainty(
+    tracks: &[Vec<[f64; 2]>],
+    c: [f64; 2],
+    method: RotationCentreMethod,
+) -> RotationCentre {
     let radii: Vec<f64> = tracks.iter().map(|t| mean_radius(t, c)).collect();
     let (jtj, _, ssr) = normal_equations(tracks, c, &radii);
     let n_pts: usize = tracks.iter().map(|t| t.len()).sum();
     let dof = n_pts.saturating_sub(2 + tracks.len()).max(1) as f64;
     let s2 = ssr / dof;
     let cov = linalg::invert(&jtj);
-    let sd = |i: usize| cov.as_ref().map_or(f64::INFINITY, |m| (s2 * m[i][i]).max(0.0).sqrt());
+    let sd = |i: usize| {
+        cov.as_ref()
+            .map_or(f64::INFINITY, |m| (s2 * m[i][i]).max(0.0).sqrt())
+    };
     RotationCentre {
         centre_px: c,
         centre_sigma_px: [sd(0), sd(1)],

@@ -36,7 +36,10 @@ pub fn compensate(
                     }
                 };
                 Some(c.map(|p| {
-                    [rot[0][0] * p[0] + rot[0][1] * p[1] + shift[0], rot[1][0] * p[0] + rot[1][1] * p[1] + shift[1]]
+                    [
+                        rot[0][0] * p[0] + rot[0][1] * p[1] + shift[0],
+                        rot[1][0] * p[0] + rot[1][1] * p[1] + shift[1],
+                    ]
                 }))
             }
             (Some(_), None) => {
@@ -63,6 +66,9 @@ pub fn rigid_to(src: &Corners, dst: &Corners) -> ([[f64; 2]; 2], [f64; 2]) {
     let phi = scross.atan2(sdot);
     let (s, c) = phi.sin_cos();
     let rot = [[c, -s], [s, c]];
-    let shift = [md[0] - (c * ms[0] - s * ms[1]), md[1] - (s * ms[0] + c * ms[1])];
+    let shift = [
+        md[0] - (c * ms[0] - s * ms[1]),
+        md[1] - (s * ms[0] + c * ms[1]),
+    ];
     (rot, shift)
 }

@@ -140,8 +140,14 @@ impl EstimatorConfig {
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         problems.range(join(path, "min_arc_deg"), self.min_arc_deg, 0.0, 360.0);
         if let Timebase::ConstantFps { fps_hz } = self.timebase {
-            problems.range(join(&join(path, "timebase"), "fps_hz"), fps_hz, 0.1, 100_000.0);
+            problems.range(
+                join(&join(path, "timebase"), "fps_hz"),
+                fps_hz,
+                0.1,
+                100_000.0,
+            );
         }
-        self.differentiator.validate(&join(path, "differentiator"), problems);
+        self.differentiator
+            .validate(&join(path, "differentiator"), problems);
     }
 }

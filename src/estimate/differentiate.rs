@@ -78,9 +78,17 @@ pub struct Derivatives {
 impl Differentiator {
     /// Pushes problems for invalid settings.
     pub fn validate(&self, path: &str, problems: &mut Problems) {
-        if let Differentiator::SavitzkyGolay { window_frames, window_s, order } = self {
+        if let Differentiator::SavitzkyGolay {
+            window_frames,
+            window_s,
+            order,
+        } = self
+        {
             if !(2..=8).contains(order) {
-                problems.push(join(path, "order"), format!("must be in [2, 8], got {order}"));
+                problems.push(
+                    join(path, "order"),
+                    format!("must be in [2, 8], got {order}"),
+                );
             }
             match window_s {
                 Some(w) => problems.positive(join(path, "window_s"), *w),
@@ -88,7 +96,9 @@ impl Differentiator {
                     if window_frames % 2 == 0 || *window_frames < 3 || *window_frames < order + 1 {
                         problems.push(
                             join(path, "window_frames"),
-                            format!("must be odd and in [max(3, order + 1), ∞), got {window_frames}"),
+                            format!(
+                                "must be odd and in [max(3, order + 1), ∞), got {window_frames}"
+                            ),
                         );
                     }
                 }
@@ -97,18 +107,27 @@ impl Differentiator {
     }
 
     /// ω and α of `theta_rad` sampled at strictly increasing `t_s`.
-    pub fn differentiate(&self, t_s: &[f64], theta_rad: &[f64]) -> Result<Derivatives, EstimateError> {
+    pub fn differentiate(
+        &self,
+        t_s: &[f64],
+        theta_rad: &[f64],
+    ) -> Result<Derivatives, EstimateError> {
         check_series(t_s, theta_rad)?;
         match self {
             Differentiator::Seed => {
                 let omega = numpy_gradient(t_s, theta_rad);
                 let alpha = numpy_gradient(t_s, &omega);
-                Ok(Derivatives { omega_rad_s: omega, alpha_rad_s2: alpha })
+                Ok(Derivatives {
+                    omega_rad_s: omega,
+                    alpha_rad_s2: alpha,
+                })
             }
             Differentiator::Central3 => central3(t_s, theta_rad),
-            Differentiator::SavitzkyGolay { window_frames, window_s, order } => {
-                savitzky_golay(t_s, theta_rad, *window_frames, *window_s, *order)
-            }
+            Differentiator::SavitzkyGolay {
+                window_frames,
+                window_s,
+                order,
+            } => savitzky_golay(t_s, theta_rad, *window_frames, *window_s, *order),
         }
     }
 
@@ -123,19 +142,28 @@ impl Differentiator {
                 omega_per_rad: 1.0 / (2.0_f64.sqrt() * h_s),
                 alpha_per_rad: 6.0_f64.sqrt() / (h_s * h_s),
             },
-            Differentiator::SavitzkyGolay { window_frames, window_s, order } => {
+            Differentiator::SavitzkyGolay {
+                window_frames,
+                window_s,
+                order,
+            } => {
                 let half = match window_s {
                     // Frames within ±w/2 of the centre, with a small tolerance for rounding.
                     Some(w) => ((w / 2.0) / h_s + 1e-9).floor() as usize,
                     None => window_frames / 2,
                 };
-                let t: Vec<f64> = (0..=2 * half).map(|k| (k as f64 - half as f64) * h_s).collect();
+                let t: Vec<f64> = (0..=2 * half)
+                    .map(|k| (k as f64 - half as f64) * h_s)
+                    .collect();
                 match sg_weights(&t, 0.0, *order) {
                     Some((w1, w2)) => NoiseGain {
                         omega_per_rad: w1.iter().map(|w| w * w).sum::<f64>().sqrt(),
                         alpha_per_rad: w2.iter().map(|w| w * w).sum::<f64>().sqrt(),
                     },
-                    None => NoiseGain { omega_per_rad: f64::NAN, alpha_per_rad: f64::NAN },
+                    None => NoiseGain {
+                        omega_per_rad: f64::NAN,
+                        alpha_per_rad: f64::NAN,
+                    },
                 }
             }
         }
@@ -144,17 +172,31 @@ impl Differentiator {
 
 fn check_series(t_s: &[f64], theta_rad: &[f64]) -> Result<(), EstimateError> {
     if t_s.len() != theta_rad.len() {
-        return Err(EstimateError::LengthMismatch { what: "theta_rad", got: theta_rad.len(), expected: t_s.len() });
+        return Err(EstimateError::LengthMismatch {
+            what: "theta_rad",
+            got: theta_rad.len(),
+            expected: t_s.len(),
+        });
     }
     if t_s.len() < 3 {
-        return Err(EstimateError::TooFewFrames { what: "derivatives", got: t_s.len(), need: 3 });
+        return Err(EstimateError::TooFewFrames {
+            what: "derivatives",
+            got: t_s.len(),
+            need: 3,
+        });
     }
     for (i, (t, th)) in t_s.iter().zip(theta_rad).enumerate() {
         if !t.is_finite() {
-            return Err(EstimateError::NonFinite { what: "timestamp", frame: i });
+            return Err(EstimateError::NonFinite {
+                what: "timestamp",
+                frame: i,
+            });
         }
         if !th.is_finite() {
-            return Err(EstimateError::NonFinite { what: "angle", frame: i });
+            return Err(EstimateError::NonFinite {
+                what: "angle",
+                frame: i,
+            });
         }
         if i > 0 && *t <= t_s[i - 1] {
             return Err(EstimateError::NonIncreasingTime { frame: i });
@@ -171,7 +213,8 @@ pub fn numpy_gradient(x: &[f64], f: &[f64]) -> Vec<f64> {
     for i in 1..n - 1 {
         let hs = x[i] - x[i - 1];
         let hd = x[i + 1] - x[i];
-        g[i] = (hs * hs * f[i + 1] + (hd * hd - hs * hs) * f[i] - hd * hd * f[i - 1]) / (hs * hd * (hd + hs));
+        g[i] = (hs * hs * f[i + 1] + (hd * hd - hs * hs) * f[i] - hd * hd * f[i - 1])
+            / (hs * hd * (hd + hs));
     }
     g[0] = (f[1] - f[0]) / (x[1] - x[0]);
     g[n - 1] = (f[n - 1] - f[n - 2]) / (x[n - 1] - x[n - 2]);
@@ -185,7 +228,9 @@ fn lagrange3(t: &[f64], f: &[f64], idx: [usize; 3], te: f64) -> (f64, f64) {
     let d0 = (x0 - x1) * (x0 - x2);
     let d1 = (x1 - x0) * (x1 - x2);
     let d2 = (x2 - x0) * (x2 - x1);
-    let first = f[a] * (2.0 * te - x1 - x2) / d0 + f[b] * (2.0 * te - x0 - x2) / d1 + f[c] * (2.0 * te - x0 - x1) / d2;
+    let first = f[a] * (2.0 * te - x1 - x2) / d0
+        + f[b] * (2.0 * te - x0 - x2) / d1
+        + f[c] * (2.0 * te - x0 - x1) / d2;
     let second = 2.0 * (f[a] / d0 + f[b] / d1 + f[c] / d2);
     (first, second)
 }
@@ -200,7 +245,10 @@ fn central3(t: &[f64], f: &[f64]) -> Result<Derivatives, EstimateError> {
         omega[i] = w;
         alpha[i] = a;
     }
-    Ok(Derivatives { omega_rad_s: omega, alpha_rad_s2: alpha })
+    Ok(Derivatives {
+        omega_rad_s: omega,
+        alpha_rad_s2: alpha,
+    })
 }
 
 /// Weights (w1, w2) such that p'(te) = Σ w1_j f_j and p''(te) = Σ w2_j f_j for the least-squares
@@ -217,7 +265,10 @@ fn sg_weights(t: &[f64], te: f64, order: usize) -> Option<(Vec<f64>, Vec<f64>)> 
         return None;
     }
     let u: Vec<f64> = t.iter().map(|x| (x - te) / scale).collect();
-    let vand: Vec<Vec<f64>> = u.iter().map(|&x| (0..p).map(|k| x.powi(k as i32)).collect()).collect();
+    let vand: Vec<Vec<f64>> = u
+        .iter()
+        .map(|&x| (0..p).map(|k| x.powi(k as i32)).collect())
+        .collect();
     let mut ata = vec![vec![0.0; p]; p];
     for row in &vand {
         for a in 0..p {
@@ -229,10 +280,15 @@ fn sg_weights(t: &[f64], te: f64, order: usize) -> Option<(Vec<f64>, Vec<f64>)> 
     let inv = linalg::invert(&ata)?;
     // Coefficient c_k = Σ_j (inv · Vᵀ)[k][j] f_j; p'(te) = c1/scale, p''(te) = 2 c2/scale².
     let coef_row = |k: usize| -> Vec<f64> {
-        vand.iter().map(|row| (0..p).map(|b| inv[k][b] * row[b]).sum::<f64>()).collect()
+        vand.iter()
+            .map(|row| (0..p).map(|b| inv[k][b] * row[b]).sum::<f64>())
+            .collect()
     };
     let w1: Vec<f64> = coef_row(1).into_iter().map(|c| c / scale).collect();
-    let w2: Vec<f64> = coef_row(2).into_iter().map(|c| 2.0 * c / (scale * scale)).collect();
+    let w2: Vec<f64> = coef_row(2)
+        .into_iter()
+        .map(|c| 2.0 * c / (scale * scale))
+        .collect();
     Some((w1, w2))
 }
 
@@ -245,7 +301,9 @@ fn savitzky_golay(
 ) -> Result<Derivatives, EstimateError> {
     let n = f.len();
     if order < 2 {
-        return Err(EstimateError::InvalidDifferentiator(format!("order must be >= 2, got {order}")));
+        return Err(EstimateError::InvalidDifferentiator(format!(
+            "order must be >= 2, got {order}"
+        )));
     }
     let mut omega = vec![0.0; n];
     let mut alpha = vec![0.0; n];
@@ -275,5 +333,8 @@ fn savitzky_golay(
         omega[i] = w1.iter().zip(&f[lo..hi]).map(|(w, y)| w * y).sum();
         alpha[i] = w2.iter().zip(&f[lo..hi]).map(|(w, y)| w * y).sum();
     }
-    Ok(Derivatives { omega_rad_s: omega, alpha_rad_s2: alpha })
+    Ok(Derivatives {
+        omega_rad_s: omega,
+        alpha_rad_s2: alpha,
+    })
 }

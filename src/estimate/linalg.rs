@@ -111,9 +111,16 @@ mod tests {
 
     #[test]
     fn solve_and_invert_known_system() {
-        let a = vec![vec![2.0, 1.0, 0.0], vec![1.0, 3.0, 1.0], vec![0.0, 1.0, 4.0]];
+        let a = vec![
+            vec![2.0, 1.0, 0.0],
+            vec![1.0, 3.0, 1.0],
+            vec![0.0, 1.0, 4.0],
+        ];
         let x_true = [1.0, -2.0, 0.5];
-        let b: Vec<f64> = a.iter().map(|r| r.iter().zip(&x_true).map(|(p, q)| p * q).sum()).collect();
+        let b: Vec<f64> = a
+            .iter()
+            .map(|r| r.iter().zip(&x_true).map(|(p, q)| p * q).sum())
+            .collect();
         let x = solve(&a, &b).unwrap();
         for (p, q) in x.iter().zip(&x_true) {
             assert!((p - q).abs() < 1e-12);
@@ -130,7 +137,11 @@ mod tests {
 
     #[test]
     fn jacobi_reconstructs_matrix() {
-        let a = vec![vec![4.0, 1.0, 2.0], vec![1.0, 3.0, 0.5], vec![2.0, 0.5, 1.0]];
+        let a = vec![
+            vec![4.0, 1.0, 2.0],
+            vec![1.0, 3.0, 0.5],
+            vec![2.0, 0.5, 1.0],
+        ];
         let (w, v) = sym_eigen(&a);
         for i in 0..3 {
             for j in 0..3 {

@@ -52,12 +52,24 @@ mod tests {
     #[test]
     fn perspective_quad_diagonals_find_projected_centre() {
         // Homography of the unit square [-1,1]²: the centre (0,0) maps to H·(0,0,1).
-        let h = [[100.0, 10.0, 500.0], [5.0, 90.0, 400.0], [0.0004, 0.0003, 1.0]];
+        let h = [
+            [100.0, 10.0, 500.0],
+            [5.0, 90.0, 400.0],
+            [0.0004, 0.0003, 1.0],
+        ];
         let map = |x: f64, y: f64| {
             let w = h[2][0] * x + h[2][1] * y + h[2][2];
-            [(h[0][0] * x + h[0][1] * y + h[0][2]) / w, (h[1][0] * x + h[1][1] * y + h[1][2]) / w]
+            [
+                (h[0][0] * x + h[0][1] * y + h[0][2]) / w,
+                (h[1][0] * x + h[1][1] * y + h[1][2]) / w,
+            ]
         };
-        let c = [map(-1.0, -1.0), map(1.0, -1.0), map(1.0, 1.0), map(-1.0, 1.0)];
+        let c = [
+            map(-1.0, -1.0),
+            map(1.0, -1.0),
+            map(1.0, 1.0),
+            map(-1.0, 1.0),
+        ];
         let truth = map(0.0, 0.0);
         let d = diagonal_intersection(&c).unwrap();
         assert!((d[0] - truth[0]).abs() < 1e-9 && (d[1] - truth[1]).abs() < 1e-9);

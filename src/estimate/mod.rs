@@ -23,7 +23,10 @@ pub mod marker_centre;
 mod tests;
 
 pub use circle_fit::RotationCentre;
-pub use config::{EstimatorConfig, MarkerCentreMethod, ReferenceCompensation, RotationCentreMethod, Signal, Timebase};
+pub use config::{
+    EstimatorConfig, MarkerCentreMethod, ReferenceCompensation, RotationCentreMethod, Signal,
+    Timebase,
+};
 pub use differentiate::{Derivatives, Differentiator, NoiseGain};
 pub use error::EstimateError;
 
@@ -76,12 +79,20 @@ pub fn estimate(
 ) -> Result<Estimate, EstimateError> {
     let n = frames_t_s.len();
     if corners.len() != n {
-        return Err(EstimateError::LengthMismatch { what: "corners", got: corners.len(), expected: n });
+        return Err(EstimateError::LengthMismatch {
+            what: "corners",
+            got: corners.len(),
+            expected: n,
+        });
     }
     let (corners, missing_reference) = match reference_corners {
         Some(r) if config.reference_compensation != ReferenceCompensation::Off => {
             if r.len() != n {
-                return Err(EstimateError::LengthMismatch { what: "reference_corners", got: r.len(), expected: n });
+                return Err(EstimateError::LengthMismatch {
+                    what: "reference_corners",
+                    got: r.len(),
+                    expected: n,
+                });
             }
             compensate::compensate(corners, r, config.reference_compensation)
         }
@@ -94,12 +105,17 @@ pub fn estimate(
     let detected: Vec<usize> = (0..n).filter(|&k| corners[k].is_some()).collect();
     for &k in &detected {
         if corners[k].is_some_and(|c| c.iter().flatten().any(|v| !v.is_finite())) {
-            return Err(EstimateError::NonFinite { what: "corner", frame: k });
+            return Err(EstimateError::NonFinite {
+                what: "corner",
+                frame: k,
+            });
         }
     }
     // Five point tracks over the detected frames: corners 0–3 then the marker centre.
-    let centres: Vec<Option<[f64; 2]>> =
-        corners.iter().map(|c| c.map(|c| marker_centre::marker_centre_px(&c, config.marker_centre))).collect();
+    let centres: Vec<Option<[f64; 2]>> = corners
+        .iter()
+        .map(|c| c.map(|c| marker_centre::marker_centre_px(&c, config.marker_centre)))
+        .collect();
     let mut tracks: Vec<Vec<[f64; 2]>> = vec![Vec::with_capacity(detected.len()); 5];
     for &k in &detected {
         let c = corners[k].unwrap_or_default();
@@ -112,7 +128,10 @@ pub fn estimate(
 
     let mut theta: Vec<Vec<f64>> = Vec::with_capacity(6);
     for track in &tracks {
-        let wrapped: Vec<Option<f64>> = track.iter().map(|p| Some(angle::screen_angle_rad(*p, rc.centre_px))).collect();
+        let wrapped: Vec<Option<f64>> = track
+            .iter()
+            .map(|p| Some(angle::screen_angle_rad(*p, rc.centre_px)))
+            .collect();
         theta.push(angle::unwrap(&wrapped).into_iter().flatten().collect());
     }
     theta.push(angle::fuse(&theta, &rc.radii_px, Signal::Centre.index()));
