@@ -48,10 +48,11 @@ pub enum ReferenceCompensation {
 }
 
 /// Which per-frame timestamps the derivatives use.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Timebase {
     /// Real per-frame timestamps as given (default).
+    #[default]
     Timestamps,
     /// Assume frame k was taken at k / fps_hz (the "constant 30 fps" assumption); k is the input
     /// frame index, so missing frames still widen the step.
@@ -59,12 +60,6 @@ pub enum Timebase {
         /// Assumed frame rate, Hz; default 30.0.
         fps_hz: f64,
     },
-}
-
-impl Default for Timebase {
-    fn default() -> Self {
-        Timebase::Timestamps
-    }
 }
 
 /// One angle signal: a corner, the marker centre, or the fusion of all five.

@@ -23,12 +23,13 @@ use super::linalg;
 use crate::validation::{join, Problems};
 
 /// Numerical differentiator (`[estimator.differentiator]`, `kind = ...`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Differentiator {
     /// numpy.gradient twice (the seed study).
     Seed,
     /// Non-uniform 3-point central differences (default).
+    #[default]
     Central3,
     /// Savitzky–Golay on real time.
     SavitzkyGolay {
@@ -51,12 +52,6 @@ fn default_sg_window() -> usize {
 }
 fn default_sg_order() -> usize {
     2
-}
-
-impl Default for Differentiator {
-    fn default() -> Self {
-        Differentiator::Central3
-    }
 }
 
 /// Angle-noise-to-derivative-noise gains for uniform steps, per radian of angle noise.
@@ -261,7 +256,7 @@ fn sg_weights(t: &[f64], te: f64, order: usize) -> Option<(Vec<f64>, Vec<f64>)> 
     }
     // Scale time to O(1) so the normal equations stay well conditioned.
     let scale = t.iter().map(|x| (x - te).abs()).fold(0.0_f64, f64::max);
-    if !(scale > 0.0) {
+    if scale.is_nan() || scale <= 0.0 {
         return None;
     }
     let u: Vec<f64> = t.iter().map(|x| (x - te) / scale).collect();

@@ -2,6 +2,9 @@
 //! elimination, inversion, and a symmetric Jacobi eigen-solver. Kept local so the estimators do not
 //! need a linear-algebra crate.
 
+// Index loops mirror the textbook row/column formulas; iterator rewrites obscure them.
+#![allow(clippy::needless_range_loop)]
+
 /// Solves `a x = b` by Gaussian elimination with partial pivoting; `None` when `a` is singular
 /// (pivot below `1e-13` times the largest entry).
 pub fn solve(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
@@ -12,7 +15,7 @@ pub fn solve(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
         .iter()
         .flat_map(|r| r.iter())
         .fold(0.0_f64, |s, v| s.max(v.abs()));
-    if !(scale > 0.0) || !scale.is_finite() {
+    if !scale.is_finite() || scale <= 0.0 {
         return None;
     }
     for col in 0..n {

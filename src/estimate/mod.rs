@@ -116,7 +116,8 @@ pub fn estimate(
         .iter()
         .map(|c| c.map(|c| marker_centre::marker_centre_px(&c, config.marker_centre)))
         .collect();
-    let mut tracks: Vec<Vec<[f64; 2]>> = vec![Vec::with_capacity(detected.len()); 5];
+    let mut tracks: Vec<Vec<[f64; 2]>> =
+        (0..5).map(|_| Vec::with_capacity(detected.len())).collect();
     for &k in &detected {
         let c = corners[k].unwrap_or_default();
         for (s, track) in tracks.iter_mut().take(4).enumerate() {
