@@ -1,6 +1,9 @@
 //! Tests of the estimation stage: seed parity, differentiator exactness and noise gains, circle
 //! fits, angles and the `estimate` entry point.
 
+// Tests index parallel arrays (t, f, derivatives) by frame; enumerate chains would hide that.
+#![allow(clippy::needless_range_loop)]
+
 use proptest::prelude::*;
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -74,7 +77,7 @@ fn fixed_track() -> (Vec<f64>, Vec<Option<Corners>>) {
     for k in 0..40 {
         ts.push(t);
         t += 0.0333 + 0.002 * rng.gen::<f64>();
-        let th = 0.3 + 1.5707963 * (k as f64 / 39.0).powi(2);
+        let th = 0.3 + std::f64::consts::FRAC_PI_2 * (k as f64 / 39.0).powi(2);
         let c = noisy(&mut rng, marker_at([1900.3, 1200.7], 744.0, 120.0, th), 0.5);
         cs.push(if k == 7 || k == 23 { None } else { Some(c) });
     }
