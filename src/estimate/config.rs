@@ -105,7 +105,8 @@ pub struct EstimatorConfig {
     /// Camera-motion compensation from the reference marker: `"off"` (default), `"translation"`,
     /// `"rigid"`.
     pub reference_compensation: ReferenceCompensation,
-    /// Numerical differentiator (`kind = "seed" | "central3" | "savitzky_golay"`); default
+    /// Numerical differentiator (`kind = "seed" | "central3" | "savitzky_golay" | "kalman_rts"`);
+    /// default
     /// `central3`.
     pub differentiator: Differentiator,
     /// Time base (`kind = "timestamps"` default, or `kind = "constant_fps"` with `fps_hz`).

@@ -15,11 +15,15 @@
 //!   `window_frames` frames (odd) or of ±`window_s`/2 seconds; ω = p'(t_i), α = p''(t_i). Edges
 //!   take the nearest full window. Uniform gains are computed from the filter coefficients
 //!   (‖row of the pseudo-inverse‖ · k!/h^k).
+//! - `kalman_rts`: white-jerk Kalman filter + RTS smoother with the jerk-to-noise ratio λ chosen
+//!   by maximum marginal likelihood (see [`super::kalman`]); gains computed from the smoother's
+//!   impulse response for the given λ. With λ unset (automatic) the gain depends on the data:
+//!   call [`Differentiator::resolved`] first, which fixes λ from the series.
 
 use serde::{Deserialize, Serialize};
 
 use super::error::EstimateError;
-use super::linalg;
+use super::{kalman, linalg};
 use crate::validation::{join, Problems};
 
 /// Numerical differentiator (`[estimator.differentiator]`, `kind = ...`).
@@ -44,6 +48,13 @@ pub enum Differentiator {
         /// Polynomial order, 2..=8; default 2.
         #[serde(default = "default_sg_order")]
         order: usize,
+    },
+    /// Kalman filter + RTS smoother, white-jerk model.
+    KalmanRts {
+        /// Jerk PSD over measurement variance λ = q/r, 1/s⁶; default unset = chosen automatically
+        /// by maximum marginal likelihood for each series.
+        #[serde(default)]
+        lambda_per_s6: Option<f64>,
     },
 }
 
@@ -73,6 +84,12 @@ pub struct Derivatives {
 impl Differentiator {
     /// Pushes problems for invalid settings.
     pub fn validate(&self, path: &str, problems: &mut Problems) {
+        if let Differentiator::KalmanRts {
+            lambda_per_s6: Some(l),
+        } = self
+        {
+            problems.positive(join(path, "lambda_per_s6"), *l);
+        }
         if let Differentiator::SavitzkyGolay {
             window_frames,
             window_s,
@@ -101,13 +118,38 @@ impl Differentiator {
         }
     }
 
+    /// The same differentiator with every data-driven parameter fixed from this series (the
+    /// Kalman λ); other methods are returned unchanged.
+    pub fn resolved(
+        &self,
+        t_s: &[f64],
+        theta_rad: &[f64],
+    ) -> Result<Differentiator, EstimateError> {
+        match self {
+            Differentiator::KalmanRts {
+                lambda_per_s6: None,
+            } => {
+                check_series(t_s, theta_rad, 5)?;
+                Ok(Differentiator::KalmanRts {
+                    lambda_per_s6: Some(kalman::choose_lambda(t_s, theta_rad)),
+                })
+            }
+            other => Ok(other.clone()),
+        }
+    }
+
     /// ω and α of `theta_rad` sampled at strictly increasing `t_s`.
     pub fn differentiate(
         &self,
         t_s: &[f64],
         theta_rad: &[f64],
     ) -> Result<Derivatives, EstimateError> {
-        check_series(t_s, theta_rad)?;
+        let min_len = if matches!(self, Differentiator::KalmanRts { .. }) {
+            5
+        } else {
+            3
+        };
+        check_series(t_s, theta_rad, min_len)?;
         match self {
             Differentiator::Seed => {
                 let omega = numpy_gradient(t_s, theta_rad);
@@ -123,6 +165,14 @@ impl Differentiator {
                 window_s,
                 order,
             } => savitzky_golay(t_s, theta_rad, *window_frames, *window_s, *order),
+            Differentiator::KalmanRts { lambda_per_s6 } => {
+                let lambda = lambda_per_s6.unwrap_or_else(|| kalman::choose_lambda(t_s, theta_rad));
+                let s = kalman::smooth(t_s, theta_rad, lambda);
+                Ok(Derivatives {
+                    omega_rad_s: s.omega,
+                    alpha_rad_s2: s.alpha,
+                })
+            }
         }
     }
 
@@ -161,11 +211,27 @@ impl Differentiator {
                     },
                 }
             }
+            Differentiator::KalmanRts {
+                lambda_per_s6: Some(lambda),
+            } => {
+                let (w, a) = kalman::noise_gain(h_s, *lambda);
+                NoiseGain {
+                    omega_per_rad: w,
+                    alpha_per_rad: a,
+                }
+            }
+            // Data-dependent: resolve λ first.
+            Differentiator::KalmanRts {
+                lambda_per_s6: None,
+            } => NoiseGain {
+                omega_per_rad: f64::NAN,
+                alpha_per_rad: f64::NAN,
+            },
         }
     }
 }
 
-fn check_series(t_s: &[f64], theta_rad: &[f64]) -> Result<(), EstimateError> {
+fn check_series(t_s: &[f64], theta_rad: &[f64], min_len: usize) -> Result<(), EstimateError> {
     if t_s.len() != theta_rad.len() {
         return Err(EstimateError::LengthMismatch {
             what: "theta_rad",
@@ -173,11 +239,11 @@ fn check_series(t_s: &[f64], theta_rad: &[f64]) -> Result<(), EstimateError> {
             expected: t_s.len(),
         });
     }
-    if t_s.len() < 3 {
+    if t_s.len() < min_len {
         return Err(EstimateError::TooFewFrames {
             what: "derivatives",
             got: t_s.len(),
-            need: 3,
+            need: min_len,
         });
     }
     for (i, (t, th)) in t_s.iter().zip(theta_rad).enumerate() {

@@ -8,7 +8,10 @@
 //! Seed parity (gurrajo/Geneva, `tag_detection_2.py`): the seed's centre construction is
 //! [`circle_fit::seed_centre`]; its derivatives are `numpy.gradient(θ, t)` twice
 //! ([`Differentiator::Seed`]). Not reproduced: the seed's `t = [0] + pts_times` off-by-one, its
-//! dropping of the last 7 frames, and its one-shot ±2π unwrap (we unwrap every step).
+//! dropping of the last 7 frames, its one-shot ±2π unwrap (we unwrap every step), its
+//! clockwise-positive angle sign (ours is counter-clockwise on screen positive), and its float32
+//! evaluation of the bisector (OpenCV corners are float32 in numpy; we use f64 — a ≈1e-4 px
+//! difference that can only change the truncated centre when it lies that close to an integer).
 
 pub mod angle;
 pub mod circle_fit;
@@ -16,6 +19,7 @@ pub mod compensate;
 pub mod config;
 pub mod differentiate;
 pub mod error;
+pub mod kalman;
 mod linalg;
 pub mod marker_centre;
 
@@ -41,6 +45,9 @@ pub struct SignalSeries {
     pub theta_rad: Vec<f64>,
     pub omega_rad_s: Vec<f64>,
     pub alpha_rad_s2: Vec<f64>,
+    /// The differentiator actually used, with data-driven parameters (Kalman λ) fixed; its
+    /// `noise_gain` is the one that applies to this series.
+    pub differentiator: Differentiator,
 }
 
 /// Everything the estimator produces for one track.
@@ -56,7 +63,9 @@ pub struct Estimate {
     /// Time base actually used, s (per input frame).
     pub t_used_s: Vec<f64>,
     pub frames: usize,
+    /// Frames with usable corners (after compensation).
     pub detected: usize,
+    /// Frames without usable corners: not detected, or dropped for a missing reference.
     pub missing: usize,
     /// Frames with the moving marker detected but dropped because the reference was missing.
     pub missing_reference: usize,
@@ -140,7 +149,8 @@ pub fn estimate(
     let t_det: Vec<f64> = detected.iter().map(|&k| t_used[k]).collect();
     let mut signals = Vec::with_capacity(6);
     for (s, th) in Signal::ALL.iter().zip(&theta) {
-        let d = config.differentiator.differentiate(&t_det, th)?;
+        let differentiator = config.differentiator.resolved(&t_det, th)?;
+        let d = differentiator.differentiate(&t_det, th)?;
         let spread = |v: &[f64]| {
             let mut out = vec![f64::NAN; n];
             for (&k, x) in detected.iter().zip(v) {
@@ -153,6 +163,7 @@ pub fn estimate(
             theta_rad: spread(th),
             omega_rad_s: spread(&d.omega_rad_s),
             alpha_rad_s2: spread(&d.alpha_rad_s2),
+            differentiator,
         });
     }
     Ok(Estimate {

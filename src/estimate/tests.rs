@@ -255,12 +255,24 @@ fn monte_carlo_noise_gain_matches_formula() {
             window_s: Some(0.25),
             order: 3,
         },
+        Differentiator::KalmanRts {
+            lambda_per_s6: Some(1e6),
+        },
     ];
     let trials = 4000;
-    let len = 17;
-    let mid = len / 2;
-    let t: Vec<f64> = (0..len).map(|k| k as f64 * h).collect();
+    // Long enough for the Kalman smoother (time scale λ^(−1/6) = 0.1 s = 3 frames) to reach its
+    // interior steady state at the middle sample; the stencils need only their window.
+    let len_of = |d: &Differentiator| {
+        if matches!(d, Differentiator::KalmanRts { .. }) {
+            81
+        } else {
+            17
+        }
+    };
     for (m, diff) in methods.iter().enumerate() {
+        let len = len_of(diff);
+        let mid = len / 2;
+        let t: Vec<f64> = (0..len).map(|k| k as f64 * h).collect();
         let (mut sw, mut sa) = (0.0, 0.0);
         for k in 0..trials {
             let mut rng = stream(1000 + m as u64, Stream::MonteCarlo, k);
@@ -623,4 +635,60 @@ fn config_round_trips_and_validates() {
         ]
     );
     assert!(toml::from_str::<EstimatorConfig>("bogus = 1").is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    #[test]
+    fn kalman_exact_on_quadratics(t in sorted_times(), c in prop::collection::vec(-5.0f64..5.0, 3), log_l in 0.0f64..8.0) {
+        // A quadratic is a noise-free trajectory of the white-jerk model, so the smoother
+        // reproduces it whatever λ is (up to the finite prior).
+        let f: Vec<f64> = t.iter().map(|&x| poly(&c, x).0).collect();
+        let d = Differentiator::KalmanRts { lambda_per_s6: Some(10f64.powf(log_l)) }.differentiate(&t, &f).unwrap();
+        for (i, &x) in t.iter().enumerate() {
+            let (_, w, a) = poly(&c, x);
+            prop_assert!((d.omega_rad_s[i] - w).abs() < 1e-4 * (1.0 + w.abs()), "omega {} vs {}", d.omega_rad_s[i], w);
+            prop_assert!((d.alpha_rad_s2[i] - a).abs() < 1e-3 * (1.0 + a.abs()), "alpha {} vs {}", d.alpha_rad_s2[i], a);
+        }
+    }
+}
+
+#[test]
+fn kalman_automatic_lambda_beats_central3_on_noisy_motion() {
+    let mut rng = stream(21, Stream::MonteCarlo, 0);
+    let mut t = 0.0;
+    let ts: Vec<f64> = (0..300)
+        .map(|_| {
+            t += 1.0 / 30.0 + 0.003 * rng.gen::<f64>();
+            t
+        })
+        .collect();
+    let theta: Vec<f64> = ts
+        .iter()
+        .map(|t| (2.0 * t).sin() + 0.001 * rng.sample::<f64, _>(StandardNormal))
+        .collect();
+    let auto = Differentiator::KalmanRts {
+        lambda_per_s6: None,
+    };
+    let resolved = auto.resolved(&ts, &theta).unwrap();
+    let Differentiator::KalmanRts {
+        lambda_per_s6: Some(lambda),
+    } = resolved
+    else {
+        panic!("not resolved")
+    };
+    assert!(lambda.is_finite() && lambda > 0.0);
+    let rms = |d: &Derivatives| {
+        let e: f64 = (10..290)
+            .map(|i| (d.omega_rad_s[i] - 2.0 * (2.0 * ts[i]).cos()).powi(2))
+            .sum();
+        (e / 280.0).sqrt()
+    };
+    let k = rms(&auto.differentiate(&ts, &theta).unwrap());
+    let c3 = rms(&Differentiator::Central3.differentiate(&ts, &theta).unwrap());
+    eprintln!(
+        "auto lambda {lambda:.3e} 1/s^6: omega rms error kalman {k:.4} vs central3 {c3:.4} rad/s"
+    );
+    assert!(k < 0.5 * c3, "kalman {k} vs central3 {c3}");
 }
