@@ -692,3 +692,51 @@ fn kalman_automatic_lambda_beats_central3_on_noisy_motion() {
     );
     assert!(k < 0.5 * c3, "kalman {k} vs central3 {c3}");
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    #[test]
+    fn savitzky_golay_seconds_window_exact_on_its_order(
+        t in sorted_times(),
+        order in 2usize..=3,
+        window_s in 0.2f64..0.6,
+        c in prop::collection::vec(-3.0f64..3.0, 4),
+    ) {
+        let coef = &c[..=order];
+        let f: Vec<f64> = t.iter().map(|&x| poly(coef, x).0).collect();
+        let sg = Differentiator::SavitzkyGolay { window_frames: 9, window_s: Some(window_s), order };
+        // Windows holding too few frames must be reported, never silently mis-fitted.
+        let Ok(d) = sg.differentiate(&t, &f) else { return Ok(()) };
+        for (i, &x) in t.iter().enumerate() {
+            let (_, w, a) = poly(coef, x);
+            prop_assert!((d.omega_rad_s[i] - w).abs() < 1e-6 * (1.0 + w.abs()));
+            prop_assert!((d.alpha_rad_s2[i] - a).abs() < 1e-4 * (1.0 + a.abs()));
+        }
+    }
+}
+
+#[test]
+fn diagonal_centre_config_is_used() {
+    let c = [1000.0, 800.0];
+    let ts: Vec<f64> = (0..30).map(|k| k as f64 / 30.0).collect();
+    // A non-square (trapezoid) marker: corner mean and diagonal intersection differ.
+    let cs: Vec<Option<Corners>> = (0..30)
+        .map(|k| {
+            let mut m = marker_at(c, 300.0, 80.0, 0.05 * k as f64);
+            m[1] = [0.8 * m[1][0] + 0.2 * m[2][0], 0.8 * m[1][1] + 0.2 * m[2][1]];
+            Some(m)
+        })
+        .collect();
+    let cfg = EstimatorConfig {
+        marker_centre: MarkerCentreMethod::DiagonalIntersection,
+        ..Default::default()
+    };
+    let est = estimate(&cfg, &ts, &cs, None).unwrap();
+    let expect = marker_centre::diagonal_intersection(&cs[3].unwrap()).unwrap();
+    assert_eq!(est.marker_centre_px[3], Some(expect));
+    assert_ne!(
+        Some(marker_centre::corner_mean(&cs[3].unwrap())),
+        est.marker_centre_px[3]
+    );
+}
