@@ -43,6 +43,18 @@ pub struct DynamicsResult {
     pub contact_changes: Vec<(f64, i8)>,
 }
 
+/// Largest step for which the semi-implicit Euler contact oscillation stays well resolved
+/// (ω_n·h ≤ 0.2 and damping rate·h ≤ 0.2 at the largest pin radius `rho_max_m`).
+pub fn max_stable_step_s(p: &DynamicsParams, rho_max_m: f64) -> f64 {
+    let k_rot = p.stiffness_n_m * rho_max_m * rho_max_m / p.inertia_kg_m2;
+    let c_rot = p.damping_n_s_m * rho_max_m * rho_max_m / p.inertia_kg_m2;
+    (0.2 / k_rot.sqrt()).min(if c_rot > 0.0 {
+        0.2 / c_rot
+    } else {
+        f64::INFINITY
+    })
+}
+
 /// Contact torque on the wheel, N·m, and the touching side.
 pub fn contact_torque(
     geneva: &Geneva,

@@ -7,11 +7,11 @@
 
 use super::config::MechanismConfig;
 use super::drive_speed::{CrankMotion, DriveSpeedConfig};
-use super::dynamics::{simulate, DynamicsParams, DynamicsResult};
+use super::dynamics::{max_stable_step_s, simulate, DynamicsParams, DynamicsResult};
 use super::dynamics_config::{DynamicsConfig, GRAVITY_M_S2};
 use super::effects::{axis_runout_offset_m, disc_vibration_offsets};
 use super::error::MechanismError;
-use super::kinematics::Geneva;
+use super::kinematics::{Geneva, GenevaKind};
 use crate::validation::Problems;
 use std::f64::consts::PI;
 
@@ -92,6 +92,18 @@ impl Mechanism {
         let theta2_abs0_rad = geneva.wheel_angle_abs_rad(c0.theta1_rad);
         let dyn_result = if dynamics.enabled {
             let params = dynamics_params(mech, dynamics);
+            let rho_max_m = match mech.kind {
+                GenevaKind::Internal => mech.centre_distance_mm + mech.crank_radius_derived_mm(),
+                GenevaKind::External => mech.centre_distance_mm * (PI / mech.slots as f64).cos(),
+            } * 1e-3;
+            let h_max = max_stable_step_s(&params, rho_max_m);
+            if params.step_s > h_max {
+                return Err(MechanismError::InvalidConfig(format!(
+                    "dynamics.step_s: must be <= {h_max:.3e} s for this contact stiffness, \
+                     damping and wheel inertia, got {}",
+                    params.step_s
+                )));
+            }
             let w0 = geneva.wheel_state(&c0).omega2_rad_s;
             // A little beyond the end so interpolation at duration_s has both neighbours.
             let span = duration_s + 2.0 * dynamics.output_step_s;
@@ -226,7 +238,6 @@ pub fn dynamics_params(mech: &MechanismConfig, d: &DynamicsConfig) -> DynamicsPa
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::kinematics::GenevaKind;
 
     fn poly() -> DriveSpeedConfig {
         DriveSpeedConfig::PolynomialPerEngagement {
@@ -380,5 +391,17 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("drive_speed.t_s"), "{e}");
+        let stiff = DynamicsConfig {
+            enabled: true,
+            contact_stiffness_n_m: 1e10,
+            step_s: 1e-4,
+            output_step_s: 1e-4,
+            ..Default::default()
+        };
+        let e = Mechanism::new(&MechanismConfig::default(), &poly(), &stiff, 1.0).unwrap_err();
+        assert!(
+            e.to_string().contains("dynamics.step_s: must be <= "),
+            "{e}"
+        );
     }
 }
