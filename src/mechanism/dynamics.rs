@@ -1,7 +1,8 @@
 //! Wheel dynamics with pin–slot clearance: the crank motion is prescribed; the wheel is a rigid
 //! disc on a bearing with Coulomb friction (Karnopp stick/slip) and is pushed by a penalty
 //! contact (spring + damper, compressive only) between the pin and the two walls of the slot it
-//! is in, active while the pin is radially inside the slot. Outside engagement the wheel is free
+//! is in, active while the pin overlaps the slot radially (near the mouth the pin touches the
+//! wall's corner, modelled as a sharp edge against the round pin). Outside engagement the wheel is free
 //! (no locking disc), so it may coast past the index and be hit at the next entry.
 //!
 //! Integration: semi-implicit (symplectic) Euler at a fixed step (default 1e-5 s), first order in
@@ -25,6 +26,8 @@ pub struct DynamicsParams {
     pub damping_n_s_m: f64,
     /// Half the clearance (slot width − pin diameter) / 2, m.
     pub half_clearance_m: f64,
+    /// Pin radius, m (rounds the contact with the slot-mouth corners).
+    pub pin_radius_m: f64,
     pub crank_radius_m: f64,
     pub step_s: f64,
     /// Output grid spacing, s (a whole number of steps).
@@ -70,13 +73,23 @@ pub fn contact_torque(
     let (vx, vy) = (r * dx * omega1_rad_s, r * dy * omega1_rad_s);
     let rho = px.hypot(py);
     let mouth = r * geneva.ratio_m() * (PI / geneva.slots as f64).cos();
-    let inside = match geneva.kind {
-        GenevaKind::Internal => rho >= mouth,
-        GenevaKind::External => rho <= mouth,
+    // Depth of the pin centre past the slot mouth; the pin overlaps the slot from −pin radius.
+    let depth = match geneva.kind {
+        GenevaKind::Internal => rho - mouth,
+        GenevaKind::External => mouth - rho,
     };
-    if !inside {
+    let rp = p.pin_radius_m;
+    if depth <= -rp {
         return (0.0, 0);
     }
+    // Before its centre passes the mouth the pin can only touch the wall's corner, which lets
+    // it sit further out sideways: the force builds up as the pin slides in instead of
+    // switching on with a finite penetration.
+    let corner_allowance = if depth < 0.0 {
+        rp - (rp * rp - depth * depth).sqrt()
+    } else {
+        0.0
+    };
     let pitch = geneva.index_angle_rad();
     let j = ((py.atan2(px) - theta2_abs_rad) / pitch).round();
     let (sn, cs) = (theta2_abs_rad + j * pitch).sin_cos();
@@ -84,7 +97,7 @@ pub fn contact_torque(
     let along = px * cs + py * sn;
     let d_dot = -vx * sn + vy * cs - omega2_rad_s * along;
     let side = if d >= 0.0 { 1.0 } else { -1.0 };
-    let pen = d.abs() - p.half_clearance_m;
+    let pen = d.abs() - p.half_clearance_m - corner_allowance;
     if pen <= 0.0 {
         return (0.0, 0);
     }
@@ -203,6 +216,7 @@ mod tests {
             stiffness_n_m: stiffness,
             damping_n_s_m: 50.0,
             half_clearance_m,
+            pin_radius_m: 4.75e-3,
             crank_radius_m: 0.025 * (PI / 4.0).sin(),
             step_s,
             output_step_s: 1e-4,

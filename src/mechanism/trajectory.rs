@@ -229,6 +229,7 @@ pub fn dynamics_params(mech: &MechanismConfig, d: &DynamicsConfig) -> DynamicsPa
         stiffness_n_m: d.contact_stiffness_n_m,
         damping_n_s_m: d.contact_damping_n_s_m,
         half_clearance_m: 0.5 * mech.clearance_mm() * 1e-3,
+        pin_radius_m: 0.5 * mech.pin_diameter_mm * 1e-3,
         crank_radius_m: mech.crank_radius_derived_mm() * 1e-3,
         step_s: d.step_s,
         output_step_s: d.output_step_s,
@@ -356,6 +357,21 @@ mod tests {
         // after exit the free wheel may coast on (over-rotation), so the overall error is larger.
         assert!(worst_drive > 1e-3 && worst_drive < 0.05, "{worst_drive}");
         assert!(worst < 0.3, "{worst}");
+        // Bounces at entry: wall-to-wall contact flips inside an entry phase, with α2 spikes
+        // far above the ideal peak (≈ 1.0·ω1² ≈ 2.4 rad/s²), as in the seed's figure 4.10.
+        let cc = &m.dynamics().unwrap().contact_changes;
+        let sides: Vec<(f64, i8)> = cc.iter().copied().filter(|c| c.1 != 0).collect();
+        let entry_flips = sides
+            .windows(2)
+            .filter(|w| w[0].1 != w[1].1 && m.ideal(w[1].0).phase == Phase::Entry)
+            .count();
+        assert!(entry_flips >= 3, "entry flips {entry_flips}");
+        let entry_peak = (0..100_000)
+            .map(|i| m.actual(i as f64 * 1e-4))
+            .filter(|s| s.phase == Phase::Entry)
+            .fold(0.0f64, |p, s| p.max(s.alpha2_rad_s2.abs()));
+        assert!(entry_peak > 3.0 * 2.4, "entry α2 peak {entry_peak}");
+        eprintln!("entry flips {entry_flips}, entry |α2| peak {entry_peak:.2} rad/s²");
     }
 
     #[test]
