@@ -1,27 +1,20 @@
-//! (placeholder: filled by the mechanism work)
-use crate::validation::Problems;
-use serde::{Deserialize, Serialize};
+//! Mechanism: exact Geneva kinematics, crank speed profiles, the continuous multi-cycle truth
+//! trajectory and an optional pin–slot clearance dynamics model with bearing friction.
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MechanismConfig {}
+pub mod config;
+pub mod drive_speed;
+pub mod dynamics;
+pub mod dynamics_config;
+pub mod effects;
+pub mod error;
+pub mod kinematics;
+pub mod trajectory;
 
-impl MechanismConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DriveSpeedConfig {}
-
-impl DriveSpeedConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DynamicsConfig {}
-
-impl DynamicsConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
+pub use config::MechanismConfig;
+pub use drive_speed::{parse_drive_table_csv, CrankMotion, DriveSpeedConfig};
+pub use dynamics_config::{
+    AxisRunoutConfig, DiscVibrationConfig, DynamicsConfig, VibrationComponent,
+};
+pub use error::MechanismError;
+pub use kinematics::{CrankState, Geneva, GenevaKind, WheelState};
+pub use trajectory::{Mechanism, MotionSample, Phase};
