@@ -14,6 +14,7 @@ pub mod estimate;
 pub mod io;
 pub mod marker;
 pub mod mechanism;
+pub mod pipeline;
 pub mod plot;
 pub mod render;
 pub mod rng;

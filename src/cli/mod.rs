@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
+mod kinematics_cmd;
 mod scenario_cmd;
 mod timing_cmd;
 
@@ -26,6 +27,13 @@ enum Command {
     /// Check or print scenario files.
     #[command(subcommand)]
     Scenario(scenario_cmd::ScenarioCmd),
+    /// Write the truth trajectory (truth.csv) and plots of omega2 and alpha2.
+    Kinematics {
+        /// Scenario file or built-in name.
+        scenario: String,
+        #[arg(long, default_value = "out/kinematics")]
+        out: PathBuf,
+    },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -37,17 +45,12 @@ pub fn main() -> Result<()> {
         Command::Demo { out } => demo(&out),
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
+        Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
     }
 }
 
+/// The main job on the embedded default scenario. Grows with the pipeline: today the truth
+/// trajectory and its plots.
 fn demo(out: &std::path::Path) -> Result<()> {
-    let scenario =
-        geneva_vision::scenario::load_builtin(geneva_vision::scenario::DEFAULT_SCENARIO)?;
-    std::fs::create_dir_all(out)?;
-    println!(
-        "scenario {} resolved; output in {}",
-        scenario.name,
-        out.display()
-    );
-    Ok(())
+    kinematics_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out)
 }

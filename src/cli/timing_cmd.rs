@@ -48,7 +48,8 @@ pub fn run(cmd: TimingCmd) -> Result<()> {
     match cmd {
         TimingCmd::Show { log, format } => {
             let ts = read_timing_log(&log, format.map(Into::into))?;
-            let stats = TimingStats::of(&ts).map_err(|e| anyhow::anyhow!("{}: {e}", log.display()))?;
+            let stats =
+                TimingStats::of(&ts).map_err(|e| anyhow::anyhow!("{}: {e}", log.display()))?;
             println!("{}", log.display());
             println!("{stats}");
             Ok(())
@@ -58,7 +59,10 @@ pub fn run(cmd: TimingCmd) -> Result<()> {
             let fit = fit_vfr(&ts).map_err(|e| anyhow::anyhow!("{}: {e}", log.display()))?;
             println!("{}", log.display());
             println!("{fit}");
-            println!("\n# as a scenario section:\n[frame_timing]\n{}", toml::to_string_pretty(&fit.config)?);
+            println!(
+                "\n# as a scenario section:\n[frame_timing]\n{}",
+                toml::to_string_pretty(&fit.config)?
+            );
             Ok(())
         }
     }

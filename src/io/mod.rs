@@ -6,3 +6,4 @@
 pub mod csv_out;
 pub mod png_out;
 pub mod timing_log;
+pub mod truth_csv;

@@ -205,6 +205,14 @@ impl Mechanism {
         s
     }
 
+    /// True when the actual motion can differ from the ideal kinematics (dynamics, disc
+    /// vibration or axis runout enabled).
+    pub fn has_actual_motion(&self) -> bool {
+        self.dynamics.is_some()
+            || self.dyn_cfg.disc_vibration.enabled
+            || self.dyn_cfg.axis_runout.enabled
+    }
+
     /// (ideal, actual) for each time, for the truth CSV.
     pub fn truth_rows(&self, times_s: &[f64]) -> Vec<(MotionSample, MotionSample)> {
         times_s

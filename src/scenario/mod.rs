@@ -10,10 +10,12 @@
 
 mod builtin;
 mod error;
+mod external;
 mod merge;
 
 pub use builtin::{builtin_names, builtin_text, DEFAULT_SCENARIO};
 pub use error::ScenarioError;
+pub use external::builtin_data;
 
 use crate::camera::CameraConfig;
 use crate::detect::DetectorConfig;
@@ -21,7 +23,7 @@ use crate::estimate::EstimatorConfig;
 use crate::mechanism::{DriveSpeedConfig, DynamicsConfig, MechanismConfig};
 use crate::render::EffectsConfig;
 use crate::scene::SceneConfig;
-use crate::timing::FrameTimingConfig;
+use crate::timing::{FrameTimingConfig, Timestamps, TimingError};
 use crate::validation::Problems;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -48,6 +50,9 @@ pub struct Scenario {
     pub effects: EffectsConfig,
     pub detector: DetectorConfig,
     pub estimator: EstimatorConfig,
+    /// The frame-timing log named by `frame_timing.model.file`, read by the loader.
+    #[serde(skip)]
+    pub timing_log: Option<Timestamps>,
 }
 
 impl Default for Scenario {
@@ -66,6 +71,7 @@ impl Default for Scenario {
             effects: Default::default(),
             detector: Default::default(),
             estimator: Default::default(),
+            timing_log: None,
         }
     }
 }
@@ -88,6 +94,12 @@ impl Scenario {
         self.detector.validate("detector", &mut problems);
         self.estimator.validate("estimator", &mut problems);
         problems
+    }
+
+    /// The frame times of this scenario's camera (deterministic for the seed).
+    pub fn frame_times(&self) -> Result<Timestamps, TimingError> {
+        self.frame_timing
+            .schedule(self.duration_s, self.seed, self.timing_log.as_ref())
     }
 
     /// The resolved scenario as TOML (what `geneva scenario show` prints).
@@ -136,7 +148,7 @@ pub fn from_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
 }
 
 fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
-    let scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
+    let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
         let field = e.path().to_string();
         ScenarioError::Field {
             file: file.to_path_buf(),
@@ -146,6 +158,7 @@ fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
     })?;
     let problems = scenario.validate();
     if problems.is_empty() {
+        external::load_external(&mut scenario, file)?;
         Ok(scenario)
     } else {
         Err(ScenarioError::Invalid {

@@ -107,7 +107,11 @@ fn every_field_is_documented_in_scenarios_readme() {
     fn keys(prefix: &str, v: &toml::Value, out: &mut Vec<String>) {
         if let toml::Value::Table(t) = v {
             for (k, child) in t {
-                let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                let path = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
                 match child {
                     toml::Value::Table(_) => keys(&path, child, out),
                     _ => out.push(path),
@@ -126,5 +130,45 @@ fn every_field_is_documented_in_scenarios_readme() {
             }
         }
     }
-    assert!(missing.is_empty(), "fields not documented in scenarios/README.md: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "fields not documented in scenarios/README.md: {missing:?}"
+    );
+}
+
+#[test]
+fn timing_logs_and_drive_tables_are_loaded_from_files_and_builtins() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "w.csv", "t_s,omega1_rad_s\n0,-1.5\n20,-1.5\n");
+    write(dir.path(), "ts.csv", "frame,t_s\n0,0\n1,0.04\n2,0.07\n");
+    let p = write(
+        dir.path(),
+        "s.toml",
+        "extend = \"fast\"\n[drive_speed]\nkind = \"table\"\nfile = \"w.csv\"\n[frame_timing.model]\nkind = \"log\"\nfile = \"ts.csv\"\nformat = \"frames_csv\"\n",
+    );
+    let s = load(&p).unwrap();
+    assert_eq!(s.timing_log.as_ref().unwrap().len(), 3);
+    assert_eq!(s.frame_times().unwrap().len(), 3);
+    match &s.drive_speed {
+        crate::mechanism::DriveSpeedConfig::Table { t_s, .. } => assert_eq!(t_s, &vec![0.0, 20.0]),
+        other => panic!("{other:?}"),
+    }
+    let b = write(
+        dir.path(),
+        "b.toml",
+        "extend = \"fast\"\n[frame_timing.model]\nkind = \"log\"\nfile = \"builtin:model_test2\"\n",
+    );
+    assert_eq!(load(&b).unwrap().timing_log.unwrap().len(), 429);
+    let m = write(
+        dir.path(),
+        "m.toml",
+        "extend = \"fast\"\n[frame_timing.model]\nkind = \"log\"\nfile = \"missing.log\"\n",
+    );
+    let msg = load(&m).unwrap_err().to_string();
+    assert!(
+        msg.contains("m.toml")
+            && msg.contains("frame_timing.model.file")
+            && msg.contains("missing.log"),
+        "{msg}"
+    );
 }
