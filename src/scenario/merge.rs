@@ -1,6 +1,8 @@
 //! `extend`: a scenario may name a base scenario (a built-in name or a path relative to itself)
 //! and override any of its fields. Tables merge key by key, recursively; arrays and scalars
 //! replace the base's value whole (so a list of vibration components is never half-merged).
+//! A table whose `kind` changes (e.g. `drive_speed` from `polynomial_per_engagement` to
+//! `constant`) replaces the base table whole: the old variant's fields mean nothing to the new.
 
 use toml::Value;
 
@@ -10,7 +12,9 @@ pub fn deep_merge(base: &mut Value, over: Value) {
         (Value::Table(base_table), Value::Table(over_table)) => {
             for (key, value) in over_table {
                 match base_table.get_mut(&key) {
-                    Some(existing) if existing.is_table() && value.is_table() => {
+                    Some(existing)
+                        if existing.is_table() && value.is_table() && !kind_changes(existing, &value) =>
+                    {
                         deep_merge(existing, value)
                     }
                     _ => {
@@ -20,6 +24,13 @@ pub fn deep_merge(base: &mut Value, over: Value) {
             }
         }
         (base, over) => *base = over,
+    }
+}
+
+fn kind_changes(base: &Value, over: &Value) -> bool {
+    match (base.get("kind"), over.get("kind")) {
+        (Some(a), Some(b)) => a != b,
+        _ => false,
     }
 }
 
@@ -68,6 +79,13 @@ mod tests {
             base,
             v("a = 1\n[t]\nx = 1\ny = 20\nlist = [9]\n[t.inner]\nz = 3\nw = 4")
         );
+    }
+
+    #[test]
+    fn a_changed_kind_replaces_the_table() {
+        let mut base = v("[d]\nkind = \"poly\"\nend = 1\n[e]\nkind = \"a\"\nx = 1");
+        deep_merge(&mut base, v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\ny = 2"));
+        assert_eq!(base, v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\nx = 1\ny = 2"));
     }
 
     #[test]

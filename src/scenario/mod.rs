@@ -147,6 +147,57 @@ pub fn from_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
     finish(value, file)
 }
 
+/// A copy of `base` with fields replaced by dotted path (`camera.distance_m = 0.4`), validated
+/// again. Data already loaded from files (timing logs) carries over unless the override changes
+/// the timing model. `origin` names the file the overrides came from, for messages.
+pub fn with_overrides(base: &Scenario, overrides: &[(String, Value)], origin: &Path) -> Result<Scenario, ScenarioError> {
+    let mut value = Value::try_from(base).map_err(|e| ScenarioError::Field {
+        file: origin.to_path_buf(),
+        field: String::new(),
+        message: format!("cannot represent the base scenario: {e}"),
+    })?;
+    for (path, v) in overrides {
+        set_dotted(&mut value, path, v.clone()).map_err(|message| ScenarioError::Field {
+            file: origin.to_path_buf(),
+            field: path.clone(),
+            message,
+        })?;
+    }
+    let timing_changed = overrides.iter().any(|(p, _)| p.starts_with("frame_timing.model"));
+    let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
+        let field = e.path().to_string();
+        ScenarioError::Field { file: origin.to_path_buf(), field, message: e.into_inner().to_string() }
+    })?;
+    let problems = scenario.validate();
+    if !problems.is_empty() {
+        return Err(ScenarioError::Invalid { file: origin.to_path_buf(), problems: problems.0 });
+    }
+    if timing_changed {
+        external::load_external(&mut scenario, origin)?;
+    } else {
+        scenario.timing_log = base.timing_log.clone();
+    }
+    Ok(scenario)
+}
+
+/// Sets `a.b.c` in a TOML table, creating intermediate tables.
+fn set_dotted(root: &mut Value, path: &str, v: Value) -> Result<(), String> {
+    let mut parts = path.split('.').peekable();
+    let mut cur = root;
+    while let Some(key) = parts.next() {
+        if key.is_empty() {
+            return Err("empty path segment".into());
+        }
+        let table = cur.as_table_mut().ok_or_else(|| format!("`{key}`: parent is not a table"))?;
+        if parts.peek().is_none() {
+            table.insert(key.to_string(), v);
+            return Ok(());
+        }
+        cur = table.entry(key.to_string()).or_insert_with(|| Value::Table(Default::default()));
+    }
+    Err("empty path".into())
+}
+
 fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
     let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
         let field = e.path().to_string();
