@@ -1,1 +1,3 @@
 //! (placeholder)
+pub mod images;
+pub mod video;
