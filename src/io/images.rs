@@ -402,4 +402,27 @@ mod tests {
         assert_eq!(natural_cmp("a02", "a2"), Ordering::Greater);
         assert_eq!(natural_cmp("a", "a1"), Ordering::Less);
     }
+
+    #[test]
+    fn png_sequence_reads_in_frame_order() {
+        let dir = tempfile::tempdir().unwrap();
+        for k in [10u8, 2, 1] {
+            let data: Vec<u8> = (0..12).map(|i| k * 10 + i).collect();
+            let p = dir.path().join(format!("frame{k}.png"));
+            write_png(
+                &p,
+                4,
+                3,
+                png::ColorType::Grayscale,
+                png::BitDepth::Eight,
+                &data,
+            );
+        }
+        let first: Vec<u8> = list_image_files(dir.path())
+            .unwrap()
+            .iter()
+            .map(|p| read_gray(p).unwrap().data[0])
+            .collect();
+        assert_eq!(first, vec![10, 20, 100]);
+    }
 }

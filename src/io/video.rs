@@ -386,8 +386,8 @@ mod tests {
     #[test]
     fn rotated_video_reports_display_size() {
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("r.mp4");
-        let ps = p.to_str().unwrap();
+        let plain = dir.path().join("plain.mp4");
+        let ps = plain.to_str().unwrap();
         ffmpeg(&[
             "-f",
             "lavfi",
@@ -397,16 +397,43 @@ mod tests {
             "3",
             "-c:v",
             "mpeg4",
-            "-metadata:s:v",
-            "rotate=90",
             ps,
+        ]);
+        // ffmpeg 5.1 turns the legacy rotate tag into a display matrix only when stream-copying.
+        let p = dir.path().join("r.mp4");
+        ffmpeg(&[
+            "-i",
+            ps,
+            "-c",
+            "copy",
+            "-metadata:s:v:0",
+            "rotate=90",
+            p.to_str().unwrap(),
         ]);
         let mut v = VideoFrames::open(&p).unwrap();
         assert_eq!(v.info().rotation_deg % 180, 90);
         assert_eq!((v.info().width_px, v.info().height_px), (48, 64));
+        assert_eq!(
+            (v.info().coded_width_px, v.info().coded_height_px),
+            (64, 48)
+        );
+        let mut upright = VideoFrames::open(&plain).unwrap();
         let mut n = 0;
         while let Some(f) = v.next_frame().unwrap() {
-            assert_eq!(f.data.len(), 48 * 64);
+            let u = upright.next_frame().unwrap().unwrap();
+            // Same bitstream, so the rotated frame is an exact quarter turn of the upright one.
+            let cw: Vec<u8> = (0..64)
+                .flat_map(|r| (0..48).map(move |c| (r, c)))
+                .map(|(r, c)| u.data[(47 - c) * 64 + r])
+                .collect();
+            let ccw: Vec<u8> = (0..64)
+                .flat_map(|r| (0..48).map(move |c| (r, c)))
+                .map(|(r, c)| u.data[c * 64 + (63 - r)])
+                .collect();
+            assert!(
+                f.data == cw || f.data == ccw,
+                "frame {n} is not a rotation of the upright frame"
+            );
             n += 1;
         }
         assert_eq!(n, 3);
