@@ -123,7 +123,7 @@ fn config(method: CornerRefinement) -> DetectorConfig {
         corner_refinement_method: method,
         roi: RoiConfig {
             enabled: true,
-            margin_px: 0,
+            margin_px: 4,
         },
         ..DetectorConfig::default()
     }
@@ -266,5 +266,51 @@ fn naive_window_detection_is_exact_only_without_float_refinement() {
         if method == CornerRefinement::None {
             assert_eq!(differ, 0);
         }
+    }
+}
+
+/// A 4K frame with a seed-sized marker (about 165 px): ROI equals full frame, and is timed.
+#[test]
+fn roi_on_4k_frame_matches_full_frame() {
+    let (fw, fh, side, at) = (3840usize, 2160usize, 165usize, (1700usize, 900usize));
+    let dict = opencv::aruco::get_predefined_dictionary_i32(0).unwrap();
+    let mut marker = Mat::default();
+    opencv::aruco::draw_marker(&dict, 0, side as i32, &mut marker, 1).unwrap();
+    let bytes = marker.data_bytes().unwrap();
+    let mut rng = stream(99, Stream::PixelNoise, 0);
+    let noise = Normal::new(0.0, 2.0).unwrap();
+    let mut img = vec![200u8; fw * fh];
+    for r in 0..side {
+        for c in 0..side {
+            img[(at.1 + r) * fw + at.0 + c] = if bytes[r * side + c] < 128 { 40 } else { 200 };
+        }
+    }
+    for v in img.iter_mut() {
+        *v = (f64::from(*v) + noise.sample(&mut rng))
+            .round()
+            .clamp(0.0, 255.0) as u8;
+    }
+    for method in [CornerRefinement::None, CornerRefinement::Subpix] {
+        let det = ArucoDetector::new(&config(method)).unwrap();
+        let view = GrayView::full(&img, fw, fh);
+        let t0 = std::time::Instant::now();
+        let full = det.detect(view).unwrap().into_iter().find(|d| d.id == 0);
+        let t_full = t0.elapsed();
+        let bbox = full.expect("marker must be found").bbox_px();
+        let t0 = std::time::Instant::now();
+        let obs = det
+            .detect_marker(
+                view,
+                0,
+                Some((bbox.0 + 2.0, bbox.1 - 2.0, bbox.2 + 2.0, bbox.3 - 2.0)),
+            )
+            .unwrap();
+        let t_roi = t0.elapsed();
+        eprintln!(
+            "{method:?} 4K: full frame {t_full:?}, ROI {t_roi:?}, {:?}",
+            obs.path
+        );
+        assert_eq!(obs.path, DetectionPath::Roi);
+        assert_eq!(bits(&obs.detection), bits(&full));
     }
 }

@@ -86,6 +86,7 @@ fn refinement_methods_land_where_measured() {
     ] {
         let dets = detect(method, &img, 400);
         assert_eq!(dets.len(), 1, "{method:?}");
+        eprintln!("{method:?}: corners {:?}", dets[0].corners_px);
         assert_eq!(dets[0].id, 0);
         for (c, t) in dets[0].corners_px.iter().zip(true_edges) {
             // Offsets point inwards for the unrefined convention, along +x/+y for APRILTAG.

@@ -39,8 +39,9 @@ impl CornerRefinement {
 pub struct RoiConfig {
     /// Use ROI detection when a predicted bounding box is available. Default: false.
     pub enabled: bool,
-    /// Extra margin around the predicted bounding box, pixels; the detector raises it to the
-    /// minimum that keeps results exact (largest threshold window, refinement window). Default: 32.
+    /// Allowance for prediction error, px: added around the predicted bounding box on top of the
+    /// minimum margin that keeps ROI results exact (threshold window, polygon tolerance, candidate
+    /// merge distance, border distance). Default: 32.
     pub margin_px: u32,
 }
 

@@ -61,8 +61,8 @@ pub fn required_margin_px(cfg: &DetectorConfig, perimeter_px: f64) -> f64 {
 }
 
 /// The window around a predicted marker bounding box `(x_min, y_min, x_max, y_max)` px, grown by
-/// the larger of `cfg.roi.margin_px` and [`required_margin_px`] for a marker of that size, clamped
-/// to the frame. `None` when the box is not finite or misses the frame.
+/// [`required_margin_px`] for a marker of that size plus `cfg.roi.margin_px` of allowance for
+/// prediction error, clamped to the frame. `None` when the box is not finite or misses the frame.
 pub fn roi_window(
     cfg: &DetectorConfig,
     predicted_bbox_px: (f64, f64, f64, f64),
@@ -75,7 +75,7 @@ pub fn roi_window(
         return None;
     }
     let perimeter_px = 2.0 * ((x_max - x_min) + (y_max - y_min));
-    let margin = required_margin_px(cfg, perimeter_px).max(f64::from(cfg.roi.margin_px));
+    let margin = required_margin_px(cfg, perimeter_px) + f64::from(cfg.roi.margin_px);
     let (w, h) = (frame_width_px as f64, frame_height_px as f64);
     let x0 = (x_min - margin).floor().max(0.0);
     let y0 = (y_min - margin).floor().max(0.0);
