@@ -79,6 +79,7 @@ fn check_image(image: &GrayView<'_>) -> Result<(), DetectError> {
         || image.height == 0
         || image.data.len() != expected
         || image.width > i32::MAX as usize
+        || image.height > i32::MAX as usize
     {
         return Err(DetectError::ImageSize {
             width: image.width,
