@@ -1,11 +1,21 @@
-//! (placeholder: filled by the detect work)
-use crate::validation::Problems;
-use serde::{Deserialize, Serialize};
+//! Marker detection: the `[detector]` config (pure, always compiled), detector input/output
+//! types, ROI window geometry, and the OpenCV ArUco detector (feature `opencv-detector`).
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DetectorConfig {}
+mod config;
+mod roi;
+mod types;
 
-impl DetectorConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
+#[cfg(feature = "opencv-detector")]
+mod opencv_aruco;
+
+pub use config::{parse_dictionary, CornerRefinement, DetectorConfig, DictionaryInfo, RoiConfig};
+pub use roi::{
+    corners_inside_exact_zone, required_margin_px, roi_exactness, roi_window,
+    window_perimeter_rate, RoiExactness, RoiWindow,
+};
+pub use types::{Detection, GrayView};
+
+#[cfg(all(feature = "opencv-detector", not(opencv_aruco_objdetect)))]
+pub use opencv_aruco::opencv_parameters;
+#[cfg(feature = "opencv-detector")]
+pub use opencv_aruco::{ArucoDetector, DetectError, DetectionPath, MarkerObservation, RoiFallback};

@@ -4,6 +4,8 @@
 //! module. Every error names the file (and the row or frame where there is one).
 
 pub mod csv_out;
+pub mod images;
 pub mod png_out;
 pub mod timing_log;
 pub mod truth_csv;
+pub mod video;

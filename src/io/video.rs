@@ -1,0 +1,563 @@
+//! Video frame input through the ffmpeg command-line tools: `ffprobe` for size, display
+//! rotation and per-frame timestamps; `ffmpeg` decoding to raw 8-bit grey, streamed one frame at
+//! a time so a 4K video never sits in memory.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdout, Command, Stdio};
+
+#[derive(Debug, thiserror::Error)]
+pub enum VideoError {
+    #[error("`{tool}` not found on PATH; install it (Debian/Ubuntu: apt-get install {package})")]
+    ToolMissing {
+        tool: &'static str,
+        package: &'static str,
+    },
+    #[error("{path}: cannot run {tool}: {source}")]
+    Spawn {
+        path: PathBuf,
+        tool: &'static str,
+        source: std::io::Error,
+    },
+    #[error("{path}: ffprobe failed (corrupt or not a video?): {stderr}")]
+    Probe { path: PathBuf, stderr: String },
+    #[error("{path}: unexpected ffprobe output: {message}")]
+    ProbeOutput { path: PathBuf, message: String },
+    #[error(
+        "{path}: frame {frame}: timestamp {t_s} s is not after the previous frame's {previous_s} s"
+    )]
+    TimestampsNotIncreasing {
+        path: PathBuf,
+        frame: usize,
+        t_s: f64,
+        previous_s: f64,
+    },
+    #[error("{path}: frame {frame}: no pts_time or best_effort_timestamp_time")]
+    MissingTimestamp { path: PathBuf, frame: usize },
+    #[error("{path}: stream truncated: read {frames_read} of {frames_expected} frames{detail}")]
+    Truncated {
+        path: PathBuf,
+        frames_read: usize,
+        frames_expected: usize,
+        detail: String,
+    },
+    #[error("{path}: ffmpeg decoded more frames than ffprobe listed ({frames_expected})")]
+    ExtraFrames {
+        path: PathBuf,
+        frames_expected: usize,
+    },
+    #[error("{path}: frame {frame}: read error: {source}")]
+    Read {
+        path: PathBuf,
+        frame: usize,
+        source: std::io::Error,
+    },
+}
+
+/// What ffprobe says about the first video stream.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoInfo {
+    /// Size of decoded frames as ffmpeg delivers them (display rotation applied), px.
+    pub width_px: usize,
+    pub height_px: usize,
+    /// Size as stored in the stream, before rotation, px.
+    pub coded_width_px: usize,
+    pub coded_height_px: usize,
+    /// Display rotation from the stream's display matrix (or legacy `rotate` tag), degrees,
+    /// normalised to 0, 90, 180 or 270.
+    pub rotation_deg: i32,
+    /// Per-frame presentation time, s (pts_time, falling back to best_effort_timestamp_time).
+    pub timestamps_s: Vec<f64>,
+}
+
+impl VideoInfo {
+    pub fn frame_count(&self) -> usize {
+        self.timestamps_s.len()
+    }
+}
+
+fn spawn_error(path: &Path, tool: &'static str, e: std::io::Error) -> VideoError {
+    if e.kind() == std::io::ErrorKind::NotFound {
+        VideoError::ToolMissing {
+            tool,
+            package: "ffmpeg",
+        }
+    } else {
+        VideoError::Spawn {
+            path: path.into(),
+            tool,
+            source: e,
+        }
+    }
+}
+
+/// Runs ffprobe on `path` (decodes every frame to list timestamps).
+pub fn probe(path: &Path) -> Result<VideoInfo, VideoError> {
+    probe_with(path, "ffprobe")
+}
+
+/// [`probe`] with an explicit ffprobe executable (tests use a missing one).
+pub fn probe_with(path: &Path, ffprobe: &str) -> Result<VideoInfo, VideoError> {
+    let out = Command::new(ffprobe)
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
+        .arg("stream=width,height:stream_tags=rotate:stream_side_data=rotation:frame=pts_time,best_effort_timestamp_time")
+        .args(["-of", "json"])
+        .arg(path)
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| spawn_error(path, "ffprobe", e))?;
+    if !out.status.success() {
+        return Err(VideoError::Probe {
+            path: path.into(),
+            stderr: String::from_utf8_lossy(&out.stderr).trim().into(),
+        });
+    }
+    parse_probe_json(path, &String::from_utf8_lossy(&out.stdout))
+}
+
+/// Parses ffprobe's JSON (split out so it is testable without ffprobe).
+pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError> {
+    let bad = |message: String| VideoError::ProbeOutput {
+        path: path.into(),
+        message,
+    };
+    let v: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    let stream = v["streams"]
+        .get(0)
+        .ok_or_else(|| bad("no video stream".into()))?;
+    let dim = |k: &str| {
+        stream[k]
+            .as_u64()
+            .filter(|&d| d > 0)
+            .ok_or_else(|| bad(format!("no stream {k}")))
+    };
+    let (coded_w, coded_h) = (dim("width")? as usize, dim("height")? as usize);
+    let side_rotation = stream["side_data_list"]
+        .as_array()
+        .and_then(|l| l.iter().find_map(|s| s["rotation"].as_f64()));
+    let tag_rotation = stream["tags"]["rotate"]
+        .as_str()
+        .and_then(|s| s.trim().parse::<f64>().ok());
+    let rotation = side_rotation.or(tag_rotation).unwrap_or(0.0);
+    let rotation_deg = ((rotation.round() as i64).rem_euclid(360)) as i32;
+    if rotation_deg % 90 != 0 {
+        return Err(bad(format!(
+            "display rotation {rotation} deg is not a multiple of 90"
+        )));
+    }
+    let (width_px, height_px) = if rotation_deg % 180 == 90 {
+        (coded_h, coded_w)
+    } else {
+        (coded_w, coded_h)
+    };
+    let frames = v["frames"].as_array().cloned().unwrap_or_default();
+    let mut timestamps_s = Vec::with_capacity(frames.len());
+    for (i, f) in frames.iter().enumerate() {
+        let t = ["pts_time", "best_effort_timestamp_time"]
+            .iter()
+            .find_map(|k| f[*k].as_str().and_then(|s| s.parse::<f64>().ok()))
+            .filter(|t| t.is_finite())
+            .ok_or(VideoError::MissingTimestamp {
+                path: path.into(),
+                frame: i,
+            })?;
+        if let Some(&prev) = timestamps_s.last() {
+            if t <= prev {
+                return Err(VideoError::TimestampsNotIncreasing {
+                    path: path.into(),
+                    frame: i,
+                    t_s: t,
+                    previous_s: prev,
+                });
+            }
+        }
+        timestamps_s.push(t);
+    }
+    Ok(VideoInfo {
+        width_px,
+        height_px,
+        coded_width_px: coded_w,
+        coded_height_px: coded_h,
+        rotation_deg,
+        timestamps_s,
+    })
+}
+
+/// One decoded frame: index from 0, timestamp from ffprobe, 8-bit grey pixels (row-major).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoFrame {
+    pub index: usize,
+    pub t_s: f64,
+    pub data: Vec<u8>,
+}
+
+/// Streams decoded grey frames from `ffmpeg -i FILE -f rawvideo -pix_fmt gray -`.
+pub struct VideoFrames {
+    path: PathBuf,
+    info: VideoInfo,
+    child: Child,
+    stdout: ChildStdout,
+    next_index: usize,
+    done: bool,
+}
+
+impl VideoFrames {
+    /// Probes `path` and starts ffmpeg. Frames come out display-rotated (ffmpeg's default), so
+    /// their size is `info().width_px × height_px`.
+    pub fn open(path: &Path) -> Result<Self, VideoError> {
+        let info = probe(path)?;
+        Self::start(path, info)
+    }
+
+    /// Starts ffmpeg on `path`, expecting the frames `info` lists.
+    fn start(path: &Path, info: VideoInfo) -> Result<Self, VideoError> {
+        let mut child = Command::new("ffmpeg")
+            .args(["-v", "error", "-nostdin", "-i"])
+            .arg(path)
+            // passthrough: one output frame per decoded frame, no duplication or dropping to a
+            // constant rate, so frame i matches ffprobe's timestamp i.
+            .args([
+                "-map",
+                "0:v:0",
+                "-fps_mode",
+                "passthrough",
+                "-f",
+                "rawvideo",
+                "-pix_fmt",
+                "gray",
+                "-",
+            ])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| spawn_error(path, "ffmpeg", e))?;
+        let stdout = child.stdout.take().expect("stdout was piped");
+        Ok(Self {
+            path: path.into(),
+            info,
+            child,
+            stdout,
+            next_index: 0,
+            done: false,
+        })
+    }
+
+    pub fn info(&self) -> &VideoInfo {
+        &self.info
+    }
+
+    fn stderr_text(&mut self) -> String {
+        let mut s = String::new();
+        if let Some(mut e) = self.child.stderr.take() {
+            let _ = e.read_to_string(&mut s);
+        }
+        s.trim().to_string()
+    }
+
+    /// The next frame, `Ok(None)` after the last one. Errors on a short or failed decode.
+    pub fn next_frame(&mut self) -> Result<Option<VideoFrame>, VideoError> {
+        if self.done {
+            return Ok(None);
+        }
+        let size = self.info.width_px * self.info.height_px;
+        let mut data = vec![0u8; size];
+        let mut filled = 0;
+        while filled < size {
+            match self.stdout.read(&mut data[filled..]) {
+                Ok(0) => break,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(source) => {
+                    return Err(VideoError::Read {
+                        path: self.path.clone(),
+                        frame: self.next_index,
+                        source,
+                    })
+                }
+            }
+        }
+        let expected = self.info.frame_count();
+        if filled == 0 {
+            self.done = true;
+            let status = self.child.wait().ok();
+            let stderr = self.stderr_text();
+            if self.next_index < expected || status.is_some_and(|s| !s.success()) {
+                return Err(VideoError::Truncated {
+                    path: self.path.clone(),
+                    frames_read: self.next_index,
+                    frames_expected: expected,
+                    detail: if stderr.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" (ffmpeg: {stderr})")
+                    },
+                });
+            }
+            return Ok(None);
+        }
+        if filled < size {
+            self.done = true;
+            let _ = self.child.wait();
+            return Err(VideoError::Truncated {
+                path: self.path.clone(),
+                frames_read: self.next_index,
+                frames_expected: expected,
+                detail: format!(
+                    "; frame {} ends after {filled} of {size} bytes",
+                    self.next_index
+                ),
+            });
+        }
+        if self.next_index >= expected {
+            self.done = true;
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+            return Err(VideoError::ExtraFrames {
+                path: self.path.clone(),
+                frames_expected: expected,
+            });
+        }
+        let frame = VideoFrame {
+            index: self.next_index,
+            t_s: self.info.timestamps_s[self.next_index],
+            data,
+        };
+        self.next_index += 1;
+        Ok(Some(frame))
+    }
+}
+
+impl Drop for VideoFrames {
+    fn drop(&mut self) {
+        if !self.done {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ffmpeg(args: &[&str]) {
+        let ok = Command::new("ffmpeg")
+            .args(["-v", "error", "-y"])
+            .args(args)
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "ffmpeg {args:?}");
+    }
+
+    #[test]
+    fn tiny_video_streams_all_frames_with_timestamps() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.mkv");
+        let ps = p.to_str().unwrap();
+        ffmpeg(&[
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=size=64x48:rate=10",
+            "-frames:v",
+            "5",
+            "-c:v",
+            "ffv1",
+            ps,
+        ]);
+        let mut v = VideoFrames::open(&p).unwrap();
+        assert_eq!(
+            (v.info().width_px, v.info().height_px, v.info().rotation_deg),
+            (64, 48, 0)
+        );
+        let mut n = 0;
+        while let Some(f) = v.next_frame().unwrap() {
+            assert_eq!(f.index, n);
+            assert!((f.t_s - n as f64 * 0.1).abs() < 1e-3, "{}", f.t_s);
+            assert_eq!(f.data.len(), 64 * 48);
+            n += 1;
+        }
+        assert_eq!(n, 5);
+        assert!(v.next_frame().unwrap().is_none());
+    }
+
+    #[test]
+    fn rotated_video_reports_display_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain.mp4");
+        let ps = plain.to_str().unwrap();
+        ffmpeg(&[
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=size=64x48:rate=10",
+            "-frames:v",
+            "3",
+            "-c:v",
+            "mpeg4",
+            ps,
+        ]);
+        // ffmpeg 5.1 turns the legacy rotate tag into a display matrix only when stream-copying.
+        let p = dir.path().join("r.mp4");
+        ffmpeg(&[
+            "-i",
+            ps,
+            "-c",
+            "copy",
+            "-metadata:s:v:0",
+            "rotate=90",
+            p.to_str().unwrap(),
+        ]);
+        let mut v = VideoFrames::open(&p).unwrap();
+        assert_eq!(v.info().rotation_deg % 180, 90);
+        assert_eq!((v.info().width_px, v.info().height_px), (48, 64));
+        assert_eq!(
+            (v.info().coded_width_px, v.info().coded_height_px),
+            (64, 48)
+        );
+        let mut upright = VideoFrames::open(&plain).unwrap();
+        let mut n = 0;
+        while let Some(f) = v.next_frame().unwrap() {
+            let u = upright.next_frame().unwrap().unwrap();
+            // Same bitstream, so the rotated frame is an exact quarter turn of the upright one.
+            let cw: Vec<u8> = (0..64)
+                .flat_map(|r| (0..48).map(move |c| (r, c)))
+                .map(|(r, c)| u.data[(47 - c) * 64 + r])
+                .collect();
+            let ccw: Vec<u8> = (0..64)
+                .flat_map(|r| (0..48).map(move |c| (r, c)))
+                .map(|(r, c)| u.data[c * 64 + (63 - r)])
+                .collect();
+            assert!(
+                f.data == cw || f.data == ccw,
+                "frame {n} is not a rotation of the upright frame"
+            );
+            n += 1;
+        }
+        assert_eq!(n, 3);
+    }
+
+    #[test]
+    fn corrupt_file_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("junk.mp4");
+        let mut rng = crate::rng::stream(1, crate::rng::Stream::PixelNoise, 0);
+        let bytes: Vec<u8> = (0..4096).map(|_| rand::Rng::gen(&mut rng)).collect();
+        std::fs::write(&p, bytes).unwrap();
+        let e = VideoFrames::open(&p).err().expect("corrupt file must fail");
+        assert!(e.to_string().contains("junk.mp4"), "{e}");
+    }
+
+    #[test]
+    fn missing_tool_names_the_package() {
+        let e = probe_with(Path::new("x.mp4"), "ffprobe-definitely-missing").unwrap_err();
+        assert!(matches!(e, VideoError::ToolMissing { .. }));
+        assert!(e.to_string().contains("apt-get install ffmpeg"));
+    }
+
+    #[test]
+    fn backwards_and_missing_timestamps_are_errors() {
+        let json = r#"{"streams":[{"width":4,"height":2}],"frames":[{"pts_time":"0.0"},{"pts_time":"0.1"},{"pts_time":"0.05"}]}"#;
+        let e = parse_probe_json(Path::new("v.mp4"), json).unwrap_err();
+        assert!(
+            matches!(e, VideoError::TimestampsNotIncreasing { frame: 2, .. }),
+            "{e}"
+        );
+        let json = r#"{"streams":[{"width":4,"height":2,"side_data_list":[{"rotation":-90}]}],"frames":[{"pts_time":"N/A","best_effort_timestamp_time":"0.5"},{}]}"#;
+        let e = parse_probe_json(Path::new("v.mp4"), json).unwrap_err();
+        assert!(
+            matches!(e, VideoError::MissingTimestamp { frame: 1, .. }),
+            "{e}"
+        );
+        let json = r#"{"streams":[{"width":4,"height":2,"side_data_list":[{"rotation":-90}]}],"frames":[{"pts_time":"N/A","best_effort_timestamp_time":"0.5"}]}"#;
+        let info = parse_probe_json(Path::new("v.mp4"), json).unwrap();
+        assert_eq!(
+            (
+                info.width_px,
+                info.height_px,
+                info.rotation_deg,
+                info.timestamps_s.clone()
+            ),
+            (2, 4, 270, vec![0.5])
+        );
+    }
+
+    #[test]
+    fn fewer_frames_than_listed_is_truncation_with_count() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.mkv");
+        ffmpeg(&[
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=size=64x48:rate=10",
+            "-frames:v",
+            "5",
+            "-c:v",
+            "ffv1",
+            p.to_str().unwrap(),
+        ]);
+        let mut info = probe(&p).unwrap();
+        info.timestamps_s.extend([0.5, 0.6]);
+        let mut v = VideoFrames::start(&p, info).unwrap();
+        for _ in 0..5 {
+            assert!(v.next_frame().unwrap().is_some());
+        }
+        let e = v.next_frame().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                VideoError::Truncated {
+                    frames_read: 5,
+                    frames_expected: 7,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("read 5 of 7 frames"));
+    }
+
+    #[test]
+    fn truncated_file_never_yields_unlisted_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("g.mkv");
+        ffmpeg(&[
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=size=64x48:rate=10",
+            "-frames:v",
+            "20",
+            "-c:v",
+            "ffv1",
+            good.to_str().unwrap(),
+        ]);
+        let bytes = std::fs::read(&good).unwrap();
+        let cut = dir.path().join("cut.mkv");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        // ffprobe lists only the frames it can decode, so truncation shows as fewer frames or an
+        // error; either way no panic and never more frames than listed.
+        match VideoFrames::open(&cut) {
+            Err(e) => assert!(e.to_string().contains("cut.mkv")),
+            Ok(mut v) => {
+                let listed = v.info().frame_count();
+                assert!(listed < 20);
+                let mut n = 0;
+                loop {
+                    match v.next_frame() {
+                        Ok(Some(_)) => n += 1,
+                        Ok(None) => break,
+                        Err(e) => {
+                            assert!(e.to_string().contains("cut.mkv"));
+                            break;
+                        }
+                    }
+                }
+                assert!(n <= listed);
+            }
+        }
+    }
+}

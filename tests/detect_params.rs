@@ -1,0 +1,152 @@
+//! `DetectorConfig` defaults are OpenCV 4.6's `DetectorParameters` defaults, and every field
+//! reaches the OpenCV object.
+#![cfg(all(feature = "opencv-detector", not(opencv_aruco_objdetect)))]
+
+use geneva_vision::detect::{opencv_parameters, CornerRefinement, DetectorConfig};
+use opencv::aruco::DetectorParametersTraitConst;
+
+/// Every OpenCV field as f64, in declaration order.
+fn fields(p: &impl DetectorParametersTraitConst) -> Vec<(&'static str, f64)> {
+    vec![
+        (
+            "adaptiveThreshWinSizeMin",
+            f64::from(p.adaptive_thresh_win_size_min()),
+        ),
+        (
+            "adaptiveThreshWinSizeMax",
+            f64::from(p.adaptive_thresh_win_size_max()),
+        ),
+        (
+            "adaptiveThreshWinSizeStep",
+            f64::from(p.adaptive_thresh_win_size_step()),
+        ),
+        ("adaptiveThreshConstant", p.adaptive_thresh_constant()),
+        ("minMarkerPerimeterRate", p.min_marker_perimeter_rate()),
+        ("maxMarkerPerimeterRate", p.max_marker_perimeter_rate()),
+        (
+            "polygonalApproxAccuracyRate",
+            p.polygonal_approx_accuracy_rate(),
+        ),
+        ("minCornerDistanceRate", p.min_corner_distance_rate()),
+        ("minDistanceToBorder", f64::from(p.min_distance_to_border())),
+        ("minMarkerDistanceRate", p.min_marker_distance_rate()),
+        (
+            "cornerRefinementMethod",
+            f64::from(p.corner_refinement_method()),
+        ),
+        (
+            "cornerRefinementWinSize",
+            f64::from(p.corner_refinement_win_size()),
+        ),
+        (
+            "cornerRefinementMaxIterations",
+            f64::from(p.corner_refinement_max_iterations()),
+        ),
+        (
+            "cornerRefinementMinAccuracy",
+            p.corner_refinement_min_accuracy(),
+        ),
+        ("markerBorderBits", f64::from(p.marker_border_bits())),
+        (
+            "perspectiveRemovePixelPerCell",
+            f64::from(p.perspective_remove_pixel_per_cell()),
+        ),
+        (
+            "perspectiveRemoveIgnoredMarginPerCell",
+            p.perspective_remove_ignored_margin_per_cell(),
+        ),
+        (
+            "maxErroneousBitsInBorderRate",
+            p.max_erroneous_bits_in_border_rate(),
+        ),
+        ("minOtsuStdDev", p.min_otsu_std_dev()),
+        ("errorCorrectionRate", p.error_correction_rate()),
+        (
+            "aprilTagQuadDecimate",
+            f64::from(p.april_tag_quad_decimate()),
+        ),
+        ("aprilTagQuadSigma", f64::from(p.april_tag_quad_sigma())),
+        (
+            "aprilTagMinClusterPixels",
+            f64::from(p.april_tag_min_cluster_pixels()),
+        ),
+        ("aprilTagMaxNmaxima", f64::from(p.april_tag_max_nmaxima())),
+        ("aprilTagCriticalRad", f64::from(p.april_tag_critical_rad())),
+        (
+            "aprilTagMaxLineFitMse",
+            f64::from(p.april_tag_max_line_fit_mse()),
+        ),
+        (
+            "aprilTagMinWhiteBlackDiff",
+            f64::from(p.april_tag_min_white_black_diff()),
+        ),
+        ("aprilTagDeglitch", f64::from(p.april_tag_deglitch())),
+        (
+            "detectInvertedMarker",
+            f64::from(u8::from(p.detect_inverted_marker())),
+        ),
+        (
+            "useAruco3Detection",
+            f64::from(u8::from(p.use_aruco3_detection())),
+        ),
+        (
+            "minSideLengthCanonicalImg",
+            f64::from(p.min_side_length_canonical_img()),
+        ),
+        (
+            "minMarkerLengthRatioOriginalImg",
+            f64::from(p.min_marker_length_ratio_original_img()),
+        ),
+    ]
+}
+
+#[test]
+fn defaults_match_opencv() {
+    let ours = opencv_parameters(&DetectorConfig::default()).unwrap();
+    let theirs = opencv::aruco::DetectorParameters::create().unwrap();
+    assert_eq!(fields(&ours), fields(&theirs));
+}
+
+#[test]
+fn every_field_reaches_opencv() {
+    let cfg = DetectorConfig {
+        adaptive_thresh_win_size_min_px: 5,
+        adaptive_thresh_win_size_max_px: 41,
+        adaptive_thresh_win_size_step_px: 6,
+        adaptive_thresh_constant_dn: 9.0,
+        min_marker_perimeter_rate: 0.02,
+        max_marker_perimeter_rate: 3.0,
+        polygonal_approx_accuracy_rate: 0.04,
+        min_corner_distance_rate: 0.06,
+        min_distance_to_border_px: 4,
+        min_marker_distance_rate: 0.07,
+        corner_refinement_method: CornerRefinement::Contour,
+        corner_refinement_win_size_px: 7,
+        corner_refinement_max_iterations: 40,
+        corner_refinement_min_accuracy_px: 0.01,
+        marker_border_bits: 2,
+        perspective_remove_pixel_per_cell_px: 8,
+        perspective_remove_ignored_margin_per_cell: 0.2,
+        max_erroneous_bits_in_border_rate: 0.3,
+        min_otsu_std_dev_dn: 4.0,
+        error_correction_rate: 0.5,
+        april_tag_quad_decimate: 2.0,
+        april_tag_quad_sigma_px: 0.8,
+        april_tag_min_cluster_pixels: 6,
+        april_tag_max_nmaxima: 11,
+        april_tag_critical_rad: 0.2,
+        april_tag_max_line_fit_mse_px2: 11.0,
+        april_tag_min_white_black_diff_dn: 6,
+        april_tag_deglitch: true,
+        detect_inverted_marker: true,
+        use_aruco3_detection: true,
+        min_side_length_canonical_img_px: 33,
+        min_marker_length_ratio_original_img: 0.1,
+        ..DetectorConfig::default()
+    };
+    let ours = fields(&opencv_parameters(&cfg).unwrap());
+    let defaults = fields(&opencv::aruco::DetectorParameters::create().unwrap());
+    for (o, d) in ours.iter().zip(&defaults) {
+        assert_ne!(o.1, d.1, "{} was not passed to OpenCV", o.0);
+    }
+}
