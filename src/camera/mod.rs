@@ -1,6 +1,6 @@
 //! (placeholder: filled by the camera work)
-use serde::{Deserialize, Serialize};
 use crate::validation::Problems;
+use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
