@@ -4,7 +4,8 @@
 
 use geneva_vision::marker::{cells, Dictionary};
 use opencv::aruco;
-use opencv::core::{Mat, MatTraitConst};
+use opencv::core::Mat;
+use opencv::prelude::*;
 
 /// OpenCV's drawMarker image of `id` at `k` pixels per cell.
 fn opencv_marker(dict: Dictionary, id: usize, border_bits: usize, k: usize) -> Vec<u8> {
