@@ -176,3 +176,20 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn describe_prints_physical_and_image_scale() {
+    let cam = Camera::new(&CameraConfig {
+        focal: FocalConfig::Physical {
+            focal_length_mm: 4.0,
+            sensor_width_mm: 6.4,
+        },
+        ..seed_camera()
+    })
+    .unwrap();
+    let text = cam.describe();
+    assert!(
+        text.contains("lens 4 mm") && text.contains("mm/px") && text.contains("2400.00 px"),
+        "{text}"
+    );
+}

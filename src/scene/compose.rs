@@ -237,15 +237,21 @@ impl Scene {
         let circle = move |s: f64| {
             centre + r_m * DVec3::new((2.0 * PI * s).cos(), (2.0 * PI * s).sin(), 0.0)
         };
-        let n = subdivisions(
-            &self.camera,
-            &circle,
-            0.0,
-            1.0,
-            n0.max(16),
-            TOLERANCE_PX,
-            1 << 18,
-        );
+        // Untilted and undistorted the image is an exact circle and 1 − cos x ≤ x²/2 makes n0
+        // sufficient; otherwise measure.
+        let n = if self.distorted || self.camera.config().perspective_tilt.enabled {
+            subdivisions(
+                &self.camera,
+                &circle,
+                0.0,
+                1.0,
+                n0.max(16),
+                TOLERANCE_PX,
+                1 << 18,
+            )
+        } else {
+            n0.max(16)
+        };
         Polygon {
             vertices_px: (0..n)
                 .map(|k| self.camera.project(circle(k as f64 / n as f64)))
