@@ -295,3 +295,26 @@ proptest! {
         let _ = PI;
     }
 }
+
+#[test]
+fn disc_behind_a_steeply_tilted_camera_is_rejected() {
+    use crate::camera::PerspectiveTiltConfig;
+    let tilted = |deg: f64| {
+        Camera::new(&CameraConfig {
+            perspective_tilt: PerspectiveTiltConfig {
+                enabled: true,
+                tilt_x_deg: deg,
+                tilt_y_deg: 0.0,
+            },
+            ..CameraConfig::default()
+        })
+        .unwrap()
+    };
+    // At 70° the camera plane cuts the disc plane 0.3 m · cot 70° ≈ 109 mm from the centre.
+    let err = Scene::new(&SceneConfig::default(), tilted(70.0)).unwrap_err();
+    assert!(err.to_string().contains("scene.disc_radius_mm"), "{err}");
+    // A moderate tilt works, and the measured disc polygon still follows the ellipse.
+    let scene = Scene::new(&SceneConfig::default(), tilted(20.0)).unwrap();
+    let disc = &scene.snapshot_at(&pose(0.0)).layers[0].polygons[0].vertices_px;
+    assert!(disc.len() > 1000);
+}
