@@ -310,9 +310,16 @@ fn disc_behind_a_steeply_tilted_camera_is_rejected() {
         })
         .unwrap()
     };
-    // At 70° the camera plane cuts the disc plane 0.3 m · cot 70° ≈ 109 mm from the centre.
-    let err = Scene::new(&SceneConfig::default(), tilted(70.0)).unwrap_err();
+    // Tilted 70° about x while looking at the origin from 0.3 m above the plane, the camera sits
+    // over y = 0.3·tan 70° and its focal plane cuts the disc plane at y = 0.3·(tan 70° + cot 70°)
+    // ≈ 0.933 m: a 1 m disc reaches behind the camera, a 0.9 m one does not.
+    let big = |r: f64| SceneConfig {
+        disc_radius_mm: r,
+        ..SceneConfig::default()
+    };
+    let err = Scene::new(&big(1000.0), tilted(70.0)).unwrap_err();
     assert!(err.to_string().contains("scene.disc_radius_mm"), "{err}");
+    assert!(Scene::new(&big(900.0), tilted(70.0)).is_ok());
     // A moderate tilt works, and the measured disc polygon still follows the ellipse.
     let scene = Scene::new(&SceneConfig::default(), tilted(20.0)).unwrap();
     let disc = &scene.snapshot_at(&pose(0.0)).layers[0].polygons[0].vertices_px;
