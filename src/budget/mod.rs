@@ -3,6 +3,7 @@
 //! they are compared with. Pure: numbers in, numbers out.
 
 pub mod bounds;
+pub mod compare;
 pub mod decompose;
 pub mod montecarlo;
 pub mod stats;

@@ -88,6 +88,18 @@ impl Signal {
         Signal::Fused,
     ];
 
+    /// Name used in CSV files and reports (the serde name).
+    pub fn name(self) -> &'static str {
+        match self {
+            Signal::Corner0 => "corner0",
+            Signal::Corner1 => "corner1",
+            Signal::Corner2 => "corner2",
+            Signal::Corner3 => "corner3",
+            Signal::Centre => "centre",
+            Signal::Fused => "fused",
+        }
+    }
+
     /// Position in [`Signal::ALL`].
     pub fn index(self) -> usize {
         Signal::ALL.iter().position(|s| *s == self).unwrap_or(0)

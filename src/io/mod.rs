@@ -7,5 +7,6 @@ pub mod csv_out;
 pub mod images;
 pub mod png_out;
 pub mod timing_log;
+pub mod tracks_csv;
 pub mod truth_csv;
 pub mod video;

@@ -76,6 +76,10 @@ pub struct Scene {
     marker: MarkerArt,
     reference: Option<(MarkerArt, PlacedMarker)>,
     distorted: bool,
+    /// The disc outline with the wheel axis where it belongs (no runout): the renderer asks
+    /// for a snapshot per row and per exposure sample, and rebuilding thousands of rim
+    /// vertices each time would dominate rendering.
+    disc_at_rest: Polygon,
 }
 
 impl Scene {
@@ -134,13 +138,16 @@ impl Scene {
             }
         }
         let distorted = camera.config().lens_distortion.enabled;
-        Ok(Scene {
+        let mut scene = Scene {
             config: config.clone(),
             camera,
             marker,
             reference,
             distorted,
-        })
+            disc_at_rest: Polygon { vertices_px: Vec::new() },
+        };
+        scene.disc_at_rest = scene.build_disc_polygon([0.0, 0.0]);
+        Ok(scene)
     }
 
     pub fn camera(&self) -> &Camera {
@@ -228,7 +235,14 @@ impl Scene {
     }
 
     fn disc_polygon(&self, pose: &WheelPose) -> Polygon {
-        let centre = DVec2::from(pose.centre_offset_m).extend(0.0);
+        if pose.centre_offset_m == [0.0, 0.0] {
+            return self.disc_at_rest.clone();
+        }
+        self.build_disc_polygon(pose.centre_offset_m)
+    }
+
+    fn build_disc_polygon(&self, centre_offset_m: [f64; 2]) -> Polygon {
+        let centre = DVec2::from(centre_offset_m).extend(0.0);
         let r_m = self.config.disc_radius_mm * 1e-3;
         // Sagitta r·(1 − cos(π/n)) ≈ r·π²/(2n²) below the tolerance at the nominal scale; the
         // subdivision check then covers tilt and distortion.
