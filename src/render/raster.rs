@@ -278,6 +278,10 @@ struct PreparedLayer {
     edges: Vec<Edge>,
     y_min: i64,
     y_max: i64,
+    /// Columns (absolute pixel indices) outside which coverage is zero: closed polygons'
+    /// windings cancel left and right of their extent.
+    col_min: i64,
+    col_max: i64,
 }
 
 impl PreparedLayer {
@@ -288,12 +292,21 @@ impl PreparedLayer {
         }
         let y_min = edges.iter().map(|e| e.ya).min().unwrap_or(0);
         let y_max = edges.iter().map(|e| e.yb).max().unwrap_or(0);
-        Self {
-            radiance: layer.radiance,
-            edges,
-            y_min,
-            y_max,
-        }
+        let col_min = edges.iter().map(|e| e.x_min.div_euclid(ONE)).min().unwrap_or(0);
+        let col_max = edges.iter().map(|e| e.xa.max(e.xb).div_euclid(ONE)).max().unwrap_or(0);
+        Self { radiance: layer.radiance, edges, y_min, y_max, col_min, col_max }
+    }
+
+    /// The part of `window` where coverage can be non-zero.
+    fn footprint(&self, window: &PixelRect) -> PixelRect {
+        let rows = PixelRect::new(self.col_min, self.y_min.div_euclid(ONE), 0, 0);
+        let bbox = PixelRect::new(
+            rows.x0,
+            rows.y0,
+            (self.col_max - self.col_min + 1) as usize,
+            ((self.y_max - 1).div_euclid(ONE) - rows.y0 + 1).max(0) as usize,
+        );
+        window.intersect(&bbox)
     }
 
     /// Exact coverage of every pixel of `window` (row-major) into `out`.
@@ -396,12 +409,21 @@ impl PreparedSnapshot {
         }
         scratch.coverage.resize(window.len(), 0.0);
         for layer in &self.layers {
-            if !layer.coverage(window, &mut scratch.acc, &mut scratch.coverage) {
+            if layer.edges.is_empty() {
+                continue;
+            }
+            // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
+            // rasteriser gives the same coverage there whatever window it runs on.
+            let fp = layer.footprint(window);
+            if fp.is_empty() || !layer.coverage(&fp, &mut scratch.acc, &mut scratch.coverage) {
                 continue;
             }
             let r = layer.radiance;
-            for (v, &c) in out.iter_mut().zip(scratch.coverage.iter()) {
-                *v = *v * (1.0 - c) + r * c;
+            for (row, cov_row) in scratch.coverage[..fp.len()].chunks_exact(fp.width).enumerate() {
+                let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
+                for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
+                    *v = *v * (1.0 - c) + r * c;
+                }
             }
         }
     }

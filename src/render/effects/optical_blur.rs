@@ -2,6 +2,7 @@
 //! fixed truncation radius (so a region of interest needs exactly that much margin).
 
 use crate::validation::{join, Problems};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Truncation of the Gaussian kernel in standard deviations (weights beyond are < 3.4·10⁻⁴ of
@@ -61,20 +62,20 @@ pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) 
     let (out_w, out_h) = (src_w - 2 * r, src_h - 2 * r);
     // Horizontal pass: all rows, interior columns.
     let mut tmp = vec![0.0f32; out_w * src_h];
-    for (src_row, tmp_row) in src.chunks_exact(src_w).zip(tmp.chunks_exact_mut(out_w)) {
+    tmp.par_chunks_mut(out_w).zip(src.par_chunks(src_w)).for_each(|(tmp_row, src_row)| {
         convolve_row(src_row, weights, tmp_row);
-    }
+    });
     // Vertical pass: row-wise multiply-adds (vectorises; the fixed tap order keeps it exact
     // per pixel whatever the window).
     let mut out = vec![0.0f32; out_w * out_h];
-    for (y, out_row) in out.chunks_exact_mut(out_w).enumerate() {
+    out.par_chunks_mut(out_w).enumerate().for_each(|(y, out_row)| {
         for (k, &w) in weights.iter().enumerate() {
             let row = &tmp[(y + k) * out_w..(y + k + 1) * out_w];
             for (a, &v) in out_row.iter_mut().zip(row) {
                 *a += w * v;
             }
         }
-    }
+    });
     out
 }
 
