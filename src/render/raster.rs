@@ -292,9 +292,24 @@ impl PreparedLayer {
         }
         let y_min = edges.iter().map(|e| e.ya).min().unwrap_or(0);
         let y_max = edges.iter().map(|e| e.yb).max().unwrap_or(0);
-        let col_min = edges.iter().map(|e| e.x_min.div_euclid(ONE)).min().unwrap_or(0);
-        let col_max = edges.iter().map(|e| e.xa.max(e.xb).div_euclid(ONE)).max().unwrap_or(0);
-        Self { radiance: layer.radiance, edges, y_min, y_max, col_min, col_max }
+        let col_min = edges
+            .iter()
+            .map(|e| e.x_min.div_euclid(ONE))
+            .min()
+            .unwrap_or(0);
+        let col_max = edges
+            .iter()
+            .map(|e| e.xa.max(e.xb).div_euclid(ONE))
+            .max()
+            .unwrap_or(0);
+        Self {
+            radiance: layer.radiance,
+            edges,
+            y_min,
+            y_max,
+            col_min,
+            col_max,
+        }
     }
 
     /// The part of `window` where coverage can be non-zero.
@@ -419,7 +434,10 @@ impl PreparedSnapshot {
                 continue;
             }
             let r = layer.radiance;
-            for (row, cov_row) in scratch.coverage[..fp.len()].chunks_exact(fp.width).enumerate() {
+            for (row, cov_row) in scratch.coverage[..fp.len()]
+                .chunks_exact(fp.width)
+                .enumerate()
+            {
                 let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
                 for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
                     *v = *v * (1.0 - c) + r * c;

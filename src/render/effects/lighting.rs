@@ -10,11 +10,11 @@ pub struct LightingConfig {
     /// Apply these levels; disabled = black 0 DN, white 255 DN, gamma 1, even light.
     /// Default: true.
     pub enabled: bool,
-    /// Grey level of radiance 0 (black ink), DN in [0, 255]. Default: 30 (marker ink on the
-    /// seed rig's real frame).
+    /// Grey level of radiance 0 (black ink), DN in [0, 255]. Default: 51 (median of the large
+    /// marker's ink on the seed rig's real 4K frame, see `render::real_frame`).
     pub black_level_dn: f64,
     /// Grey level of radiance 1 (white paper), DN in [0, 255], above the black level.
-    /// Default: 185 (marker paper on the seed rig's real frame).
+    /// Default: 206 (median of the marker's paper on the seed rig's real 4K frame).
     pub white_level_dn: f64,
     /// Display gamma: DN = black + (white − black) · s^(1/gamma); in [0.1, 10]. Default: 1.
     pub gamma: f64,
@@ -33,8 +33,8 @@ impl Default for LightingConfig {
     fn default() -> Self {
         Self {
             enabled: true,
-            black_level_dn: 30.0,
-            white_level_dn: 185.0,
+            black_level_dn: 51.0,
+            white_level_dn: 206.0,
             gamma: 1.0,
             gradient_x_frac: 0.0,
             gradient_y_frac: 0.0,
