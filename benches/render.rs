@@ -29,7 +29,18 @@ fn main() {
         fx.lighting = d.lighting;
         fx
     };
-    let configs = [("blur+noise", blur_noise), ("defaults (+motion blur, spinning 3 rad/s)", EffectsConfig::default())];
+    let only = |f: &dyn Fn(&mut EffectsConfig)| {
+        let mut fx = EffectsConfig::none();
+        f(&mut fx);
+        fx
+    };
+    let configs = [
+        ("raster + quantise only", EffectsConfig::none()),
+        ("blur only", only(&|fx| fx.optical_blur.enabled = true)),
+        ("noise only", only(&|fx| fx.pixel_noise.enabled = true)),
+        ("blur+noise+lighting", blur_noise),
+        ("defaults (+motion blur, spinning 3 rad/s)", EffectsConfig::default()),
+    ];
     println!("threads: {}", rayon::current_num_threads());
     for (name, effects) in configs {
         for (w, h, side) in [(1920usize, 1080usize, 120.0), (3840, 2160, 240.0)] {

@@ -57,7 +57,8 @@ pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
 /// Separable blur of `src` (`src_w` × `src_h`, row-major) with `weights` (odd length 2r + 1);
 /// the result is the `src_w − 2r` × `src_h − 2r` interior. Every output depends only on its
 /// (2r+1)² neighbourhood, computed in a fixed order, so the result is independent of the window.
-/// Runs of constant input are copied (no arithmetic) — most of a marker frame is flat.
+/// Constant neighbourhoods skip the multiply-adds (most of a marker frame is flat) but give the
+/// same bits as the full sum.
 pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) -> Vec<f32> {
     let r = weights.len() / 2;
     let (out_w, out_h) = (src_w - 2 * r, src_h - 2 * r);
@@ -71,13 +72,41 @@ pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) 
     // Vertical pass: row-wise multiply-adds (vectorises; the fixed tap order keeps it exact
     // per pixel whatever the window).
     let mut out = vec![0.0f32; out_w * out_h];
+    // Chunks of a row that hold one constant value; an output chunk whose 2r + 1 source chunks
+    // are the same constant is that constant (flat areas far from edges cost no multiplies).
+    const CHUNK: usize = 64;
+    let chunks = out_w.div_ceil(CHUNK);
+    let constant: Vec<Option<f32>> = tmp
+        .par_chunks(out_w)
+        .flat_map_iter(|row| {
+            row.chunks(CHUNK)
+                .map(|c| c.iter().all(|&v| v == c[0]).then_some(c[0]))
+                .collect::<Vec<_>>()
+        })
+        .collect();
     out.par_chunks_mut(out_w)
         .enumerate()
         .for_each(|(y, out_row)| {
-            for (k, &w) in weights.iter().enumerate() {
-                let row = &tmp[(y + k) * out_w..(y + k + 1) * out_w];
-                for (a, &v) in out_row.iter_mut().zip(row) {
-                    *a += w * v;
+            let flat: Vec<Option<f32>> = (0..chunks)
+                .map(|c| {
+                    let first = constant[y * chunks + c];
+                    (first.is_some()
+                        && (1..weights.len()).all(|k| constant[(y + k) * chunks + c] == first))
+                    .then_some(first)
+                    .flatten()
+                })
+                .collect();
+            for (c, dst) in out_row.chunks_mut(CHUNK).enumerate() {
+                if let Some(v) = flat[c] {
+                    dst.fill(constant_response(weights, v));
+                    continue;
+                }
+                let x0 = c * CHUNK;
+                for (k, &w) in weights.iter().enumerate() {
+                    let row = &tmp[(y + k) * out_w + x0..][..dst.len()];
+                    for (a, &v) in dst.iter_mut().zip(row) {
+                        *a += w * v;
+                    }
                 }
             }
         });
@@ -96,9 +125,15 @@ fn convolve_row(src: &[f32], weights: &[f32], out: &mut [f32]) {
         }
         same_until[x] = end;
     }
+    let mut cache = (f32::NAN, 0.0f32);
     for (x, o) in out.iter_mut().enumerate() {
         if same_until[x] >= x + n {
-            *o = src[x];
+            // Same bits as the full sum over a constant neighbourhood, so skipping never
+            // changes a pixel (a window boundary must not change the result).
+            if cache.0.to_bits() != src[x].to_bits() {
+                cache = (src[x], constant_response(weights, src[x]));
+            }
+            *o = cache.1;
         } else {
             let mut a = 0.0f32;
             for (k, &w) in weights.iter().enumerate() {
@@ -107,6 +142,15 @@ fn convolve_row(src: &[f32], weights: &[f32], out: &mut [f32]) {
             *o = a;
         }
     }
+}
+
+/// The convolution of a constant `v`, evaluated in the same order as the general case.
+fn constant_response(weights: &[f32], v: f32) -> f32 {
+    let mut a = 0.0f32;
+    for &w in weights {
+        a += w * v;
+    }
+    a
 }
 
 #[cfg(test)]

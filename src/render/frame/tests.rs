@@ -304,3 +304,28 @@ fn automatic_sample_count_follows_image_speed() {
         0.0
     );
 }
+
+#[test]
+fn linear_radiance_of_a_window_is_bit_identical_before_quantisation() {
+    // Quantisation could hide one-ulp differences; compare the blurred f32 radiance directly.
+    let s = settings(150, 100, all_effects());
+    let scene = spinning();
+    let full_rect = s.frame_rect();
+    let full = render_linear(&scene, &s, &request(2, 0.13, full_rect), &full_rect);
+    for window in [
+        PixelRect::new(3, 7, 70, 40),
+        PixelRect::new(60, 30, 64, 64),
+        PixelRect::new(0, 90, 150, 10),
+    ] {
+        let part = render_linear(&scene, &s, &request(2, 0.13, window), &window);
+        for y in window.y0..window.y1() {
+            for x in window.x0..window.x1() {
+                assert_eq!(
+                    part.get(x, y).unwrap().to_bits(),
+                    full.get(x, y).unwrap().to_bits(),
+                    "({x}, {y}) in {window:?}"
+                );
+            }
+        }
+    }
+}
