@@ -7,13 +7,34 @@ use geneva_vision::render::{render_frame, EffectsConfig, FrameRequest, PixelRect
 use glam::DVec2;
 use std::time::Instant;
 
-fn time_per_frame_ms(scene: &SpinningMarker, settings: &RenderSettings, window: PixelRect, frames: u64) -> f64 {
+fn time_per_frame_ms(
+    scene: &SpinningMarker,
+    settings: &RenderSettings,
+    window: PixelRect,
+    frames: u64,
+) -> f64 {
     // One warm-up frame (allocations, thread pool start).
-    let _ = render_frame(scene, settings, &FrameRequest { index: 0, t_s: 0.0, window });
+    let _ = render_frame(
+        scene,
+        settings,
+        &FrameRequest {
+            index: 0,
+            t_s: 0.0,
+            window,
+        },
+    );
     let start = Instant::now();
     let mut checksum = 0u64;
     for i in 0..frames {
-        let img = render_frame(scene, settings, &FrameRequest { index: i, t_s: i as f64 / 30.0, window });
+        let img = render_frame(
+            scene,
+            settings,
+            &FrameRequest {
+                index: i,
+                t_s: i as f64 / 30.0,
+                window,
+            },
+        );
         checksum = checksum.wrapping_add(img.data.iter().map(|&v| v as u64).sum::<u64>());
     }
     std::hint::black_box(checksum);
@@ -39,14 +60,26 @@ fn main() {
         ("blur only", only(&|fx| fx.optical_blur.enabled = true)),
         ("noise only", only(&|fx| fx.pixel_noise.enabled = true)),
         ("blur+noise+lighting", blur_noise),
-        ("defaults (+motion blur, spinning 3 rad/s)", EffectsConfig::default()),
+        (
+            "defaults (+motion blur, spinning 3 rad/s)",
+            EffectsConfig::default(),
+        ),
     ];
     println!("threads: {}", rayon::current_num_threads());
     for (name, effects) in configs {
         for (w, h, side) in [(1920usize, 1080usize, 120.0), (3840, 2160, 240.0)] {
-            let settings = RenderSettings { width_px: w, height_px: h, effects: effects.clone(), seed: 7 };
+            let settings = RenderSettings {
+                width_px: w,
+                height_px: h,
+                effects: effects.clone(),
+                seed: 7,
+            };
             let centre = DVec2::new(w as f64 * 0.55, h as f64 * 0.45);
-            let scene = SpinningMarker { centre_px: centre, side_px: side, rate_rad_s: 3.0 };
+            let scene = SpinningMarker {
+                centre_px: centre,
+                side_px: side,
+                rate_rad_s: 3.0,
+            };
             let full = time_per_frame_ms(&scene, &settings, settings.frame_rect(), 10);
             let roi = PixelRect::new(centre.x as i64 - 150, centre.y as i64 - 150, 300, 300);
             let roi_ms = time_per_frame_ms(&scene, &settings, roi, 200);

@@ -141,13 +141,13 @@ fn fit_row(xs: &[f64], vs: &[f64]) -> Option<(f64, f64)> {
         .find(|(_, v)| (v[0] - mid) * (v[1] - mid) <= 0.0)
         .map(|(x, _)| x[0] + 0.5)?;
     let mut best = (f64::INFINITY, e0, 1.0);
-    let mut search = |e_c: f64,
-                      e_half: f64,
-                      e_step: f64,
-                      s_lo: f64,
-                      s_hi: f64,
-                      s_step: f64,
-                      best: &mut (f64, f64, f64)| {
+    let search = |e_c: f64,
+                  e_half: f64,
+                  e_step: f64,
+                  s_lo: f64,
+                  s_hi: f64,
+                  s_step: f64,
+                  best: &mut (f64, f64, f64)| {
         let ne = (2.0 * e_half / e_step).round() as i64;
         let ns = ((s_hi - s_lo) / s_step).round() as i64;
         for i in 0..=ne {

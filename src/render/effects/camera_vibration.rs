@@ -64,7 +64,7 @@ impl Default for RandomVibrationConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraVibrationConfig {
     /// Shake the image. Default: false.
@@ -77,18 +77,6 @@ pub struct CameraVibrationConfig {
     pub rotation_rad: Vec<Sinusoid>,
     /// Band-limited random part.
     pub random: RandomVibrationConfig,
-}
-
-impl Default for CameraVibrationConfig {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            x_px: vec![],
-            y_px: vec![],
-            rotation_rad: vec![],
-            random: RandomVibrationConfig::default(),
-        }
-    }
 }
 
 fn validate_sinusoids(list: &[Sinusoid], path: &str, problems: &mut Problems) {

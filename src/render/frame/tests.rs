@@ -1,5 +1,6 @@
 use super::*;
 use crate::render::effects::{CameraVibrationConfig, RandomVibrationConfig, Sinusoid};
+use crate::render::effects::{MotionBlurConfig, PixelNoiseConfig, RollingShutterConfig};
 use crate::render::test_scenes::*;
 use glam::DVec2;
 use rand::Rng;
@@ -165,8 +166,6 @@ fn motion_blur_spreads_the_edge_by_the_distance_moved_during_exposure() {
     }
 }
 
-use super::motion_blur::MotionBlurConfig;
-
 #[test]
 fn optical_blur_edge_width_matches_sigma() {
     let mut fx = EffectsConfig::none();
@@ -209,8 +208,6 @@ fn rolling_shutter_shears_a_moving_vertical_edge_by_speed_times_readout() {
         );
     }
 }
-
-use super::super::effects::RollingShutterConfig;
 
 #[test]
 fn camera_vibration_translates_the_image_exactly() {
@@ -283,8 +280,6 @@ fn noise_variance_matches_shot_plus_read_plus_quantisation() {
         "noise off leaves the exact quantised level"
     );
 }
-
-use super::super::effects::PixelNoiseConfig;
 
 #[test]
 fn automatic_sample_count_follows_image_speed() {
