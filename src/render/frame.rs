@@ -83,6 +83,9 @@ pub fn render_frame(
             pixels = p;
         }
     }
+    if jpeg_rect == window {
+        return GrayImage { window, data: pixels };
+    }
     let (w, data) = crop_buffer(&pixels, &jpeg_rect, &window);
     GrayImage { window: w, data }
 }
