@@ -3,7 +3,9 @@
 //! Run: `cargo bench --no-default-features --bench render`.
 
 use geneva_vision::render::test_scenes::SpinningMarker;
-use geneva_vision::render::{render_frame, EffectsConfig, FrameRequest, PixelRect, RenderSettings};
+use geneva_vision::render::{
+    render_frame_with, EffectsConfig, FrameBuffers, FrameRequest, PixelRect, RenderSettings,
+};
 use glam::DVec2;
 use std::time::Instant;
 
@@ -13,8 +15,9 @@ fn time_per_frame_ms(
     window: PixelRect,
     frames: u64,
 ) -> f64 {
-    // One warm-up frame (allocations, thread pool start).
-    let _ = render_frame(
+    // One warm-up frame (buffer allocation, thread pool start); buffers are reused after.
+    let mut buffers = FrameBuffers::default();
+    let _ = render_frame_with(
         scene,
         settings,
         &FrameRequest {
@@ -22,11 +25,12 @@ fn time_per_frame_ms(
             t_s: 0.0,
             window,
         },
+        &mut buffers,
     );
     let start = Instant::now();
     let mut checksum = 0u64;
     for i in 0..frames {
-        let img = render_frame(
+        let img = render_frame_with(
             scene,
             settings,
             &FrameRequest {
@@ -34,6 +38,7 @@ fn time_per_frame_ms(
                 t_s: i as f64 / 30.0,
                 window,
             },
+            &mut buffers,
         );
         checksum = checksum.wrapping_add(img.data.iter().map(|&v| v as u64).sum::<u64>());
     }

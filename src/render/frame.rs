@@ -30,6 +30,15 @@ use std::borrow::Cow;
 /// Rows per parallel band when all rows share the same instants (global shutter).
 const BAND_ROWS: usize = 16;
 
+/// Buffers reused from frame to frame by [`render_frame_with`] (allocating fresh
+/// multi-megabyte buffers per 4K frame costs more in page faults than rendering).
+#[derive(Debug, Default)]
+pub struct FrameBuffers {
+    radiance: Vec<f32>,
+    blur_tmp: Vec<f32>,
+    blurred: Vec<f32>,
+}
+
 /// What every frame of a scenario shares.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
@@ -63,6 +72,16 @@ pub fn render_frame(
     settings: &RenderSettings,
     frame: &FrameRequest,
 ) -> GrayImage {
+    render_frame_with(scene, settings, frame, &mut FrameBuffers::default())
+}
+
+/// [`render_frame`] reusing `buffers` (identical result).
+pub fn render_frame_with(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+    buffers: &mut FrameBuffers,
+) -> GrayImage {
     let frame_rect = settings.frame_rect();
     let window = frame.window.intersect(&frame_rect);
     let fx = &settings.effects;
@@ -71,8 +90,8 @@ pub fn render_frame(
     } else {
         window
     };
-    let linear = render_linear(scene, settings, frame, &jpeg_rect);
-    let mut pixels = to_gray(&linear, settings, frame.index);
+    let linear = render_linear_into(scene, settings, frame, &jpeg_rect, buffers);
+    let mut pixels = to_gray(&jpeg_rect, linear, settings, frame.index);
     if fx.compression.enabled && !jpeg_rect.is_empty() {
         if let Ok(p) = compression::jpeg_round_trip(
             &pixels,
@@ -84,7 +103,10 @@ pub fn render_frame(
         }
     }
     if jpeg_rect == window {
-        return GrayImage { window, data: pixels };
+        return GrayImage {
+            window,
+            data: pixels,
+        };
     }
     let (w, data) = crop_buffer(&pixels, &jpeg_rect, &window);
     GrayImage { window: w, data }
@@ -97,6 +119,21 @@ pub fn render_linear(
     frame: &FrameRequest,
     rect: &PixelRect,
 ) -> LinearImage {
+    let mut buffers = FrameBuffers::default();
+    let data = render_linear_into(scene, settings, frame, rect, &mut buffers).to_vec();
+    LinearImage {
+        window: *rect,
+        data,
+    }
+}
+
+fn render_linear_into<'b>(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+    rect: &PixelRect,
+    buffers: &'b mut FrameBuffers,
+) -> &'b [f32] {
     let fx = &settings.effects;
     let radius = fx.optical_blur.radius_px();
     let src = rect.expand(radius);
@@ -123,7 +160,9 @@ pub fn render_linear(
         let transform = vibration.as_ref().map(|v| v.at(t));
         PreparedSnapshot::new(&scene.snapshot(t), transform.as_ref())
     };
-    let mut data = vec![0.0f32; src.len()];
+    let data = &mut buffers.radiance;
+    data.clear();
+    data.resize(src.len(), 0.0);
     if !src.is_empty() {
         if fx.rolling_shutter.enabled {
             data.par_chunks_mut(src.width)
@@ -147,16 +186,18 @@ pub fn render_linear(
         }
     }
     if radius == 0 {
-        return LinearImage {
-            window: *rect,
-            data,
-        };
+        return &buffers.radiance;
     }
     let weights = optical_blur::kernel(fx.optical_blur.sigma_px, radius);
-    LinearImage {
-        window: *rect,
-        data: optical_blur::blur_separable(&data, src.width, src.height, &weights),
-    }
+    optical_blur::blur_separable_into(
+        &buffers.radiance,
+        src.width,
+        src.height,
+        &weights,
+        &mut buffers.blur_tmp,
+        &mut buffers.blurred,
+    );
+    &buffers.blurred
 }
 
 /// Averages the K sample renders of `band` into `out` (fixed summation order per pixel).
@@ -182,9 +223,14 @@ fn accumulate<'a>(
 }
 
 /// Lighting, noise, tone curve and quantisation, per pixel at its absolute position.
-fn to_gray(linear: &LinearImage, settings: &RenderSettings, frame_index: u64) -> Vec<u8> {
+fn to_gray(
+    rect: &PixelRect,
+    linear: &[f32],
+    settings: &RenderSettings,
+    frame_index: u64,
+) -> Vec<u8> {
     let fx = &settings.effects;
-    let rect = linear.window;
+    let rect = *rect;
     let mut out = vec![0u8; rect.len()];
     if rect.is_empty() {
         return out;
@@ -193,7 +239,7 @@ fn to_gray(linear: &LinearImage, settings: &RenderSettings, frame_index: u64) ->
     let key = pixel_noise::frame_key(settings.seed, frame_index);
     let noise = fx.pixel_noise.enabled.then_some(&fx.pixel_noise);
     out.par_chunks_mut(rect.width)
-        .zip(linear.data.par_chunks(rect.width))
+        .zip(linear.par_chunks(rect.width))
         .enumerate()
         .for_each(|(r, (o_row, l_row))| {
             let y = rect.y0 + r as i64;

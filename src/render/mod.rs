@@ -16,6 +16,6 @@ pub mod test_scenes;
 pub mod tiny_skia_ref;
 
 pub use effects::EffectsConfig;
-pub use frame::{render_frame, FrameRequest, RenderSettings};
+pub use frame::{render_frame, render_frame_with, FrameBuffers, FrameRequest, RenderSettings};
 pub use image::GrayImage;
 pub use raster::PixelRect;

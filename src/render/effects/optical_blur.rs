@@ -60,18 +60,36 @@ pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
 /// Constant neighbourhoods skip the multiply-adds (most of a marker frame is flat) but give the
 /// same bits as the full sum.
 pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) -> Vec<f32> {
+    let mut out = Vec::new();
+    blur_separable_into(src, src_w, src_h, weights, &mut Vec::new(), &mut out);
+    out
+}
+
+/// [`blur_separable`] into reused buffers (`tmp` is scratch); fresh multi-megabyte buffers
+/// per frame cost more in page faults than the blur itself.
+pub fn blur_separable_into(
+    src: &[f32],
+    src_w: usize,
+    src_h: usize,
+    weights: &[f32],
+    tmp: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
     let r = weights.len() / 2;
     let (out_w, out_h) = (src_w - 2 * r, src_h - 2 * r);
     // Horizontal pass: all rows, interior columns.
-    let mut tmp = vec![0.0f32; out_w * src_h];
+    tmp.clear();
+    tmp.resize(out_w * src_h, 0.0);
     tmp.par_chunks_mut(out_w)
         .zip(src.par_chunks(src_w))
         .for_each(|(tmp_row, src_row)| {
             convolve_row(src_row, weights, tmp_row);
         });
+    let tmp: &[f32] = tmp;
     // Vertical pass: row-wise multiply-adds (vectorises; the fixed tap order keeps it exact
     // per pixel whatever the window).
-    let mut out = vec![0.0f32; out_w * out_h];
+    out.clear();
+    out.resize(out_w * out_h, 0.0);
     // Chunks of a row that hold one constant value; an output chunk whose 2r + 1 source chunks
     // are the same constant is that constant (flat areas far from edges cost no multiplies).
     const CHUNK: usize = 64;
@@ -110,7 +128,6 @@ pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) 
                 }
             }
         });
-    out
 }
 
 /// One row: out[x] = Σ_k w[k]·src[x + k]; constant neighbourhoods copy the input value.

@@ -324,3 +324,24 @@ fn linear_radiance_of_a_window_is_bit_identical_before_quantisation() {
         }
     }
 }
+
+#[test]
+fn reused_buffers_give_the_same_frames() {
+    let s = settings(120, 90, all_effects());
+    let scene = spinning();
+    let mut buffers = FrameBuffers::default();
+    for (i, window) in [
+        s.frame_rect(),
+        PixelRect::new(10, 20, 33, 17),
+        s.frame_rect(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let req = request(i as u64, i as f64 * 0.03, *window);
+        assert_eq!(
+            render_frame_with(&scene, &s, &req, &mut buffers),
+            render_frame(&scene, &s, &req)
+        );
+    }
+}
