@@ -1,13 +1,21 @@
-//! (placeholder: filled by the render work)
-use crate::validation::Problems;
-use serde::{Deserialize, Serialize};
+//! Synthetic camera frames: an exact area-coverage rasteriser ([`raster`]), imaging effects
+//! ([`effects`]) and frame rendering with region-of-interest support ([`frame`]).
+//!
+//! Every effect is a pure function of absolute pixel position, time and the seed, so a region
+//! of interest is bit-identical to the same window of the full frame, and frames can be rendered
+//! in any order or in parallel.
 
+pub mod effects;
+pub mod frame;
+pub mod image;
+pub mod raster;
+pub mod real_frame;
 pub mod shapes;
+#[doc(hidden)]
+pub mod test_scenes;
+pub mod tiny_skia_ref;
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct EffectsConfig {}
-
-impl EffectsConfig {
-    pub fn validate(&self, _path: &str, _problems: &mut Problems) {}
-}
+pub use effects::EffectsConfig;
+pub use frame::{render_frame, render_frame_with, FrameBuffers, FrameRequest, RenderSettings};
+pub use image::GrayImage;
+pub use raster::PixelRect;

@@ -1,0 +1,214 @@
+//! Optical blur: a Gaussian point-spread function applied as a separable convolution with a
+//! fixed truncation radius (so a region of interest needs exactly that much margin).
+
+use crate::validation::{join, Problems};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Truncation of the Gaussian kernel in standard deviations (weights beyond are < 3.4·10⁻⁴ of
+/// the peak and are dropped; the kernel is renormalised).
+pub const TRUNCATION_SIGMAS: f64 = 4.0;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OpticalBlurConfig {
+    /// Apply the blur. Default: true.
+    pub enabled: bool,
+    /// Standard deviation of the Gaussian PSF in pixels, in [0, 20]. Default: 0.5 (median
+    /// per-row fit of a straight marker edge on the seed rig's real 4K frame: 0.485 px, see
+    /// `render::real_frame`).
+    pub sigma_px: f64,
+}
+
+impl Default for OpticalBlurConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            sigma_px: 0.5,
+        }
+    }
+}
+
+impl OpticalBlurConfig {
+    pub fn validate(&self, path: &str, problems: &mut Problems) {
+        problems.range(join(path, "sigma_px"), self.sigma_px, 0.0, 20.0);
+    }
+
+    /// Kernel radius in pixels (0 when disabled).
+    pub fn radius_px(&self) -> usize {
+        if self.enabled && self.sigma_px > 0.0 {
+            (TRUNCATION_SIGMAS * self.sigma_px).ceil() as usize
+        } else {
+            0
+        }
+    }
+}
+
+/// Normalised Gaussian weights for offsets −r..=r.
+pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
+    let r = radius_px as i64;
+    let w: Vec<f64> = (-r..=r)
+        .map(|k| (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp())
+        .collect();
+    let sum: f64 = w.iter().sum();
+    w.iter().map(|v| (v / sum) as f32).collect()
+}
+
+/// Separable blur of `src` (`src_w` × `src_h`, row-major) with `weights` (odd length 2r + 1);
+/// the result is the `src_w − 2r` × `src_h − 2r` interior. Every output depends only on its
+/// (2r+1)² neighbourhood, computed in a fixed order, so the result is independent of the window.
+/// Constant neighbourhoods skip the multiply-adds (most of a marker frame is flat) but give the
+/// same bits as the full sum.
+pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) -> Vec<f32> {
+    let mut out = Vec::new();
+    blur_separable_into(src, src_w, src_h, weights, &mut Vec::new(), &mut out);
+    out
+}
+
+/// [`blur_separable`] into reused buffers (`tmp` is scratch); fresh multi-megabyte buffers
+/// per frame cost more in page faults than the blur itself.
+pub fn blur_separable_into(
+    src: &[f32],
+    src_w: usize,
+    src_h: usize,
+    weights: &[f32],
+    tmp: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
+    let r = weights.len() / 2;
+    let (out_w, out_h) = (src_w - 2 * r, src_h - 2 * r);
+    // Horizontal pass: all rows, interior columns.
+    tmp.clear();
+    tmp.resize(out_w * src_h, 0.0);
+    tmp.par_chunks_mut(out_w)
+        .zip(src.par_chunks(src_w))
+        .for_each(|(tmp_row, src_row)| {
+            convolve_row(src_row, weights, tmp_row);
+        });
+    let tmp: &[f32] = tmp;
+    // Vertical pass: row-wise multiply-adds (vectorises; the fixed tap order keeps it exact
+    // per pixel whatever the window).
+    out.clear();
+    out.resize(out_w * out_h, 0.0);
+    // Chunks of a row that hold one constant value; an output chunk whose 2r + 1 source chunks
+    // are the same constant is that constant (flat areas far from edges cost no multiplies).
+    const CHUNK: usize = 64;
+    let chunks = out_w.div_ceil(CHUNK);
+    let constant: Vec<Option<f32>> = tmp
+        .par_chunks(out_w)
+        .flat_map_iter(|row| {
+            row.chunks(CHUNK)
+                .map(|c| c.iter().all(|&v| v == c[0]).then_some(c[0]))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    out.par_chunks_mut(out_w)
+        .enumerate()
+        .for_each(|(y, out_row)| {
+            let flat: Vec<Option<f32>> = (0..chunks)
+                .map(|c| {
+                    let first = constant[y * chunks + c];
+                    (first.is_some()
+                        && (1..weights.len()).all(|k| constant[(y + k) * chunks + c] == first))
+                    .then_some(first)
+                    .flatten()
+                })
+                .collect();
+            for (c, dst) in out_row.chunks_mut(CHUNK).enumerate() {
+                if let Some(v) = flat[c] {
+                    dst.fill(constant_response(weights, v));
+                    continue;
+                }
+                let x0 = c * CHUNK;
+                for (k, &w) in weights.iter().enumerate() {
+                    let row = &tmp[(y + k) * out_w + x0..][..dst.len()];
+                    for (a, &v) in dst.iter_mut().zip(row) {
+                        *a += w * v;
+                    }
+                }
+            }
+        });
+}
+
+/// One row: out[x] = Σ_k w[k]·src[x + k]; constant neighbourhoods copy the input value.
+fn convolve_row(src: &[f32], weights: &[f32], out: &mut [f32]) {
+    let n = weights.len();
+    // run_end[x]: first index ≥ x whose value differs from src[x].
+    let mut same_until = vec![0usize; src.len()];
+    let mut end = src.len();
+    for x in (0..src.len()).rev() {
+        if x + 1 < src.len() && src[x + 1] != src[x] {
+            end = x + 1;
+        }
+        same_until[x] = end;
+    }
+    let mut cache = (f32::NAN, 0.0f32);
+    for (x, o) in out.iter_mut().enumerate() {
+        if same_until[x] >= x + n {
+            // Same bits as the full sum over a constant neighbourhood, so skipping never
+            // changes a pixel (a window boundary must not change the result).
+            if cache.0.to_bits() != src[x].to_bits() {
+                cache = (src[x], constant_response(weights, src[x]));
+            }
+            *o = cache.1;
+        } else {
+            let mut a = 0.0f32;
+            for (k, &w) in weights.iter().enumerate() {
+                a += w * src[x + k];
+            }
+            *o = a;
+        }
+    }
+}
+
+/// The convolution of a constant `v`, evaluated in the same order as the general case.
+fn constant_response(weights: &[f32], v: f32) -> f32 {
+    let mut a = 0.0f32;
+    for &w in weights {
+        a += w * v;
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernel_is_normalised_symmetric_and_sized_by_truncation() {
+        let c = OpticalBlurConfig {
+            enabled: true,
+            sigma_px: 1.3,
+        };
+        let k = kernel(c.sigma_px, c.radius_px());
+        assert_eq!(k.len(), 2 * 6 + 1);
+        assert!((k.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        for i in 0..k.len() {
+            assert_eq!(k[i], k[k.len() - 1 - i]);
+        }
+    }
+
+    #[test]
+    fn blur_preserves_constants_and_total_of_an_impulse() {
+        let k = kernel(1.0, 4);
+        let (w, h) = (21, 21);
+        let mut src = vec![0.5f32; w * h];
+        let flat = blur_separable(&src, w, h, &k);
+        assert!(flat.iter().all(|&v| (v - 0.5).abs() < 1e-6));
+        src[10 * w + 10] = 1.5;
+        let out = blur_separable(&src, w, h, &k);
+        let total: f32 = out.iter().map(|v| v - 0.5).sum();
+        assert!((total - 1.0).abs() < 1e-4, "{total}");
+        // Second moment of the impulse response = σ² per axis.
+        let (ow, _) = (w - 8, h - 8);
+        let var_x: f32 = out
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let x = (i % ow) as f32 - 6.0;
+                (v - 0.5) * x * x
+            })
+            .sum();
+        assert!((var_x - 1.0).abs() < 0.01, "{var_x}");
+    }
+}

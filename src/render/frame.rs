@@ -1,0 +1,312 @@
+//! Frame rendering: samples the scene across each row's exposure, rasterises exactly, then
+//! applies optical blur, lighting, noise, quantisation and compression to give an 8-bit frame
+//! or any region of interest of it.
+//!
+//! Timing: `FrameRequest::t_s` is the centre of row 0's exposure; with rolling shutter row y is
+//! centred at t_s + readout_s·y/height_px. Motion blur averages K samples at the midpoints of K
+//! equal slices of the `exposure_s` window (K from the config, or automatic: the image travel
+//! during the exposure — the largest vertex displacement of the scene, probed at rows 0, H/2 and
+//! H−1 over four sub-intervals, plus the vibration's peak speed × exposure — divided by
+//! `max_step_px`, so consecutive samples are ≤ 0.05 px apart by default). K is chosen per frame,
+//! never per window.
+//!
+//! Region of interest: every stage is a pure function of absolute pixel position, so a window
+//! is bit-identical to the same pixels of the full frame: the rasteriser is exact in integers,
+//! blur reads a fixed margin (kernel radius), noise is keyed by (seed, frame, x, y), and JPEG
+//! blocks are aligned to the absolute 8-pixel grid (the window is grown to the grid, clipped to
+//! the frame, compressed and cropped). Rows are processed in parallel with rayon; the result
+//! does not depend on the thread count.
+
+use super::effects::camera_vibration::Vibration;
+use super::effects::{
+    compression, lighting, motion_blur, optical_blur, pixel_noise, EffectsConfig,
+};
+use super::image::{crop_buffer, GrayImage, LinearImage};
+use super::raster::{PixelRect, PreparedSnapshot, RasterScratch};
+use super::shapes::{SceneAt, SceneSnapshot};
+use rayon::prelude::*;
+use std::borrow::Cow;
+
+/// Rows per parallel band when all rows share the same instants (global shutter).
+const BAND_ROWS: usize = 16;
+
+/// Buffers reused from frame to frame by [`render_frame_with`] (allocating fresh
+/// multi-megabyte buffers per 4K frame costs more in page faults than rendering).
+#[derive(Debug, Default)]
+pub struct FrameBuffers {
+    radiance: Vec<f32>,
+    blur_tmp: Vec<f32>,
+    blurred: Vec<f32>,
+}
+
+/// What every frame of a scenario shares.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    pub width_px: usize,
+    pub height_px: usize,
+    pub effects: EffectsConfig,
+    /// Scenario seed (noise, random vibration).
+    pub seed: u64,
+}
+
+/// One frame to render: its index (noise key), timestamp and the pixels wanted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameRequest {
+    pub index: u64,
+    /// Centre of row 0's exposure, seconds.
+    pub t_s: f64,
+    /// Absolute pixel window wanted (clipped to the frame).
+    pub window: PixelRect,
+}
+
+impl RenderSettings {
+    pub fn frame_rect(&self) -> PixelRect {
+        PixelRect::new(0, 0, self.width_px, self.height_px)
+    }
+}
+
+/// Renders `frame.window ∩ frame` of the frame at `frame.t_s`. Frame sizes beyond JPEG's
+/// 65535 px limit are returned uncompressed (the scenario validation rejects them).
+pub fn render_frame(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+) -> GrayImage {
+    render_frame_with(scene, settings, frame, &mut FrameBuffers::default())
+}
+
+/// [`render_frame`] reusing `buffers` (identical result).
+pub fn render_frame_with(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+    buffers: &mut FrameBuffers,
+) -> GrayImage {
+    let frame_rect = settings.frame_rect();
+    let window = frame.window.intersect(&frame_rect);
+    let fx = &settings.effects;
+    let jpeg_rect = if fx.compression.enabled {
+        window.align_out(8).intersect(&frame_rect)
+    } else {
+        window
+    };
+    let linear = render_linear_into(scene, settings, frame, &jpeg_rect, buffers);
+    let mut pixels = to_gray(&jpeg_rect, linear, settings, frame.index);
+    if fx.compression.enabled && !jpeg_rect.is_empty() {
+        if let Ok(p) = compression::jpeg_round_trip(
+            &pixels,
+            jpeg_rect.width,
+            jpeg_rect.height,
+            fx.compression.quality,
+        ) {
+            pixels = p;
+        }
+    }
+    if jpeg_rect == window {
+        return GrayImage {
+            window,
+            data: pixels,
+        };
+    }
+    let (w, data) = crop_buffer(&pixels, &jpeg_rect, &window);
+    GrayImage { window: w, data }
+}
+
+/// Linear radiance of `rect` after motion blur, rolling shutter, vibration and optical blur.
+pub fn render_linear(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+    rect: &PixelRect,
+) -> LinearImage {
+    let mut buffers = FrameBuffers::default();
+    let data = render_linear_into(scene, settings, frame, rect, &mut buffers).to_vec();
+    LinearImage {
+        window: *rect,
+        data,
+    }
+}
+
+fn render_linear_into<'b>(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    frame: &FrameRequest,
+    rect: &PixelRect,
+    buffers: &'b mut FrameBuffers,
+) -> &'b [f32] {
+    let fx = &settings.effects;
+    let radius = fx.optical_blur.radius_px();
+    let src = rect.expand(radius);
+    let vibration = Vibration::new(
+        &fx.camera_vibration,
+        settings.seed,
+        settings.width_px,
+        settings.height_px,
+    );
+    let exposure_s = fx.motion_blur.exposure_or_zero_s();
+    let k = if exposure_s > 0.0 && fx.motion_blur.samples == 0 {
+        fx.motion_blur.sample_count(image_travel_px(
+            scene,
+            settings,
+            frame.t_s,
+            exposure_s,
+            vibration.as_ref(),
+        ))
+    } else {
+        fx.motion_blur.sample_count(0.0)
+    };
+    let offsets = motion_blur::sample_offsets_s(exposure_s, k);
+    let prepare = |t: f64| {
+        let transform = vibration.as_ref().map(|v| v.at(t));
+        PreparedSnapshot::new(&scene.snapshot(t), transform.as_ref())
+    };
+    let data = &mut buffers.radiance;
+    data.clear();
+    data.resize(src.len(), 0.0);
+    if !src.is_empty() {
+        if fx.rolling_shutter.enabled {
+            data.par_chunks_mut(src.width)
+                .enumerate()
+                .for_each(|(r, out)| {
+                    let y = src.y0 + r as i64;
+                    let t_row = frame.t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
+                    accumulate(&src.rows(y, 1), out, k, &|i| {
+                        Cow::Owned(prepare(t_row + offsets[i]))
+                    });
+                });
+        } else {
+            let snaps: Vec<PreparedSnapshot> =
+                offsets.iter().map(|o| prepare(frame.t_s + o)).collect();
+            data.par_chunks_mut(src.width * BAND_ROWS)
+                .enumerate()
+                .for_each(|(b, out)| {
+                    let band = src.rows(src.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                    accumulate(&band, out, k, &|i| Cow::Borrowed(&snaps[i]));
+                });
+        }
+    }
+    if radius == 0 {
+        return &buffers.radiance;
+    }
+    let weights = optical_blur::kernel(fx.optical_blur.sigma_px, radius);
+    optical_blur::blur_separable_into(
+        &buffers.radiance,
+        src.width,
+        src.height,
+        &weights,
+        &mut buffers.blur_tmp,
+        &mut buffers.blurred,
+    );
+    &buffers.blurred
+}
+
+/// Averages the K sample renders of `band` into `out` (fixed summation order per pixel).
+fn accumulate<'a>(
+    band: &PixelRect,
+    out: &mut [f32],
+    k: usize,
+    snaps: &dyn Fn(usize) -> Cow<'a, PreparedSnapshot>,
+) {
+    let mut scratch = RasterScratch::default();
+    let mut tmp = vec![0.0f32; if k > 1 { band.len() } else { 0 }];
+    snaps(0).render_into(band, &mut scratch, out);
+    for i in 1..k {
+        snaps(i).render_into(band, &mut scratch, &mut tmp);
+        for (o, t) in out.iter_mut().zip(&tmp) {
+            *o += t;
+        }
+    }
+    if k > 1 {
+        let inv_k = 1.0 / k as f32;
+        out.iter_mut().for_each(|o| *o *= inv_k);
+    }
+}
+
+/// Lighting, noise, tone curve and quantisation, per pixel at its absolute position.
+fn to_gray(
+    rect: &PixelRect,
+    linear: &[f32],
+    settings: &RenderSettings,
+    frame_index: u64,
+) -> Vec<u8> {
+    let fx = &settings.effects;
+    let rect = *rect;
+    let mut out = vec![0u8; rect.len()];
+    if rect.is_empty() {
+        return out;
+    }
+    let tone = fx.lighting.tone();
+    let key = pixel_noise::frame_key(settings.seed, frame_index);
+    let noise = fx.pixel_noise.enabled.then_some(&fx.pixel_noise);
+    out.par_chunks_mut(rect.width)
+        .zip(linear.par_chunks(rect.width))
+        .enumerate()
+        .for_each(|(r, (o_row, l_row))| {
+            let y = rect.y0 + r as i64;
+            for (i, (o, &v)) in o_row.iter_mut().zip(l_row).enumerate() {
+                let x = rect.x0 + i as i64;
+                let mut s = v * fx
+                    .lighting
+                    .gain(x, y, settings.width_px, settings.height_px);
+                if let Some(n) = noise {
+                    s = n.apply(s, pixel_noise::normal_at(key, x, y));
+                }
+                *o = lighting::quantise(tone.dn(s));
+            }
+        });
+    out
+}
+
+/// Largest image distance (px) any scene vertex travels during the exposure of any row.
+fn image_travel_px(
+    scene: &dyn SceneAt,
+    settings: &RenderSettings,
+    t_s: f64,
+    exposure_s: f64,
+    vibration: Option<&Vibration>,
+) -> f64 {
+    let fx = &settings.effects;
+    let h = settings.height_px as i64;
+    let mut travel: f64 = 0.0;
+    for row in [0, h / 2, (h - 1).max(0)] {
+        let t0 = t_s + fx.rolling_shutter.row_delay_s(row, settings.height_px) - exposure_s / 2.0;
+        let slices = 4;
+        let snaps: Vec<SceneSnapshot> = (0..=slices)
+            .map(|i| scene.snapshot(t0 + exposure_s * i as f64 / slices as f64))
+            .collect();
+        let mut path = 0.0;
+        for pair in snaps.windows(2) {
+            match max_vertex_shift_px(&pair[0], &pair[1]) {
+                Some(d) => path += d,
+                None => return f64::INFINITY, // topology changed: take the maximum K
+            }
+        }
+        travel = travel.max(path);
+    }
+    travel + vibration.map_or(0.0, |v| v.max_speed_px_s() * exposure_s)
+}
+
+/// Largest displacement between corresponding vertices; `None` if the structures differ.
+fn max_vertex_shift_px(a: &SceneSnapshot, b: &SceneSnapshot) -> Option<f64> {
+    if a.layers.len() != b.layers.len() {
+        return None;
+    }
+    let mut m: f64 = 0.0;
+    for (la, lb) in a.layers.iter().zip(&b.layers) {
+        if la.polygons.len() != lb.polygons.len() {
+            return None;
+        }
+        for (pa, pb) in la.polygons.iter().zip(&lb.polygons) {
+            if pa.vertices_px.len() != pb.vertices_px.len() {
+                return None;
+            }
+            for (va, vb) in pa.vertices_px.iter().zip(&pb.vertices_px) {
+                m = m.max(va.distance(*vb));
+            }
+        }
+    }
+    Some(m)
+}
+
+#[cfg(test)]
+mod tests;
