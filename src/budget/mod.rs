@@ -6,6 +6,7 @@ pub mod bounds;
 pub mod compare;
 pub mod decompose;
 pub mod montecarlo;
+pub mod report;
 pub mod stats;
 
 pub use bounds::{

@@ -58,6 +58,7 @@ pub enum Timebase {
     /// frame index, so missing frames still widen the step.
     ConstantFps {
         /// Assumed frame rate, Hz; default 30.0.
+        #[serde(default = "default_timebase_fps")]
         fps_hz: f64,
     },
 }
@@ -104,6 +105,10 @@ impl Signal {
     pub fn index(self) -> usize {
         Signal::ALL.iter().position(|s| *s == self).unwrap_or(0)
     }
+}
+
+fn default_timebase_fps() -> f64 {
+    30.0
 }
 
 /// Estimator configuration (`[estimator]`).

@@ -1,0 +1,197 @@
+//! Render → detect for every frame of a synthetic rig, streamed in chunks and parallel over
+//! frames. Each frame renders only the window detection needs (exact: a window of a frame is
+//! bit-identical to the same pixels of the full frame, and ROI detection returns the corners
+//! full-frame detection would), falling back to the full frame when the window is not enough.
+//!
+//! Architecture invariant: results depend only on the frame index (per-frame noise streams,
+//! exact ROI), so they are identical for any thread count and chunk size.
+
+use super::rig::Rig;
+use crate::detect::{roi_exactness, roi_window, ArucoDetector, DetectError, DetectionPath, GrayView, RoiExactness};
+use crate::io::tracks_csv::Corners;
+use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
+use rayon::prelude::*;
+
+/// How one frame was rendered and detected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FramePath {
+    /// Only the detection window was rendered and detection ran in it.
+    Roi,
+    /// The whole frame was rendered and searched.
+    FullFrame,
+    /// The window was tried, then the whole frame (marker not found in the window).
+    RoiThenFullFrame,
+}
+
+/// Detection result of one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameDetection {
+    pub frame: usize,
+    pub t_s: f64,
+    pub corners_px: Option<Corners>,
+    pub reference_px: Option<Corners>,
+    pub path: FramePath,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("frame {frame} (t = {t_s:.4} s): detection failed: {source}")]
+pub struct FrameError {
+    pub frame: usize,
+    pub t_s: f64,
+    pub source: DetectError,
+}
+
+/// Options of the frame loop.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameLoopOptions {
+    /// Use the region of interest when the detector configuration allows it exactly.
+    pub roi: bool,
+    /// Frames per chunk handed to the thread pool (bounds memory).
+    pub chunk_frames: usize,
+}
+
+impl Default for FrameLoopOptions {
+    fn default() -> Self {
+        Self { roi: true, chunk_frames: 32 }
+    }
+}
+
+struct Worker {
+    detector: ArucoDetector,
+    buffers: FrameBuffers,
+    /// A full-size frame into which windows are pasted; only pasted pixels are ever read.
+    canvas: Vec<u8>,
+    pasted: Vec<PixelRect>,
+}
+
+impl Worker {
+    fn paste(&mut self, width: usize, window: &PixelRect, data: &[u8]) {
+        for (k, src) in data.chunks_exact(window.width.max(1)).enumerate() {
+            let start = (window.y0 as usize + k) * width + window.x0 as usize;
+            self.canvas[start..start + window.width].copy_from_slice(src);
+        }
+        self.pasted.push(*window);
+    }
+
+    /// Blanks what earlier frames pasted, so no stale pixel can ever be read.
+    fn clear(&mut self, width: usize) {
+        for w in std::mem::take(&mut self.pasted) {
+            for k in 0..w.height {
+                let start = (w.y0 as usize + k) * width + w.x0 as usize;
+                self.canvas[start..start + w.width].fill(0);
+            }
+        }
+    }
+}
+
+fn bbox_of(c: &Corners) -> (f64, f64, f64, f64) {
+    c.iter().fold((f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY), |b, p| {
+        (b.0.min(p[0]), b.1.min(p[1]), b.2.max(p[0]), b.3.max(p[1]))
+    })
+}
+
+/// The pixels ROI detection of `bbox` reads: its window plus the sub-pixel refinement window.
+fn render_rect_for(rig: &Rig, bbox: (f64, f64, f64, f64)) -> Option<PixelRect> {
+    let cfg = &rig.scenario.detector;
+    let w = roi_window(cfg, bbox, rig.settings.width_px, rig.settings.height_px)?;
+    let pad = (cfg.corner_refinement_win_size_px.max(0) as usize) + 2;
+    let rect = PixelRect::new(w.x0_px as i64, w.y0_px as i64, w.width_px as usize, w.height_px as usize);
+    Some(rect.expand(pad).intersect(&rig.frame_rect()))
+}
+
+fn process_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: &mut Worker, frame: usize, roi: bool) -> Result<FrameDetection, FrameError> {
+    let t_s = rig.frame_times.as_slice()[frame];
+    let (w, h) = (rig.settings.width_px, rig.settings.height_px);
+    let cfg = &rig.scenario.detector;
+    let err = |source| FrameError { frame, t_s, source };
+    let reference_bbox = if rig.scenario.scene.reference_marker.enabled && cfg.reference_marker_id.is_some() {
+        rig.scene.reference_marker_corners_px().map(|c| bbox_of(&c))
+    } else {
+        None
+    };
+    let marker_bbox = rig.marker_bbox_px(t_s);
+    let request = |window| FrameRequest { index: frame as u64, t_s, window };
+
+    if roi && cfg.roi.enabled && roi_exactness(cfg) == RoiExactness::Exact {
+        worker.clear(w);
+        let rects: Vec<PixelRect> =
+            [Some(marker_bbox), reference_bbox].into_iter().flatten().filter_map(|b| render_rect_for(rig, b)).collect();
+        for rect in &rects {
+            let img = render_frame_with(scene, &rig.settings, &request(*rect), &mut worker.buffers);
+            worker.paste(w, &img.window, &img.data);
+        }
+        let view = GrayView::full(&worker.canvas, w, h);
+        let obs = worker.detector.detect_marker(view, cfg.marker_id, Some(marker_bbox)).map_err(err)?;
+        let reference = match (cfg.reference_marker_id, reference_bbox) {
+            (Some(id), Some(b)) => {
+                let r = worker.detector.detect_marker(view, id, Some(b)).map_err(err)?;
+                matches!(r.path, DetectionPath::Roi).then_some(r.detection).flatten().map(|d| d.corners_px)
+            }
+            _ => None,
+        };
+        if matches!(obs.path, DetectionPath::Roi) && (reference_bbox.is_none() || reference.is_some()) {
+            return Ok(FrameDetection {
+                frame,
+                t_s,
+                corners_px: obs.detection.map(|d| d.corners_px),
+                reference_px: reference,
+                path: FramePath::Roi,
+            });
+        }
+        let mut full = full_frame(rig, scene, worker, frame)?;
+        full.path = FramePath::RoiThenFullFrame;
+        return Ok(full);
+    }
+    full_frame(rig, scene, worker, frame)
+}
+
+fn full_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: &mut Worker, frame: usize) -> Result<FrameDetection, FrameError> {
+    let t_s = rig.frame_times.as_slice()[frame];
+    let (w, h) = (rig.settings.width_px, rig.settings.height_px);
+    let cfg = &rig.scenario.detector;
+    let err = |source| FrameError { frame, t_s, source };
+    let img = render_frame_with(scene, &rig.settings, &FrameRequest { index: frame as u64, t_s, window: rig.frame_rect() }, &mut worker.buffers);
+    let view = GrayView::full(&img.data, w, h);
+    let found = worker.detector.detect(view).map_err(err)?;
+    let pick = |id: i32| found.iter().find(|d| d.id == id).map(|d| d.corners_px);
+    Ok(FrameDetection {
+        frame,
+        t_s,
+        corners_px: pick(cfg.marker_id),
+        reference_px: cfg.reference_marker_id.filter(|_| rig.scenario.scene.reference_marker.enabled).and_then(pick),
+        path: FramePath::FullFrame,
+    })
+}
+
+/// Runs render → detect over `frames`, calling `sink` with each chunk's results in frame order
+/// (so the caller can stream them to disk) and `progress` with the number of frames done.
+pub fn detect_frames(
+    rig: &Rig,
+    frames: std::ops::Range<usize>,
+    options: FrameLoopOptions,
+    mut sink: impl FnMut(&[FrameDetection]) -> Result<(), Box<dyn std::error::Error + Send + Sync>>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    let detector = ArucoDetector::new(&rig.scenario.detector)?;
+    let scene = rig.animated();
+    let canvas_len = rig.settings.width_px * rig.settings.height_px;
+    let chunk = options.chunk_frames.max(1);
+    let mut start = frames.start;
+    let mut done = 0;
+    while start < frames.end {
+        let end = (start + chunk).min(frames.end);
+        let results: Vec<Result<FrameDetection, FrameError>> = (start..end)
+            .into_par_iter()
+            .map_init(
+                || Worker { detector: detector.clone(), buffers: FrameBuffers::default(), canvas: vec![0; canvas_len], pasted: Vec::new() },
+                |worker, i| process_frame(rig, &scene, worker, i, options.roi),
+            )
+            .collect();
+        let results: Vec<FrameDetection> = results.into_iter().collect::<Result<_, _>>()?;
+        sink(&results)?;
+        done += results.len();
+        progress(done);
+        start = end;
+    }
+    Ok(())
+}
