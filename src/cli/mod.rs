@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 mod kinematics_cmd;
+mod run_cmd;
 mod scenario_cmd;
 mod timing_cmd;
 
@@ -34,6 +35,16 @@ enum Command {
         #[arg(long, default_value = "out/kinematics")]
         out: PathBuf,
     },
+    /// Render, detect, estimate and judge a synthetic scenario end to end.
+    Run {
+        /// Scenario file or built-in name.
+        scenario: String,
+        #[arg(long, default_value = "out/run")]
+        out: PathBuf,
+        /// Render and search whole frames instead of the region of interest.
+        #[arg(long)]
+        full_frame: bool,
+    },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -46,6 +57,7 @@ pub fn main() -> Result<()> {
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
+        Command::Run { scenario, out, full_frame } => run_cmd::run(&scenario, &out, full_frame).map(|_| ()),
     }
 }
 

@@ -1,6 +1,13 @@
 //! Orchestration: the jobs the CLI runs, composed from the pure core and `io`.
 //!
-//! Each job takes a validated scenario and an output directory and returns a summary the CLI
-//! prints; nothing here is maths.
+//! Each job takes a validated scenario and an output directory and returns what it computed;
+//! nothing here is maths.
 
+#[cfg(feature = "opencv-detector")]
+pub mod frames;
+pub mod measure;
+pub mod plots;
+pub mod rig;
+#[cfg(feature = "opencv-detector")]
+pub mod run;
 pub mod truth;

@@ -1,0 +1,47 @@
+//! `kinematics.csv`: per frame and signal, the measured θ2, ω2, α2 (wheel convention) and, for
+//! synthetic runs, the truth beside them (actual motion, ideal kinematics, phase).
+
+use super::csv_out::{num, CsvError, CsvWriter};
+use crate::budget::compare::{SignalErrors, TruthSeries};
+use std::path::Path;
+
+/// Writes rows frame-major (all signals of frame 0, then frame 1, ...). `truth`/`ideal` may be
+/// absent (real footage).
+pub fn write_kinematics_csv(
+    path: &Path,
+    frames_t_s: &[f64],
+    signals: &[SignalErrors],
+    truth: Option<(&TruthSeries, &TruthSeries)>,
+) -> Result<(), CsvError> {
+    let mut header = vec!["frame", "t_s", "signal", "theta2_rad", "omega2_rad_s", "alpha2_rad_s2"];
+    if truth.is_some() {
+        header.extend([
+            "true_theta2_rad",
+            "true_omega2_rad_s",
+            "true_alpha2_rad_s2",
+            "ideal_theta2_rad",
+            "ideal_omega2_rad_s",
+            "ideal_alpha2_rad_s2",
+            "phase",
+        ]);
+    }
+    let mut w = CsvWriter::create(path, &header)?;
+    for (i, t) in frames_t_s.iter().enumerate() {
+        for s in signals {
+            let mut cells = vec![i.to_string(), num(*t), s.signal.clone(), num(s.theta2_rad[i]), num(s.omega2_rad_s[i]), num(s.alpha2_rad_s2[i])];
+            if let Some((actual, ideal)) = truth {
+                cells.extend([
+                    num(actual.theta2_rad[i]),
+                    num(actual.omega2_rad_s[i]),
+                    num(actual.alpha2_rad_s2[i]),
+                    num(ideal.theta2_rad[i]),
+                    num(ideal.omega2_rad_s[i]),
+                    num(ideal.alpha2_rad_s2[i]),
+                    actual.phase[i].to_string(),
+                ]);
+            }
+            w.row(&cells)?;
+        }
+    }
+    w.finish()
+}
