@@ -43,14 +43,18 @@ pub fn to_wheel_convention(
     truth: &TruthSeries,
 ) -> SignalErrors {
     let n = truth.t_s.len();
-    let mut theta: Vec<f64> =
-        theta_screen_rad.iter().map(|th| sign * (th - screen_offset_rad) + theta2_at_first_frame_rad).collect();
+    let mut theta: Vec<f64> = theta_screen_rad
+        .iter()
+        .map(|th| sign * (th - screen_offset_rad) + theta2_at_first_frame_rad)
+        .collect();
     // Unwrapping may start on another branch than the truth: shift by whole turns so the first
     // measured frame lies within ±π of the truth.
     if let Some(k) = theta.iter().position(|v| v.is_finite()) {
         let turns = ((theta[k] - truth.theta2_rad[k]) / std::f64::consts::TAU).round();
         if turns != 0.0 {
-            theta.iter_mut().for_each(|v| *v -= turns * std::f64::consts::TAU);
+            theta
+                .iter_mut()
+                .for_each(|v| *v -= turns * std::f64::consts::TAU);
         }
     }
     let omega: Vec<f64> = omega_screen_rad_s.iter().map(|w| sign * w).collect();
@@ -82,8 +86,21 @@ mod tests {
         };
         // Screen angle runs the other way, starts at 0.3 on screen, and sits one turn up.
         let tau = std::f64::consts::TAU;
-        let e = to_wheel_convention("centre", &[0.3 + tau, 0.3 - 0.5 + tau], &[-0.5, -0.4], &[0.0, f64::NAN], -1.0, 0.3, 1.0, &truth);
-        assert!(e.theta_err_rad.iter().all(|v| v.abs() < 1e-12), "{:?}", e.theta_err_rad);
+        let e = to_wheel_convention(
+            "centre",
+            &[0.3 + tau, 0.3 - 0.5 + tau],
+            &[-0.5, -0.4],
+            &[0.0, f64::NAN],
+            -1.0,
+            0.3,
+            1.0,
+            &truth,
+        );
+        assert!(
+            e.theta_err_rad.iter().all(|v| v.abs() < 1e-12),
+            "{:?}",
+            e.theta_err_rad
+        );
         assert!((e.omega_err_rad_s[1] + 0.1).abs() < 1e-12);
         assert!(e.alpha_err_rad_s2[1].is_nan());
     }

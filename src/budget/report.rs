@@ -2,7 +2,10 @@
 //! departure from ideal kinematics (a second truth, kept apart), and the analytic bounds with how
 //! often they are exceeded. Serialises to `budget.json` (SI units).
 
-use super::bounds::{exceedance, half_pixel_bound, predict_noise, Exceedance, HalfPixelBound, LinearWeights, NoisePrediction};
+use super::bounds::{
+    exceedance, half_pixel_bound, predict_noise, Exceedance, HalfPixelBound, LinearWeights,
+    NoisePrediction,
+};
 use super::compare::{SignalErrors, TruthSeries};
 use super::stats::{peak_abs, ErrorStats};
 use serde::{Deserialize, Serialize};
@@ -88,17 +91,32 @@ pub struct Budget {
 }
 
 fn select(values: &[f64], mask: &[bool]) -> Vec<f64> {
-    values.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect()
+    values
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(v, _)| *v)
+        .collect()
 }
 
 /// Statistics of (measured − truth) series restricted to `mask`.
-pub fn quantity_stats(theta_err: &[f64], omega_err: &[f64], alpha_err: &[f64], truth: &TruthSeries, mask: &[bool]) -> QuantityStats {
+pub fn quantity_stats(
+    theta_err: &[f64],
+    omega_err: &[f64],
+    alpha_err: &[f64],
+    truth: &TruthSeries,
+    mask: &[bool],
+) -> QuantityStats {
     let theta = ErrorStats::of(&select(theta_err, mask));
     let omega = ErrorStats::of(&select(omega_err, mask));
     let alpha = ErrorStats::of(&select(alpha_err, mask));
     // θ2 "peak" is its excursion over the frames considered (an absolute angle has no scale).
     let th = select(&truth.theta2_rad, mask);
-    let (lo, hi) = th.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    let (lo, hi) = th
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
     let peak_true = Peaks {
         theta_rad: if hi >= lo { hi - lo } else { f64::NAN },
         omega_rad_s: peak_abs(&select(&truth.omega2_rad_s, mask)),
@@ -109,15 +127,31 @@ pub fn quantity_stats(theta_err: &[f64], omega_err: &[f64], alpha_err: &[f64], t
         omega: omega.relative_to(peak_true.omega_rad_s),
         alpha: alpha.relative_to(peak_true.alpha_rad_s2),
     };
-    QuantityStats { theta, omega, alpha, peak_true, relative }
+    QuantityStats {
+        theta,
+        omega,
+        alpha,
+        peak_true,
+        relative,
+    }
 }
 
-fn per_phase(theta_err: &[f64], omega_err: &[f64], alpha_err: &[f64], truth: &TruthSeries) -> BTreeMap<String, QuantityStats> {
+fn per_phase(
+    theta_err: &[f64],
+    omega_err: &[f64],
+    alpha_err: &[f64],
+    truth: &TruthSeries,
+) -> BTreeMap<String, QuantityStats> {
     PHASES
         .iter()
         .filter_map(|phase| {
             let mask: Vec<bool> = truth.phase.iter().map(|p| p == phase).collect();
-            mask.iter().any(|m| *m).then(|| (phase.to_string(), quantity_stats(theta_err, omega_err, alpha_err, truth, &mask)))
+            mask.iter().any(|m| *m).then(|| {
+                (
+                    phase.to_string(),
+                    quantity_stats(theta_err, omega_err, alpha_err, truth, &mask),
+                )
+            })
         })
         .collect()
 }
@@ -125,13 +159,27 @@ fn per_phase(theta_err: &[f64], omega_err: &[f64], alpha_err: &[f64], truth: &Tr
 pub fn signal_budget(e: &SignalErrors, truth: &TruthSeries) -> SignalBudget {
     let all = vec![true; truth.t_s.len()];
     SignalBudget {
-        overall: quantity_stats(&e.theta_err_rad, &e.omega_err_rad_s, &e.alpha_err_rad_s2, truth, &all),
-        phases: per_phase(&e.theta_err_rad, &e.omega_err_rad_s, &e.alpha_err_rad_s2, truth),
+        overall: quantity_stats(
+            &e.theta_err_rad,
+            &e.omega_err_rad_s,
+            &e.alpha_err_rad_s2,
+            truth,
+            &all,
+        ),
+        phases: per_phase(
+            &e.theta_err_rad,
+            &e.omega_err_rad_s,
+            &e.alpha_err_rad_s2,
+            truth,
+        ),
     }
 }
 
 /// The mechanism's departure: actual − ideal, per phase.
-pub fn mechanism_departure(actual: &TruthSeries, ideal: &TruthSeries) -> BTreeMap<String, QuantityStats> {
+pub fn mechanism_departure(
+    actual: &TruthSeries,
+    ideal: &TruthSeries,
+) -> BTreeMap<String, QuantityStats> {
     let d = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x - y).collect::<Vec<f64>>();
     per_phase(
         &d(&actual.theta2_rad, &ideal.theta2_rad),
@@ -160,13 +208,22 @@ pub fn bounds_report(b: &BoundsInput<'_>) -> BoundsReport {
     // that no derivative sees). θ errors are measured at the true frame times, so they exclude
     // the timebase error, which the prediction adds separately.
     let sigma_perp_px = theta_stats.std * b.radius_px;
-    let statistical = predict_noise(sigma_perp_px, b.radius_px, b.weights, b.omega_rms_true_rad_s, b.timebase_error_std_s);
+    let statistical = predict_noise(
+        sigma_perp_px,
+        b.radius_px,
+        b.weights,
+        b.omega_rms_true_rad_s,
+        b.timebase_error_std_s,
+    );
     BoundsReport {
         theta_exceedance: exceedance(&e.theta_err_rad, hp.theta_rad),
         omega_exceedance: exceedance(&e.omega_err_rad_s, hp.omega_rad_s),
         omega_seed_doubled_exceedance: exceedance(&e.omega_err_rad_s, hp.seed_omega_doubled_rad_s),
         alpha_exceedance: exceedance(&e.alpha_err_rad_s2, hp.alpha_rad_s2),
-        alpha_seed_doubled_exceedance: exceedance(&e.alpha_err_rad_s2, hp.seed_alpha_doubled_rad_s2),
+        alpha_seed_doubled_exceedance: exceedance(
+            &e.alpha_err_rad_s2,
+            hp.seed_alpha_doubled_rad_s2,
+        ),
         half_pixel: hp,
         statistical,
         measured_omega_std_rad_s: ErrorStats::of(&e.omega_err_rad_s).std,
@@ -185,7 +242,9 @@ mod tests {
             theta2_rad: (0..n).map(|i| i as f64 * 0.01).collect(),
             omega2_rad_s: (0..n).map(|i| if i < n / 2 { 0.0 } else { 0.5 }).collect(),
             alpha2_rad_s2: vec![1.0; n],
-            phase: (0..n).map(|i| if i < n / 2 { "dwell" } else { "drive" }).collect(),
+            phase: (0..n)
+                .map(|i| if i < n / 2 { "dwell" } else { "drive" })
+                .collect(),
         }
     }
 
@@ -206,10 +265,15 @@ mod tests {
         assert!((b.phases["dwell"].omega.rms - 0.01).abs() < 1e-12);
         assert!((b.phases["drive"].omega.rms - 0.05).abs() < 1e-12);
         assert!((b.phases["drive"].relative.omega.rms - 0.1).abs() < 1e-12);
-        assert!(b.phases["dwell"].relative.omega.rms.is_nan(), "no motion in dwell: no relative scale");
+        assert!(
+            b.phases["dwell"].relative.omega.rms.is_nan(),
+            "no motion in dwell: no relative scale"
+        );
         assert_eq!(b.overall.theta.n, 10);
         let json = serde_json::to_value(&b).unwrap();
-        assert!(json["theta"]["rms"].is_number() && json["phases"]["drive"]["alpha"]["p95"].is_number());
+        assert!(
+            json["theta"]["rms"].is_number() && json["phases"]["drive"]["alpha"]["p95"].is_number()
+        );
     }
 
     #[test]

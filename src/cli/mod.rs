@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 mod kinematics_cmd;
+mod render_cmd;
 mod run_cmd;
 mod scenario_cmd;
 mod timing_cmd;
@@ -45,6 +46,21 @@ enum Command {
         #[arg(long)]
         full_frame: bool,
     },
+    /// Render frames (PNG) or a video with variable timestamps, plus timestamps.csv and truth.csv.
+    Render {
+        scenario: String,
+        #[arg(long, default_value = "out/render")]
+        out: PathBuf,
+        /// Frame range A..B (end exclusive).
+        #[arg(long)]
+        frames: Option<String>,
+        /// Render only a window around the marker, grown by this many pixels.
+        #[arg(long)]
+        roi: Option<usize>,
+        /// Write an MP4 (through ffmpeg) that keeps the variable timestamps instead of PNGs.
+        #[arg(long)]
+        video: Option<PathBuf>,
+    },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -57,7 +73,18 @@ pub fn main() -> Result<()> {
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
-        Command::Run { scenario, out, full_frame } => run_cmd::run(&scenario, &out, full_frame).map(|_| ()),
+        Command::Render {
+            scenario,
+            out,
+            frames,
+            roi,
+            video,
+        } => render_cmd::run(&scenario, &out, frames.as_deref(), roi, video),
+        Command::Run {
+            scenario,
+            out,
+            full_frame,
+        } => run_cmd::run(&scenario, &out, full_frame).map(|_| ()),
     }
 }
 

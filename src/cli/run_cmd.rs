@@ -9,15 +9,20 @@ use std::path::Path;
 pub fn progress_bar(total: usize, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(total as u64);
     bar.set_style(
-        ProgressStyle::with_template(&format!("{what} {{bar:40}} {{pos}}/{{len}} frames ({{per_sec}}, eta {{eta}})"))
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(&format!(
+            "{what} {{bar:40}} {{pos}}/{{len}} frames ({{per_sec}}, eta {{eta}})"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
 }
 
 pub fn run(spec: &str, out: &Path, full_frame: bool) -> Result<RunOutput> {
     let s = scenario::load_any(spec)?;
-    let options = RunOptions { roi: !full_frame, ..RunOptions::default() };
+    let options = RunOptions {
+        roi: !full_frame,
+        ..RunOptions::default()
+    };
     let bar = progress_bar(0, "render+detect");
     let output = run_pipeline(&s, out, &options, &|done, total| {
         bar.set_length(total as u64);
@@ -31,11 +36,27 @@ pub fn run(spec: &str, out: &Path, full_frame: bool) -> Result<RunOutput> {
 
 pub fn print_summary(name: &str, o: &RunOutput) {
     let b = &o.budget;
-    println!("scenario {name}: {} frames, {} detected ({} ROI, {} full frame), {:.1} frames/s", b.frames.total, b.frames.detected, o.roi_frames, o.full_frames, o.frames_per_s());
+    println!(
+        "scenario {name}: {} frames, {} detected ({} ROI, {} full frame), {:.1} frames/s",
+        b.frames.total,
+        b.frames.detected,
+        o.roi_frames,
+        o.full_frames,
+        o.frames_per_s()
+    );
     println!("fused signal errors (RMS / p95 / max):");
-    println!("  theta2 {:.3e} / {:.3e} / {:.3e} rad", b.theta.rms, b.theta.p95, b.theta.max);
-    println!("  omega2 {:.3e} / {:.3e} / {:.3e} rad/s", b.omega.rms, b.omega.p95, b.omega.max);
-    println!("  alpha2 {:.3e} / {:.3e} / {:.3e} rad/s^2", b.alpha.rms, b.alpha.p95, b.alpha.max);
+    println!(
+        "  theta2 {:.3e} / {:.3e} / {:.3e} rad",
+        b.theta.rms, b.theta.p95, b.theta.max
+    );
+    println!(
+        "  omega2 {:.3e} / {:.3e} / {:.3e} rad/s",
+        b.omega.rms, b.omega.p95, b.omega.max
+    );
+    println!(
+        "  alpha2 {:.3e} / {:.3e} / {:.3e} rad/s^2",
+        b.alpha.rms, b.alpha.p95, b.alpha.max
+    );
     if let Some(bound) = b.bounds.get("centre") {
         let hp = &bound.half_pixel;
         println!(

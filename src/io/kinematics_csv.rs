@@ -13,7 +13,14 @@ pub fn write_kinematics_csv(
     signals: &[SignalErrors],
     truth: Option<(&TruthSeries, &TruthSeries)>,
 ) -> Result<(), CsvError> {
-    let mut header = vec!["frame", "t_s", "signal", "theta2_rad", "omega2_rad_s", "alpha2_rad_s2"];
+    let mut header = vec![
+        "frame",
+        "t_s",
+        "signal",
+        "theta2_rad",
+        "omega2_rad_s",
+        "alpha2_rad_s2",
+    ];
     if truth.is_some() {
         header.extend([
             "true_theta2_rad",
@@ -28,7 +35,14 @@ pub fn write_kinematics_csv(
     let mut w = CsvWriter::create(path, &header)?;
     for (i, t) in frames_t_s.iter().enumerate() {
         for s in signals {
-            let mut cells = vec![i.to_string(), num(*t), s.signal.clone(), num(s.theta2_rad[i]), num(s.omega2_rad_s[i]), num(s.alpha2_rad_s2[i])];
+            let mut cells = vec![
+                i.to_string(),
+                num(*t),
+                s.signal.clone(),
+                num(s.theta2_rad[i]),
+                num(s.omega2_rad_s[i]),
+                num(s.alpha2_rad_s2[i]),
+            ];
             if let Some((actual, ideal)) = truth {
                 cells.extend([
                     num(actual.theta2_rad[i]),

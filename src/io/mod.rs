@@ -11,3 +11,4 @@ pub mod timing_log;
 pub mod tracks_csv;
 pub mod truth_csv;
 pub mod video;
+pub mod video_out;

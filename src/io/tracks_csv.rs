@@ -19,9 +19,19 @@ pub struct TrackRow {
     pub reference_px: Option<Corners>,
 }
 
-const CORNER_COLUMNS: [&str; 8] = ["x0_px", "y0_px", "x1_px", "y1_px", "x2_px", "y2_px", "x3_px", "y3_px"];
-const REF_COLUMNS: [&str; 8] =
-    ["ref_x0_px", "ref_y0_px", "ref_x1_px", "ref_y1_px", "ref_x2_px", "ref_y2_px", "ref_x3_px", "ref_y3_px"];
+const CORNER_COLUMNS: [&str; 8] = [
+    "x0_px", "y0_px", "x1_px", "y1_px", "x2_px", "y2_px", "x3_px", "y3_px",
+];
+const REF_COLUMNS: [&str; 8] = [
+    "ref_x0_px",
+    "ref_y0_px",
+    "ref_x1_px",
+    "ref_y1_px",
+    "ref_x2_px",
+    "ref_y2_px",
+    "ref_x3_px",
+    "ref_y3_px",
+];
 
 /// Streaming writer for tracks.
 pub struct TracksWriter {
@@ -36,7 +46,10 @@ impl TracksWriter {
         if with_reference {
             header.extend_from_slice(&REF_COLUMNS);
         }
-        Ok(Self { inner: CsvWriter::create(path, &header)?, with_reference })
+        Ok(Self {
+            inner: CsvWriter::create(path, &header)?,
+            with_reference,
+        })
     }
 
     pub fn row(&mut self, r: &TrackRow) -> Result<(), CsvError> {
@@ -45,7 +58,11 @@ impl TracksWriter {
             Some(c) => cells.extend(c.iter().flat_map(|p| [num(p[0]), num(p[1])])),
             None => cells.extend(std::iter::repeat_n(String::new(), 8)),
         };
-        cells.push(if r.corners_px.is_some() { r.marker_id.to_string() } else { String::new() });
+        cells.push(if r.corners_px.is_some() {
+            r.marker_id.to_string()
+        } else {
+            String::new()
+        });
         corners(&r.corners_px, &mut cells);
         if self.with_reference {
             corners(&r.reference_px, &mut cells);
@@ -61,13 +78,27 @@ impl TracksWriter {
 #[derive(Debug, thiserror::Error)]
 pub enum TracksReadError {
     #[error("{file}: cannot read: {source}")]
-    Read { file: PathBuf, source: std::io::Error },
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{file}: missing column(s) {missing:?} (need frame, t_s, marker_id, x0_px … y3_px)")]
     MissingColumns { file: PathBuf, missing: Vec<String> },
     #[error("{file}: line {line}, column `{column}`: {message}")]
-    Cell { file: PathBuf, line: usize, column: String, message: String },
+    Cell {
+        file: PathBuf,
+        line: usize,
+        column: String,
+        message: String,
+    },
     #[error("{file}: line {line}: frame {frame} has t_s {t_s} s, not after the previous frame's {previous_s} s")]
-    Time { file: PathBuf, line: usize, frame: usize, t_s: f64, previous_s: f64 },
+    Time {
+        file: PathBuf,
+        line: usize,
+        frame: usize,
+        t_s: f64,
+        previous_s: f64,
+    },
     #[error("{file}: no frames")]
     Empty { file: PathBuf },
 }
@@ -75,19 +106,34 @@ pub enum TracksReadError {
 /// Reads a tracks CSV written by `geneva run`/`analyze` (or by hand with the same columns).
 pub fn read_tracks(path: &Path) -> Result<Vec<TrackRow>, TracksReadError> {
     let file = path.to_path_buf();
-    let text = std::fs::read_to_string(path).map_err(|source| TracksReadError::Read { file: file.clone(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| TracksReadError::Read {
+        file: file.clone(),
+        source,
+    })?;
     parse_tracks(&text, path)
 }
 
 /// Parses tracks CSV text; `path` only names the source in errors.
 pub fn parse_tracks(text: &str, path: &Path) -> Result<Vec<TrackRow>, TracksReadError> {
     let file = path.to_path_buf();
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else { return Err(TracksReadError::Empty { file }) };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        return Err(TracksReadError::Empty { file });
+    };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let col = |n: &str| names.iter().position(|h| *h == n);
-    let required: Vec<&str> = ["frame", "t_s", "marker_id"].into_iter().chain(CORNER_COLUMNS).collect();
-    let missing: Vec<String> = required.iter().filter(|n| col(n).is_none()).map(|n| n.to_string()).collect();
+    let required: Vec<&str> = ["frame", "t_s", "marker_id"]
+        .into_iter()
+        .chain(CORNER_COLUMNS)
+        .collect();
+    let missing: Vec<String> = required
+        .iter()
+        .filter(|n| col(n).is_none())
+        .map(|n| n.to_string())
+        .collect();
     if !missing.is_empty() {
         return Err(TracksReadError::MissingColumns { file, missing });
     }
@@ -111,12 +157,16 @@ pub fn parse_tracks(text: &str, path: &Path) -> Result<Vec<TrackRow>, TracksRead
             if c.is_empty() {
                 return Ok(None);
             }
-            c.parse::<f64>().ok().filter(|v| v.is_finite()).map(Some).ok_or_else(|| TracksReadError::Cell {
-                file: file.clone(),
-                line: line_no,
-                column: name.into(),
-                message: format!("`{c}` is not a finite number"),
-            })
+            c.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .map(Some)
+                .ok_or_else(|| TracksReadError::Cell {
+                    file: file.clone(),
+                    line: line_no,
+                    column: name.into(),
+                    message: format!("`{c}` is not a finite number"),
+                })
         };
         let frame_cell = cell(idx("frame"), "frame")?;
         let frame: usize = frame_cell.parse().map_err(|_| TracksReadError::Cell {
@@ -133,25 +183,41 @@ pub fn parse_tracks(text: &str, path: &Path) -> Result<Vec<TrackRow>, TracksRead
         })?;
         if let Some(prev) = rows.last() {
             if t_s <= prev.t_s {
-                return Err(TracksReadError::Time { file, line: line_no, frame, t_s, previous_s: prev.t_s });
-            }
-        }
-        let read_corners = |ids: &[usize], names: &[&str]| -> Result<Option<Corners>, TracksReadError> {
-            let v: Vec<Option<f64>> = ids.iter().zip(names).map(|(k, n)| number(*k, n)).collect::<Result<_, _>>()?;
-            if v.iter().all(Option::is_none) {
-                return Ok(None);
-            }
-            if let Some(k) = v.iter().position(Option::is_none) {
-                return Err(TracksReadError::Cell {
-                    file: file.clone(),
+                return Err(TracksReadError::Time {
+                    file,
                     line: line_no,
-                    column: names[k].into(),
-                    message: "empty while other corners are given".into(),
+                    frame,
+                    t_s,
+                    previous_s: prev.t_s,
                 });
             }
-            let c: Vec<f64> = v.into_iter().flatten().collect();
-            Ok(Some([[c[0], c[1]], [c[2], c[3]], [c[4], c[5]], [c[6], c[7]]]))
-        };
+        }
+        let read_corners =
+            |ids: &[usize], names: &[&str]| -> Result<Option<Corners>, TracksReadError> {
+                let v: Vec<Option<f64>> = ids
+                    .iter()
+                    .zip(names)
+                    .map(|(k, n)| number(*k, n))
+                    .collect::<Result<_, _>>()?;
+                if v.iter().all(Option::is_none) {
+                    return Ok(None);
+                }
+                if let Some(k) = v.iter().position(Option::is_none) {
+                    return Err(TracksReadError::Cell {
+                        file: file.clone(),
+                        line: line_no,
+                        column: names[k].into(),
+                        message: "empty while other corners are given".into(),
+                    });
+                }
+                let c: Vec<f64> = v.into_iter().flatten().collect();
+                Ok(Some([
+                    [c[0], c[1]],
+                    [c[2], c[3]],
+                    [c[4], c[5]],
+                    [c[6], c[7]],
+                ]))
+            };
         let corners_px = read_corners(&corner_idx, &CORNER_COLUMNS)?;
         let reference_px = match &ref_idx {
             Some(ids) => read_corners(ids, &REF_COLUMNS)?,
@@ -168,7 +234,13 @@ pub fn parse_tracks(text: &str, path: &Path) -> Result<Vec<TrackRow>, TracksRead
                 message: format!("`{id_cell}` is not an integer"),
             })?
         };
-        rows.push(TrackRow { frame, t_s, marker_id, corners_px, reference_px });
+        rows.push(TrackRow {
+            frame,
+            t_s,
+            marker_id,
+            corners_px,
+            reference_px,
+        });
     }
     if rows.is_empty() {
         return Err(TracksReadError::Empty { file });
@@ -186,8 +258,20 @@ mod tests {
         let p = dir.path().join("tracks.csv");
         let c: Corners = [[1.5, 2.25], [3.0, 4.0], [5.0, 6.0], [7.0, 8.125]];
         let rows = vec![
-            TrackRow { frame: 0, t_s: 0.0, marker_id: 0, corners_px: Some(c), reference_px: Some(c) },
-            TrackRow { frame: 1, t_s: 1.0 / 30.0, marker_id: -1, corners_px: None, reference_px: Some(c) },
+            TrackRow {
+                frame: 0,
+                t_s: 0.0,
+                marker_id: 0,
+                corners_px: Some(c),
+                reference_px: Some(c),
+            },
+            TrackRow {
+                frame: 1,
+                t_s: 1.0 / 30.0,
+                marker_id: -1,
+                corners_px: None,
+                reference_px: Some(c),
+            },
         ];
         let mut w = TracksWriter::create(&p, true).unwrap();
         for r in &rows {
@@ -200,16 +284,32 @@ mod tests {
     #[test]
     fn errors_name_file_line_and_column() {
         let p = Path::new("t.csv");
-        let e = parse_tracks("frame,t_s,x0_px\n0,0,1\n", p).unwrap_err().to_string();
-        assert!(e.contains("t.csv") && e.contains("marker_id") && e.contains("y3_px"), "{e}");
+        let e = parse_tracks("frame,t_s,x0_px\n0,0,1\n", p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.csv") && e.contains("marker_id") && e.contains("y3_px"),
+            "{e}"
+        );
         let head = "frame,t_s,marker_id,x0_px,y0_px,x1_px,y1_px,x2_px,y2_px,x3_px,y3_px\n";
-        let e = parse_tracks(&format!("{head}0,0.1,0,1,2,3,4,5,6,7,8\n1,0.05,0,1,2,3,4,5,6,7,8\n"), p).unwrap_err().to_string();
+        let e = parse_tracks(
+            &format!("{head}0,0.1,0,1,2,3,4,5,6,7,8\n1,0.05,0,1,2,3,4,5,6,7,8\n"),
+            p,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("line 3") && e.contains("frame 1"), "{e}");
-        let e = parse_tracks(&format!("{head}0,0.1,0,1,abc,3,4,5,6,7,8\n"), p).unwrap_err().to_string();
+        let e = parse_tracks(&format!("{head}0,0.1,0,1,abc,3,4,5,6,7,8\n"), p)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("y0_px") && e.contains("abc"), "{e}");
-        let e = parse_tracks(&format!("{head}0,0.1,0,1,,3,4,5,6,7,8\n"), p).unwrap_err().to_string();
+        let e = parse_tracks(&format!("{head}0,0.1,0,1,,3,4,5,6,7,8\n"), p)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("y0_px") && e.contains("empty"), "{e}");
-        let e = parse_tracks(&format!("{head}0,0.1,0,1,2\n"), p).unwrap_err().to_string();
+        let e = parse_tracks(&format!("{head}0,0.1,0,1,2\n"), p)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("cells"), "{e}");
         assert!(parse_tracks("", p).is_err());
     }

@@ -7,7 +7,9 @@
 //! exact ROI), so they are identical for any thread count and chunk size.
 
 use super::rig::Rig;
-use crate::detect::{roi_exactness, roi_window, ArucoDetector, DetectError, DetectionPath, GrayView, RoiExactness};
+use crate::detect::{
+    roi_exactness, roi_window, ArucoDetector, DetectError, DetectionPath, GrayView, RoiExactness,
+};
 use crate::io::tracks_csv::Corners;
 use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
 use rayon::prelude::*;
@@ -52,7 +54,10 @@ pub struct FrameLoopOptions {
 
 impl Default for FrameLoopOptions {
     fn default() -> Self {
-        Self { roi: true, chunk_frames: 32 }
+        Self {
+            roi: true,
+            chunk_frames: 32,
+        }
     }
 }
 
@@ -85,9 +90,15 @@ impl Worker {
 }
 
 fn bbox_of(c: &Corners) -> (f64, f64, f64, f64) {
-    c.iter().fold((f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY), |b, p| {
-        (b.0.min(p[0]), b.1.min(p[1]), b.2.max(p[0]), b.3.max(p[1]))
-    })
+    c.iter().fold(
+        (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |b, p| (b.0.min(p[0]), b.1.min(p[1]), b.2.max(p[0]), b.3.max(p[1])),
+    )
 }
 
 /// The pixels ROI detection of `bbox` reads: its window plus the sub-pixel refinement window.
@@ -95,41 +106,71 @@ fn render_rect_for(rig: &Rig, bbox: (f64, f64, f64, f64)) -> Option<PixelRect> {
     let cfg = &rig.scenario.detector;
     let w = roi_window(cfg, bbox, rig.settings.width_px, rig.settings.height_px)?;
     let pad = (cfg.corner_refinement_win_size_px.max(0) as usize) + 2;
-    let rect = PixelRect::new(w.x0_px as i64, w.y0_px as i64, w.width_px as usize, w.height_px as usize);
+    let rect = PixelRect::new(
+        w.x0_px as i64,
+        w.y0_px as i64,
+        w.width_px as usize,
+        w.height_px as usize,
+    );
     Some(rect.expand(pad).intersect(&rig.frame_rect()))
 }
 
-fn process_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: &mut Worker, frame: usize, roi: bool) -> Result<FrameDetection, FrameError> {
+fn process_frame(
+    rig: &Rig,
+    scene: &dyn crate::render::shapes::SceneAt,
+    worker: &mut Worker,
+    frame: usize,
+    roi: bool,
+) -> Result<FrameDetection, FrameError> {
     let t_s = rig.frame_times.as_slice()[frame];
     let (w, h) = (rig.settings.width_px, rig.settings.height_px);
     let cfg = &rig.scenario.detector;
     let err = |source| FrameError { frame, t_s, source };
-    let reference_bbox = if rig.scenario.scene.reference_marker.enabled && cfg.reference_marker_id.is_some() {
-        rig.scene.reference_marker_corners_px().map(|c| bbox_of(&c))
-    } else {
-        None
-    };
+    let reference_bbox =
+        if rig.scenario.scene.reference_marker.enabled && cfg.reference_marker_id.is_some() {
+            rig.scene.reference_marker_corners_px().map(|c| bbox_of(&c))
+        } else {
+            None
+        };
     let marker_bbox = rig.marker_bbox_px(t_s);
-    let request = |window| FrameRequest { index: frame as u64, t_s, window };
+    let request = |window| FrameRequest {
+        index: frame as u64,
+        t_s,
+        window,
+    };
 
     if roi && cfg.roi.enabled && roi_exactness(cfg) == RoiExactness::Exact {
         worker.clear(w);
-        let rects: Vec<PixelRect> =
-            [Some(marker_bbox), reference_bbox].into_iter().flatten().filter_map(|b| render_rect_for(rig, b)).collect();
+        let rects: Vec<PixelRect> = [Some(marker_bbox), reference_bbox]
+            .into_iter()
+            .flatten()
+            .filter_map(|b| render_rect_for(rig, b))
+            .collect();
         for rect in &rects {
             let img = render_frame_with(scene, &rig.settings, &request(*rect), &mut worker.buffers);
             worker.paste(w, &img.window, &img.data);
         }
         let view = GrayView::full(&worker.canvas, w, h);
-        let obs = worker.detector.detect_marker(view, cfg.marker_id, Some(marker_bbox)).map_err(err)?;
+        let obs = worker
+            .detector
+            .detect_marker(view, cfg.marker_id, Some(marker_bbox))
+            .map_err(err)?;
         let reference = match (cfg.reference_marker_id, reference_bbox) {
             (Some(id), Some(b)) => {
-                let r = worker.detector.detect_marker(view, id, Some(b)).map_err(err)?;
-                matches!(r.path, DetectionPath::Roi).then_some(r.detection).flatten().map(|d| d.corners_px)
+                let r = worker
+                    .detector
+                    .detect_marker(view, id, Some(b))
+                    .map_err(err)?;
+                matches!(r.path, DetectionPath::Roi)
+                    .then_some(r.detection)
+                    .flatten()
+                    .map(|d| d.corners_px)
             }
             _ => None,
         };
-        if matches!(obs.path, DetectionPath::Roi) && (reference_bbox.is_none() || reference.is_some()) {
+        if matches!(obs.path, DetectionPath::Roi)
+            && (reference_bbox.is_none() || reference.is_some())
+        {
             return Ok(FrameDetection {
                 frame,
                 t_s,
@@ -145,12 +186,26 @@ fn process_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: 
     full_frame(rig, scene, worker, frame)
 }
 
-fn full_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: &mut Worker, frame: usize) -> Result<FrameDetection, FrameError> {
+fn full_frame(
+    rig: &Rig,
+    scene: &dyn crate::render::shapes::SceneAt,
+    worker: &mut Worker,
+    frame: usize,
+) -> Result<FrameDetection, FrameError> {
     let t_s = rig.frame_times.as_slice()[frame];
     let (w, h) = (rig.settings.width_px, rig.settings.height_px);
     let cfg = &rig.scenario.detector;
     let err = |source| FrameError { frame, t_s, source };
-    let img = render_frame_with(scene, &rig.settings, &FrameRequest { index: frame as u64, t_s, window: rig.frame_rect() }, &mut worker.buffers);
+    let img = render_frame_with(
+        scene,
+        &rig.settings,
+        &FrameRequest {
+            index: frame as u64,
+            t_s,
+            window: rig.frame_rect(),
+        },
+        &mut worker.buffers,
+    );
     let view = GrayView::full(&img.data, w, h);
     let found = worker.detector.detect(view).map_err(err)?;
     let pick = |id: i32| found.iter().find(|d| d.id == id).map(|d| d.corners_px);
@@ -158,7 +213,10 @@ fn full_frame(rig: &Rig, scene: &dyn crate::render::shapes::SceneAt, worker: &mu
         frame,
         t_s,
         corners_px: pick(cfg.marker_id),
-        reference_px: cfg.reference_marker_id.filter(|_| rig.scenario.scene.reference_marker.enabled).and_then(pick),
+        reference_px: cfg
+            .reference_marker_id
+            .filter(|_| rig.scenario.scene.reference_marker.enabled)
+            .and_then(pick),
         path: FramePath::FullFrame,
     })
 }
@@ -183,7 +241,12 @@ pub fn detect_frames(
         let results: Vec<Result<FrameDetection, FrameError>> = (start..end)
             .into_par_iter()
             .map_init(
-                || Worker { detector: detector.clone(), buffers: FrameBuffers::default(), canvas: vec![0; canvas_len], pasted: Vec::new() },
+                || Worker {
+                    detector: detector.clone(),
+                    buffers: FrameBuffers::default(),
+                    canvas: vec![0; canvas_len],
+                    pasted: Vec::new(),
+                },
                 |worker, i| process_frame(rig, &scene, worker, i, options.roi),
             )
             .collect();

@@ -30,8 +30,22 @@ pub fn relative_series(est: &Estimate, sign: f64) -> Vec<SignalErrors> {
     est.signals
         .iter()
         .map(|s| {
-            let first = s.theta_rad.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
-            to_wheel_convention(s.signal.name(), &s.theta_rad, &s.omega_rad_s, &s.alpha_rad_s2, sign, first, 0.0, &zero)
+            let first = s
+                .theta_rad
+                .iter()
+                .copied()
+                .find(|v| v.is_finite())
+                .unwrap_or(0.0);
+            to_wheel_convention(
+                s.signal.name(),
+                &s.theta_rad,
+                &s.omega_rad_s,
+                &s.alpha_rad_s2,
+                sign,
+                first,
+                0.0,
+                &zero,
+            )
         })
         .collect()
 }

@@ -7,6 +7,7 @@
 pub mod frames;
 pub mod measure;
 pub mod plots;
+pub mod render_job;
 pub mod rig;
 #[cfg(feature = "opencv-detector")]
 pub mod run;

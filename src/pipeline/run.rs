@@ -7,7 +7,9 @@ use super::plots::plot_measured_vs_truth;
 use super::rig::{Rig, RigError};
 use crate::budget::bounds::LinearWeights;
 use crate::budget::compare::{to_wheel_convention, SignalErrors, TruthSeries};
-use crate::budget::report::{bounds_report, mechanism_departure, signal_budget, BoundsInput, Budget, FrameCounts};
+use crate::budget::report::{
+    bounds_report, mechanism_departure, signal_budget, BoundsInput, Budget, FrameCounts,
+};
 use crate::estimate::angle::screen_angle_rad;
 use crate::estimate::{Estimate, Signal};
 use crate::io::kinematics_csv::write_kinematics_csv;
@@ -23,7 +25,10 @@ pub enum RunError {
     #[error("{0}")]
     Rig(#[from] RigError),
     #[error("{dir}: cannot create output directory: {source}")]
-    OutDir { dir: PathBuf, source: std::io::Error },
+    OutDir {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{0}")]
     Frames(String),
     #[error("estimation: {0} (the tracks are in {1})")]
@@ -49,7 +54,12 @@ pub struct RunOptions {
 
 impl Default for RunOptions {
     fn default() -> Self {
-        Self { roi: true, plots: true, write_files: true, chunk_frames: 32 }
+        Self {
+            roi: true,
+            plots: true,
+            write_files: true,
+            chunk_frames: 32,
+        }
     }
 }
 
@@ -84,18 +94,34 @@ pub fn truth_series(samples: &[MotionSample]) -> TruthSeries {
 }
 
 /// Runs the whole synthetic pipeline. `progress(done, total)` is called after each chunk.
-pub fn run(scenario: &Scenario, out_dir: &Path, options: &RunOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<RunOutput, RunError> {
+pub fn run(
+    scenario: &Scenario,
+    out_dir: &Path,
+    options: &RunOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<RunOutput, RunError> {
     let started = Instant::now();
     let rig = Rig::new(scenario)?;
     if options.write_files {
-        std::fs::create_dir_all(out_dir).map_err(|source| RunError::OutDir { dir: out_dir.into(), source })?;
+        std::fs::create_dir_all(out_dir).map_err(|source| RunError::OutDir {
+            dir: out_dir.into(),
+            source,
+        })?;
     }
     let n = rig.frame_times.len();
-    let with_reference = scenario.scene.reference_marker.enabled && scenario.detector.reference_marker_id.is_some();
+    let with_reference =
+        scenario.scene.reference_marker.enabled && scenario.detector.reference_marker_id.is_some();
     let tracks_path = out_dir.join("tracks.csv");
-    let mut writer = if options.write_files { Some(TracksWriter::create(&tracks_path, with_reference)?) } else { None };
+    let mut writer = if options.write_files {
+        Some(TracksWriter::create(&tracks_path, with_reference)?)
+    } else {
+        None
+    };
     let mut detections: Vec<FrameDetection> = Vec::with_capacity(n);
-    let loop_options = FrameLoopOptions { roi: options.roi, chunk_frames: options.chunk_frames };
+    let loop_options = FrameLoopOptions {
+        roi: options.roi,
+        chunk_frames: options.chunk_frames,
+    };
     let marker_id = scenario.detector.marker_id;
     detect_frames(
         &rig,
@@ -104,7 +130,13 @@ pub fn run(scenario: &Scenario, out_dir: &Path, options: &RunOptions, progress: 
         |chunk| {
             if let Some(w) = writer.as_mut() {
                 for d in chunk {
-                    w.row(&TrackRow { frame: d.frame, t_s: d.t_s, marker_id, corners_px: d.corners_px, reference_px: d.reference_px })?;
+                    w.row(&TrackRow {
+                        frame: d.frame,
+                        t_s: d.t_s,
+                        marker_id,
+                        corners_px: d.corners_px,
+                        reference_px: d.reference_px,
+                    })?;
                 }
             }
             detections.extend_from_slice(chunk);
@@ -122,14 +154,26 @@ pub fn run(scenario: &Scenario, out_dir: &Path, options: &RunOptions, progress: 
 }
 
 /// Estimation and error budget of detected frames against the rig's truth.
-fn judge(rig: &Rig, detections: Vec<FrameDetection>, out_dir: &Path, options: &RunOptions, tracks_path: &Path) -> Result<RunOutput, RunError> {
+fn judge(
+    rig: &Rig,
+    detections: Vec<FrameDetection>,
+    out_dir: &Path,
+    options: &RunOptions,
+    tracks_path: &Path,
+) -> Result<RunOutput, RunError> {
     let scenario = &rig.scenario;
     let t: Vec<f64> = detections.iter().map(|d| d.t_s).collect();
     let corners: Vec<Option<Corners>> = detections.iter().map(|d| d.corners_px).collect();
-    let with_reference = scenario.scene.reference_marker.enabled && scenario.detector.reference_marker_id.is_some();
+    let with_reference =
+        scenario.scene.reference_marker.enabled && scenario.detector.reference_marker_id.is_some();
     let reference: Vec<Option<Corners>> = detections.iter().map(|d| d.reference_px).collect();
-    let est = estimate_track(&scenario.estimator, &t, &corners, with_reference.then_some(reference.as_slice()))
-        .map_err(|e| RunError::Estimate(e, tracks_path.to_path_buf()))?;
+    let est = estimate_track(
+        &scenario.estimator,
+        &t,
+        &corners,
+        with_reference.then_some(reference.as_slice()),
+    )
+    .map_err(|e| RunError::Estimate(e, tracks_path.to_path_buf()))?;
     let actual_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.actual(x)).collect();
     let ideal_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.ideal(x)).collect();
     let truth = truth_series(&actual_samples);
@@ -141,16 +185,41 @@ fn judge(rig: &Rig, detections: Vec<FrameDetection>, out_dir: &Path, options: &R
         let kin = out_dir.join("kinematics.csv");
         write_kinematics_csv(&kin, &t, &signals, Some((&truth, &ideal)))?;
         let json_path = out_dir.join("budget.json");
-        let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json { file: json_path.clone(), message: e.to_string() })?;
-        std::fs::write(&json_path, text + "\n").map_err(|e| RunError::Json { file: json_path.clone(), message: e.to_string() })?;
+        let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json {
+            file: json_path.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(&json_path, text + "\n").map_err(|e| RunError::Json {
+            file: json_path.clone(),
+            message: e.to_string(),
+        })?;
         files.extend([tracks_path.to_path_buf(), kin, json_path]);
         if options.plots {
-            files.extend(plot_measured_vs_truth(out_dir, &scenario.name, &signals, &truth, &actual_samples)?);
+            files.extend(plot_measured_vs_truth(
+                out_dir,
+                &scenario.name,
+                &signals,
+                &truth,
+                &actual_samples,
+            )?);
         }
     }
-    let roi_frames = detections.iter().filter(|d| d.path == FramePath::Roi).count();
+    let roi_frames = detections
+        .iter()
+        .filter(|d| d.path == FramePath::Roi)
+        .count();
     let full_frames = detections.len() - roi_frames;
-    Ok(RunOutput { budget, signals, truth, ideal, detections, roi_frames, full_frames, elapsed_s: 0.0, files })
+    Ok(RunOutput {
+        budget,
+        signals,
+        truth,
+        ideal,
+        detections,
+        roi_frames,
+        full_frames,
+        elapsed_s: 0.0,
+        files,
+    })
 }
 
 /// The true screen position of each signal's point at the first frame, for the angle offset.
@@ -199,10 +268,21 @@ fn build_budget(
     let (centre, points) = true_points(rig, t0);
     let intervals: Vec<f64> = est.t_used_s.windows(2).map(|w| w[1] - w[0]).collect();
     let h_min = intervals.iter().copied().fold(f64::INFINITY, f64::min);
-    let h_mean = if intervals.is_empty() { 1.0 / 30.0 } else { intervals.iter().sum::<f64>() / intervals.len() as f64 };
-    let timebase_err: Vec<f64> = est.t_used_s.iter().zip(&truth.t_s).map(|(u, t)| u - t).collect();
+    let h_mean = if intervals.is_empty() {
+        1.0 / 30.0
+    } else {
+        intervals.iter().sum::<f64>() / intervals.len() as f64
+    };
+    let timebase_err: Vec<f64> = est
+        .t_used_s
+        .iter()
+        .zip(&truth.t_s)
+        .map(|(u, t)| u - t)
+        .collect();
     let timebase_error_std_s = crate::budget::ErrorStats::of(&timebase_err).std;
-    let omega_rms_true = (truth.omega2_rad_s.iter().map(|w| w * w).sum::<f64>() / truth.omega2_rad_s.len().max(1) as f64).sqrt();
+    let omega_rms_true = (truth.omega2_rad_s.iter().map(|w| w * w).sum::<f64>()
+        / truth.omega2_rad_s.len().max(1) as f64)
+        .sqrt();
     let mut per_signal = BTreeMap::new();
     let mut bounds = BTreeMap::new();
     for (series, errors) in est.signals.iter().zip(signals) {
@@ -235,7 +315,10 @@ fn build_budget(
     Budget {
         scenario: rig.scenario.name.clone(),
         seeds: 1,
-        frames: FrameCounts { total: detections.len(), detected: detections.iter().filter(|d| d.corners_px.is_some()).count() },
+        frames: FrameCounts {
+            total: detections.len(),
+            detected: detections.iter().filter(|d| d.corners_px.is_some()).count(),
+        },
         theta: fused.overall.theta,
         omega: fused.overall.omega,
         alpha: fused.overall.alpha,

@@ -144,7 +144,9 @@ impl Scene {
             marker,
             reference,
             distorted,
-            disc_at_rest: Polygon { vertices_px: Vec::new() },
+            disc_at_rest: Polygon {
+                vertices_px: Vec::new(),
+            },
         };
         scene.disc_at_rest = scene.build_disc_polygon([0.0, 0.0]);
         Ok(scene)

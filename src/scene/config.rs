@@ -19,7 +19,9 @@ pub struct MarkerConfig {
     pub size_mm: f64,
     /// Black border width in cells, in [1, 4]. Default 1.
     pub border_bits: usize,
-    /// White paper around the black square on each side, mm, ≥ 0. Default 4.
+    /// White paper around the black square on each side, mm, ≥ 0. Default 8: OpenCV drops a
+    /// candidate closer than `min_marker_distance_rate` × perimeter to another, and the paper's
+    /// outline is such a candidate, so a thin margin makes detection fail.
     pub white_margin_mm: f64,
     /// Distance from the rotation centre to the marker centre, mm, ≥ 0. Default 145
     /// (seed: ≈ 744 px × 0.195 mm/px).
@@ -39,7 +41,7 @@ impl Default for MarkerConfig {
             id: 0,
             size_mm: 32.0,
             border_bits: 1,
-            white_margin_mm: 4.0,
+            white_margin_mm: 8.0,
             radius_mm: 145.0,
             orientation_deg: 0.0,
             angle_on_disc_deg: 0.0,
@@ -61,7 +63,7 @@ pub struct ReferenceMarkerConfig {
     pub size_mm: f64,
     /// Black border width in cells, in [1, 4]. Default 1.
     pub border_bits: usize,
-    /// White paper around the black square on each side, mm, ≥ 0. Default 6.
+    /// White paper around the black square on each side, mm, ≥ 0. Default 12.
     pub white_margin_mm: f64,
     /// Marker centre in the disc plane [x, y], mm (world frame). Default [-280, 0].
     pub position_mm: [f64; 2],
@@ -77,7 +79,7 @@ impl Default for ReferenceMarkerConfig {
             id: 1,
             size_mm: 60.0,
             border_bits: 1,
-            white_margin_mm: 6.0,
+            white_margin_mm: 12.0,
             position_mm: [-280.0, 0.0],
             orientation_deg: 0.0,
         }

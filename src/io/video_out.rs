@@ -1,0 +1,136 @@
+//! Writing rendered frames as an MP4 that keeps the variable frame timestamps.
+//!
+//! Frames are staged as PNG files in a temporary folder beside the output (memory stays flat);
+//! `finish` runs ffmpeg's concat demuxer with each frame's duration, which gives every frame its
+//! own presentation time (no resampling to a constant rate), and encodes H.264 with lossless luma
+//! (`-qp 0`) in a 90 kHz track timescale (timestamps exact to 11 µs, like phone footage).
+
+use super::png_out::write_gray_png;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+#[derive(Debug, thiserror::Error)]
+pub enum VideoOutError {
+    #[error("{file}: {message}")]
+    Io { file: PathBuf, message: String },
+    #[error("{file}: ffmpeg is not installed (Debian package `ffmpeg`: apt-get install ffmpeg)")]
+    NoFfmpeg { file: PathBuf },
+    #[error("{file}: ffmpeg failed: {stderr}")]
+    Ffmpeg { file: PathBuf, stderr: String },
+    #[error("{file}: {given} frames given for {expected} timestamps")]
+    FrameCount {
+        file: PathBuf,
+        given: usize,
+        expected: usize,
+    },
+}
+
+pub struct VideoWriter {
+    path: PathBuf,
+    staging: PathBuf,
+    width: usize,
+    height: usize,
+    times_s: Vec<f64>,
+    written: usize,
+}
+
+impl VideoWriter {
+    pub fn create(
+        path: &Path,
+        width: usize,
+        height: usize,
+        times_s: &[f64],
+    ) -> Result<Self, VideoOutError> {
+        let io = |m: String| VideoOutError::Io {
+            file: path.to_path_buf(),
+            message: m,
+        };
+        let staging = path.with_extension("frames.tmp");
+        std::fs::create_dir_all(&staging)
+            .map_err(|e| io(format!("cannot create {}: {e}", staging.display())))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            staging,
+            width,
+            height,
+            times_s: times_s.to_vec(),
+            written: 0,
+        })
+    }
+
+    pub fn write_frame(&mut self, gray: &[u8]) -> Result<(), VideoOutError> {
+        let p = self.staging.join(format!("{:06}.png", self.written));
+        write_gray_png(&p, self.width as u32, self.height as u32, gray).map_err(|e| {
+            VideoOutError::Io {
+                file: self.path.clone(),
+                message: e.to_string(),
+            }
+        })?;
+        self.written += 1;
+        Ok(())
+    }
+
+    /// Encodes the staged frames and removes the staging folder. Returns the video path.
+    pub fn finish(self) -> Result<PathBuf, VideoOutError> {
+        let file = self.path.clone();
+        if self.written != self.times_s.len() {
+            return Err(VideoOutError::FrameCount {
+                file,
+                given: self.written,
+                expected: self.times_s.len(),
+            });
+        }
+        let io = |m: String| VideoOutError::Io {
+            file: file.clone(),
+            message: m,
+        };
+        let list_path = self.staging.join("frames.txt");
+        let mut list = String::from("ffconcat version 1.0\n");
+        let n = self.times_s.len();
+        for (i, t) in self.times_s.iter().enumerate() {
+            // The last frame's duration repeats the previous interval (the concat demuxer needs one).
+            let d = if i + 1 < n {
+                self.times_s[i + 1] - t
+            } else if n > 1 {
+                t - self.times_s[n - 2]
+            } else {
+                1.0 / 30.0
+            };
+            list.push_str(&format!("file '{:06}.png'\nduration {:.9}\n", i, d));
+        }
+        std::fs::File::create(&list_path)
+            .and_then(|mut f| f.write_all(list.as_bytes()))
+            .map_err(|e| io(format!("cannot write {}: {e}", list_path.display())))?;
+        let start = self.times_s.first().copied().unwrap_or(0.0);
+        let output = Command::new("ffmpeg")
+            .args(["-y", "-v", "error", "-f", "concat", "-safe", "0", "-i"])
+            .arg(&list_path)
+            .args([
+                "-fps_mode",
+                "passthrough",
+                "-c:v",
+                "libx264",
+                "-qp",
+                "0",
+                "-pix_fmt",
+                "yuv420p",
+            ])
+            .args(["-video_track_timescale", "90000", "-output_ts_offset"])
+            .arg(format!("{start:.9}"))
+            .arg(&file)
+            .output();
+        let _ = std::fs::remove_dir_all(&self.staging);
+        match output {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                Err(VideoOutError::NoFfmpeg { file })
+            }
+            Err(e) => Err(io(e.to_string())),
+            Ok(o) if !o.status.success() => Err(VideoOutError::Ffmpeg {
+                file,
+                stderr: String::from_utf8_lossy(&o.stderr).trim().to_string(),
+            }),
+            Ok(_) => Ok(file),
+        }
+    }
+}

@@ -1,0 +1,176 @@
+//! `geneva render`: frames as PNG (or a video through ffmpeg) with `timestamps.csv` and the
+//! truth at the frame times. Streams in chunks, parallel over frames; memory stays flat.
+
+use super::rig::{Rig, RigError};
+use crate::io::csv_out::{num, CsvWriter};
+use crate::io::png_out::write_gray_png;
+use crate::io::truth_csv::write_truth_csv;
+use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
+use crate::scenario::Scenario;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderJobError {
+    #[error("{0}")]
+    Rig(#[from] RigError),
+    #[error("{dir}: cannot create output directory: {source}")]
+    OutDir {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("frames {start}..{end}: outside the scenario's {count} frames")]
+    Range {
+        start: usize,
+        end: usize,
+        count: usize,
+    },
+    #[error(transparent)]
+    Csv(#[from] crate::io::csv_out::CsvError),
+    #[error(transparent)]
+    Png(#[from] crate::io::png_out::PngError),
+    #[error(transparent)]
+    Video(#[from] crate::io::video_out::VideoOutError),
+}
+
+/// What to render.
+#[derive(Debug, Clone, Default)]
+pub struct RenderJob {
+    /// Frame range (default: all).
+    pub frames: Option<std::ops::Range<usize>>,
+    /// Render only a window around the marker (its bounding box grown by this margin, px).
+    pub roi_margin_px: Option<usize>,
+    /// Also (or instead of PNGs) write an MP4 with the variable timestamps.
+    pub video: Option<PathBuf>,
+    /// Write PNG files.
+    pub png: bool,
+}
+
+#[derive(Debug, Clone)]
+pub struct RenderSummary {
+    pub frames: usize,
+    pub files: Vec<PathBuf>,
+}
+
+pub fn frame_file_name(frame: usize) -> String {
+    format!("frame_{frame:06}.png")
+}
+
+pub fn render_job(
+    scenario: &Scenario,
+    out_dir: &Path,
+    job: &RenderJob,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<RenderSummary, RenderJobError> {
+    let rig = Rig::new(scenario)?;
+    std::fs::create_dir_all(out_dir).map_err(|source| RenderJobError::OutDir {
+        dir: out_dir.into(),
+        source,
+    })?;
+    let count = rig.frame_times.len();
+    let range = job.frames.clone().unwrap_or(0..count);
+    if range.start >= range.end || range.end > count {
+        return Err(RenderJobError::Range {
+            start: range.start,
+            end: range.end,
+            count,
+        });
+    }
+    let times = &rig.frame_times.as_slice()[range.clone()];
+    let ts_path = out_dir.join("timestamps.csv");
+    let mut ts = CsvWriter::create(&ts_path, &["frame", "t_s"])?;
+    for (k, t) in times.iter().enumerate() {
+        ts.row(&[(range.start + k).to_string(), num(*t)])?;
+    }
+    ts.finish()?;
+    let truth_path = out_dir.join("truth.csv");
+    write_truth_csv(
+        &truth_path,
+        &rig.mechanism.truth_rows(times),
+        rig.mechanism.has_actual_motion(),
+    )?;
+    let mut files = vec![ts_path, truth_path];
+
+    let scene = rig.animated();
+    let full = rig.frame_rect();
+    let window_for = |t_s: f64| -> PixelRect {
+        match job.roi_margin_px {
+            None => full,
+            Some(m) => {
+                let (x0, y0, x1, y1) = rig.marker_bbox_px(t_s);
+                let (x0, y0) = (
+                    (x0 - m as f64).floor() as i64,
+                    (y0 - m as f64).floor() as i64,
+                );
+                let (x1, y1) = ((x1 + m as f64).ceil() as i64, (y1 + m as f64).ceil() as i64);
+                PixelRect::new(
+                    x0,
+                    y0,
+                    (x1 - x0 + 1).max(0) as usize,
+                    (y1 - y0 + 1).max(0) as usize,
+                )
+                .intersect(&full)
+            }
+        }
+    };
+    let mut video = match &job.video {
+        Some(path) => Some(crate::io::video_out::VideoWriter::create(
+            path,
+            rig.settings.width_px,
+            rig.settings.height_px,
+            times,
+        )?),
+        None => None,
+    };
+    let chunk = 16;
+    let mut done = 0;
+    for start in (range.start..range.end).step_by(chunk) {
+        let end = (start + chunk).min(range.end);
+        let images: Vec<_> = (start..end)
+            .into_par_iter()
+            .map_init(FrameBuffers::default, |buffers, i| {
+                let t_s = rig.frame_times.as_slice()[i];
+                // Video frames are always whole frames.
+                let window = if video.is_some() {
+                    full
+                } else {
+                    window_for(t_s)
+                };
+                render_frame_with(
+                    &scene,
+                    &rig.settings,
+                    &FrameRequest {
+                        index: i as u64,
+                        t_s,
+                        window,
+                    },
+                    buffers,
+                )
+            })
+            .collect();
+        for (k, img) in images.iter().enumerate() {
+            let frame = start + k;
+            if job.png {
+                let p = out_dir.join(frame_file_name(frame));
+                write_gray_png(
+                    &p,
+                    img.window.width as u32,
+                    img.window.height as u32,
+                    &img.data,
+                )?;
+            }
+            if let Some(v) = video.as_mut() {
+                v.write_frame(&img.data)?;
+            }
+        }
+        done += end - start;
+        progress(done, range.end - range.start);
+    }
+    if let Some(v) = video.take() {
+        files.push(v.finish()?);
+    }
+    Ok(RenderSummary {
+        frames: range.end - range.start,
+        files,
+    })
+}
