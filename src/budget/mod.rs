@@ -4,6 +4,7 @@
 
 pub mod bounds;
 pub mod decompose;
+pub mod detectability;
 pub mod montecarlo;
 pub mod stats;
 
