@@ -1,0 +1,1 @@
+//! Heatmaps of a finished sweep (placeholder until written).
