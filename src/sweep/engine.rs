@@ -34,7 +34,7 @@ pub struct SweepOutcome {
     pub jobs_resumed: usize,
     /// Jobs done by this call.
     pub jobs_run: usize,
-    /// Every job has a row: summary.csv and recommendation.md were written.
+    /// Every job has a row: summary.csv, recommendation.md and the heatmaps were written.
     pub complete: bool,
     /// Per point, grid order (only when complete).
     pub summary: Vec<PointSummary>,
@@ -147,6 +147,7 @@ pub fn run_sweep_with(
     let md = markdown(spec, &summary, &rec);
     let md_path = out_dir.join("recommendation.md");
     std::fs::write(&md_path, &md).map_err(|e| SweepError::io(&md_path, e))?;
+    super::heatmaps::write_heatmaps(spec, &grid, &summary, &rec, out_dir)?;
     outcome.complete = true;
     outcome.summary = summary;
     outcome.recommendation = Some(rec);

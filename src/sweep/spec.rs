@@ -50,7 +50,7 @@ impl Default for SweepSpec {
 }
 
 /// One axis: either `field` + `values` (one scenario field) or `levels` (compound settings).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AxisSpec {
     /// Axis name: a column of results.csv and part of each point key; required, unique.
@@ -61,17 +61,6 @@ pub struct AxisSpec {
     pub values: Option<Vec<Value>>,
     /// Named compound levels; default unset.
     pub levels: Option<Vec<LevelSpec>>,
-}
-
-impl Default for AxisSpec {
-    fn default() -> Self {
-        Self {
-            name: String::new(),
-            field: None,
-            values: None,
-            levels: None,
-        }
-    }
 }
 
 /// A named level setting several fields at once (`1080p` = width 1920 + height 1080).

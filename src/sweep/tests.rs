@@ -453,3 +453,28 @@ fn recommendation_ranks_by_cost_keys_in_priority_order() {
     let md = recommend::markdown(&spec, &none, &rec);
     assert!(md.contains("Closest") && md.contains("p1"), "{md}");
 }
+
+#[test]
+fn heatmaps_hold_the_first_two_axes_at_the_recommended_slice() {
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    for f in ["heatmap_alpha_rms.png", "heatmap_omega_rms.png"] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
+    let grid = points(&spec);
+    let rec = out.recommendation.unwrap();
+    let maps = heatmaps::heatmaps(&spec, &grid, &out.summary, &rec);
+    let (_, omega) = maps.iter().find(|(s, _)| s == "heatmap_omega_rms").unwrap();
+    assert_eq!(omega.x_ticks, vec!["30", "60"]);
+    assert_eq!(omega.y_ticks, vec!["central3", "sg9"]);
+    // values[row = differentiator][col = fps] is that point's mean ω RMS.
+    let p = grid
+        .iter()
+        .find(|p| p.key == "fps=60|differentiator=sg9")
+        .unwrap();
+    assert_eq!(
+        omega.values[1][1],
+        out.summary[p.index].mean("omega_rms_rad_s")
+    );
+}
