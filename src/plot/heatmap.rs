@@ -80,7 +80,8 @@ pub fn heatmap_png(path: &Path, map: &Heatmap) -> Result<(), PlotError> {
             .margin(10)
             .x_label_area_size(50)
             .y_label_area_size(90)
-            .build_cartesian_2d((0..nx).into_segmented(), (0..ny).into_segmented())
+            // plotters' integer ranges include their end: 0..n-1 gives n segments.
+            .build_cartesian_2d((0..nx - 1).into_segmented(), (0..ny - 1).into_segmented())
             .map_err(|e| err(e.to_string()))?;
         let tick = |ticks: &[String], v: &SegmentValue<usize>| match v {
             SegmentValue::CenterOf(i) => ticks.get(*i).cloned().unwrap_or_default(),
@@ -180,5 +181,13 @@ mod tests {
         for c in [viridis(0.0), viridis(1.0), RGBColor(200, 200, 200)] {
             assert!(px.contains(&[c.0, c.1, c.2]), "{c:?} missing");
         }
+        // A single cell (one-axis sweep with one level) still draws.
+        let one = Heatmap {
+            x_ticks: vec!["30".into()],
+            y_ticks: vec![String::new()],
+            values: vec![vec![0.5]],
+            ..map
+        };
+        heatmap_png(&dir.path().join("one.png"), &one).unwrap();
     }
 }

@@ -478,3 +478,32 @@ fn heatmaps_hold_the_first_two_axes_at_the_recommended_slice() {
         out.summary[p.index].mean("omega_rms_rad_s")
     );
 }
+
+#[test]
+#[ignore = "writes example outputs to /tmp/sweep-example for a human look"]
+fn example_outputs() {
+    let (spec, path) = fast_spec();
+    let dir = Path::new("/tmp/sweep-example");
+    let _ = std::fs::remove_dir_all(dir);
+    run_sweep(&spec, &path, dir, &Fake::new(), no_progress()).unwrap();
+    for (name, d) in [
+        ("seed", Differentiator::Seed),
+        ("central3", Differentiator::Central3),
+        (
+            "sg9",
+            Differentiator::SavitzkyGolay {
+                window_frames: 9,
+                window_s: None,
+                order: 2,
+            },
+        ),
+    ] {
+        for fps in [24.0, 30.0, 60.0, 120.0] {
+            let h = 1.0 / fps;
+            let peak =
+                crate::budget::detectability::peak_alpha_response(&d, h, 0.05, 0.002).unwrap();
+            let gain = d.noise_gain(h).alpha_per_rad;
+            println!("{name} fps {fps}: peak {peak:.4} rad/s2, alpha gain {gain:.1} /s2, peak/gain {:.3e} rad", peak / gain);
+        }
+    }
+}
