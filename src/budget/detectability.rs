@@ -82,6 +82,7 @@ pub fn impact_series(
 
 /// Worst-case (over [`PHASES`] sub-frame phases) peak |α̂| response to the impact, rad/s².
 /// The peak is taken near the impact only (the series' edges are not part of the response).
+/// A Kalman smoother must have its λ fixed: the response depends on it.
 pub fn peak_alpha_response(
     diff: &Differentiator,
     h_s: f64,
@@ -92,6 +93,19 @@ pub fn peak_alpha_response(
         return Err(EstimateError::InvalidDifferentiator(format!(
             "impact response needs h_s > 0 and duration_s >= 0, got {h_s}, {duration_s}"
         )));
+    }
+    if matches!(
+        diff,
+        Differentiator::KalmanRts {
+            lambda_per_s6: None
+        }
+    ) {
+        // λ chosen on a noiseless impact series would be huge and the SNR wildly optimistic.
+        return Err(EstimateError::InvalidDifferentiator(
+            "kalman_rts with automatic lambda_per_s6: fix λ (Differentiator::resolved on a real \
+             series) before computing impact detectability"
+                .into(),
+        ));
     }
     let half = half_frames(diff, h_s, duration_s);
     let reach = half / 2;
@@ -263,6 +277,20 @@ mod tests {
             assert!(strong > 0.9, "{diff:?}: SNR 5 found in {strong}");
             assert!(weak < 0.5, "{diff:?}: SNR 1 found in {weak}");
         }
+    }
+
+    #[test]
+    fn kalman_needs_a_fixed_lambda_and_then_responds() {
+        let auto = Differentiator::KalmanRts {
+            lambda_per_s6: None,
+        };
+        assert!(peak_alpha_response(&auto, H, 0.05, 0.002).is_err());
+        let fixed = Differentiator::KalmanRts {
+            lambda_per_s6: Some(1e6),
+        };
+        let a = peak_alpha_response(&fixed, H, 0.05, 0.002).unwrap();
+        let b = peak_alpha_response(&fixed, H, 0.10, 0.002).unwrap();
+        assert!(a > 0.0 && ((b / a) - 2.0).abs() < 1e-6, "{a} {b}");
     }
 
     #[test]

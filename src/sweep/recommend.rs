@@ -121,7 +121,8 @@ pub fn reasons(spec: &SweepSpec, s: &PointSummary) -> String {
         Some(d) if !d.detectable => {
             r.push(format!("impact SNR {:.2} < {}", d.snr, spec.impact.min_snr))
         }
-        None => r.push("impact SNR unknown".into()),
+        None if s.error.is_empty() => r.push("impact SNR unknown".into()),
+        None => r.push(s.error.clone()),
         _ => {}
     }
     r.join("; ")

@@ -108,15 +108,18 @@ pub fn summarise(
             if let Ok(sc) = scenario {
                 s.cost = cost(spec, point, sc);
                 if !ok.is_empty() {
-                    s.impact = detectability(
+                    match detectability(
                         &sc.estimator.differentiator,
                         s.mean("mean_frame_interval_s"),
                         spec.impact.delta_omega_rad_s,
                         spec.impact.duration_s,
                         s.mean("dwell_alpha_std_rad_s2"),
                         spec.impact.min_snr,
-                    )
-                    .ok();
+                    ) {
+                        Ok(d) => s.impact = Some(d),
+                        Err(e) if s.error.is_empty() => s.error = format!("impact: {e}"),
+                        Err(_) => {}
+                    }
                 }
             }
             s.meets_target = s.mean("omega_rms_rad_s") <= spec.target.omega_rms_rad_s

@@ -507,3 +507,20 @@ fn example_outputs() {
         }
     }
 }
+
+#[test]
+fn an_automatic_kalman_lambda_is_reported_not_guessed() {
+    let text = "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"diff\"\nlevels = [{ label = \"kalman\", set = { \"estimator.differentiator\" = { kind = \"kalman_rts\" } } }]\n";
+    let path = sweeps_dir().join("inline.toml");
+    let spec = SweepSpec::from_str(text, &path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    let s = &out.summary[0];
+    assert!(s.impact.is_none() && !s.qualifies);
+    assert!(s.error.contains("lambda"), "{}", s.error);
+    assert!(
+        out.recommendation_md.contains("lambda"),
+        "{}",
+        out.recommendation_md
+    );
+}
