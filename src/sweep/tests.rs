@@ -486,6 +486,23 @@ fn example_outputs() {
     let dir = Path::new("/tmp/sweep-example");
     let _ = std::fs::remove_dir_all(dir);
     run_sweep(&spec, &path, dir, &Fake::new(), no_progress()).unwrap();
+    let seed_path = sweeps_dir().join("seed-camera.toml");
+    let seed_spec = SweepSpec::load(&seed_path).unwrap();
+    let seed_dir = dir.join("seed-camera");
+    let out = run_sweep(
+        &seed_spec,
+        &seed_path,
+        &seed_dir,
+        &Fake::new(),
+        no_progress(),
+    )
+    .unwrap();
+    println!(
+        "seed-camera: {} points, first: {} {}",
+        out.summary.len(),
+        out.summary[0].status,
+        out.summary[0].error
+    );
     for (name, d) in [
         ("seed", Differentiator::Seed),
         ("central3", Differentiator::Central3),
