@@ -13,9 +13,7 @@ pub fn deep_merge(base: &mut Value, over: Value) {
             for (key, value) in over_table {
                 match base_table.get_mut(&key) {
                     Some(existing)
-                        if existing.is_table()
-                            && value.is_table()
-                            && !kind_changes(existing, &value) =>
+                        if existing.is_table() && value.is_table() && !kind_changes(existing, &value) =>
                     {
                         deep_merge(existing, value)
                     }
@@ -86,14 +84,8 @@ mod tests {
     #[test]
     fn a_changed_kind_replaces_the_table() {
         let mut base = v("[d]\nkind = \"poly\"\nend = 1\n[e]\nkind = \"a\"\nx = 1");
-        deep_merge(
-            &mut base,
-            v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\ny = 2"),
-        );
-        assert_eq!(
-            base,
-            v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\nx = 1\ny = 2")
-        );
+        deep_merge(&mut base, v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\ny = 2"));
+        assert_eq!(base, v("[d]\nkind = \"constant\"\nw = 2\n[e]\nkind = \"a\"\nx = 1\ny = 2"));
     }
 
     #[test]

@@ -150,11 +150,7 @@ pub fn from_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
 /// A copy of `base` with fields replaced by dotted path (`camera.distance_m = 0.4`), validated
 /// again. Data already loaded from files (timing logs) carries over unless the override changes
 /// the timing model. `origin` names the file the overrides came from, for messages.
-pub fn with_overrides(
-    base: &Scenario,
-    overrides: &[(String, Value)],
-    origin: &Path,
-) -> Result<Scenario, ScenarioError> {
+pub fn with_overrides(base: &Scenario, overrides: &[(String, Value)], origin: &Path) -> Result<Scenario, ScenarioError> {
     let mut value = Value::try_from(base).map_err(|e| ScenarioError::Field {
         file: origin.to_path_buf(),
         field: String::new(),
@@ -167,23 +163,14 @@ pub fn with_overrides(
             message,
         })?;
     }
-    let timing_changed = overrides
-        .iter()
-        .any(|(p, _)| p.starts_with("frame_timing.model"));
+    let timing_changed = overrides.iter().any(|(p, _)| p.starts_with("frame_timing.model"));
     let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
         let field = e.path().to_string();
-        ScenarioError::Field {
-            file: origin.to_path_buf(),
-            field,
-            message: e.into_inner().to_string(),
-        }
+        ScenarioError::Field { file: origin.to_path_buf(), field, message: e.into_inner().to_string() }
     })?;
     let problems = scenario.validate();
     if !problems.is_empty() {
-        return Err(ScenarioError::Invalid {
-            file: origin.to_path_buf(),
-            problems: problems.0,
-        });
+        return Err(ScenarioError::Invalid { file: origin.to_path_buf(), problems: problems.0 });
     }
     if timing_changed {
         external::load_external(&mut scenario, origin)?;
@@ -201,16 +188,12 @@ fn set_dotted(root: &mut Value, path: &str, v: Value) -> Result<(), String> {
         if key.is_empty() {
             return Err("empty path segment".into());
         }
-        let table = cur
-            .as_table_mut()
-            .ok_or_else(|| format!("`{key}`: parent is not a table"))?;
+        let table = cur.as_table_mut().ok_or_else(|| format!("`{key}`: parent is not a table"))?;
         if parts.peek().is_none() {
             table.insert(key.to_string(), v);
             return Ok(());
         }
-        cur = table
-            .entry(key.to_string())
-            .or_insert_with(|| Value::Table(Default::default()));
+        cur = table.entry(key.to_string()).or_insert_with(|| Value::Table(Default::default()));
     }
     Err("empty path".into())
 }

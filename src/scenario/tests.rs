@@ -176,21 +176,13 @@ fn timing_logs_and_drive_tables_are_loaded_from_files_and_builtins() {
 #[test]
 fn overrides_replace_fields_and_are_validated() {
     let base = load_builtin("fast").unwrap();
-    let o = vec![
-        ("duration_s".to_string(), toml::Value::Float(1.5)),
-        ("frame_timing.fps".to_string(), toml::Value::Float(60.0)),
-    ];
+    let o = vec![("duration_s".to_string(), toml::Value::Float(1.5)), ("frame_timing.fps".to_string(), toml::Value::Float(60.0))];
     let s = with_overrides(&base, &o, Path::new("sweep.toml")).unwrap();
     assert_eq!(s.duration_s, 1.5);
     assert_eq!(s.frame_timing.fps, 60.0);
     let bad = vec![("duration_s".to_string(), toml::Value::Float(-1.0))];
-    let msg = with_overrides(&base, &bad, Path::new("sweep.toml"))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        msg.contains("sweep.toml") && msg.contains("duration_s"),
-        "{msg}"
-    );
+    let msg = with_overrides(&base, &bad, Path::new("sweep.toml")).unwrap_err().to_string();
+    assert!(msg.contains("sweep.toml") && msg.contains("duration_s"), "{msg}");
     let unknown = vec![("camera.nonsense".to_string(), toml::Value::Integer(1))];
     assert!(with_overrides(&base, &unknown, Path::new("sweep.toml")).is_err());
 }
