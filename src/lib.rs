@@ -20,6 +20,7 @@ pub mod render;
 pub mod rng;
 pub mod scenario;
 pub mod scene;
+pub mod sweep;
 pub mod timing;
 pub mod validation;
 

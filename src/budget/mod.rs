@@ -5,6 +5,7 @@
 pub mod bounds;
 pub mod compare;
 pub mod decompose;
+pub mod detectability;
 pub mod montecarlo;
 pub mod report;
 pub mod stats;

@@ -2,6 +2,8 @@
 //!
 //! One job: turn series of numbers into a PNG file. Callers decide what to plot.
 
+pub mod heatmap;
+
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
@@ -9,7 +11,7 @@ use std::sync::Once;
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     REGISTER.call_once(|| {
         // Registration only fails for unparsable font bytes; the embedded font is known-good.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
@@ -232,7 +234,7 @@ pub fn bars_png(
 }
 
 /// plotters' file output needs the `image` crate; we encode the RGB buffer with `png` instead.
-fn write_rgb_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<(), PlotError> {
+pub(crate) fn write_rgb_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<(), PlotError> {
     let err = |m: String| PlotError {
         file: path.display().to_string(),
         message: m,

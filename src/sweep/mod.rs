@@ -1,0 +1,59 @@
+//! Design sweeps: which camera setup (distance, frame rate, resolution, detector, differentiator,
+//! exposure, marker) should be used before filming? A sweep file names a base scenario and axes;
+//! every point of their cartesian product is evaluated over several seeds by an [`Evaluator`]
+//! (the render → detect → estimate pipeline, or a fake in tests), and the cheapest point that
+//! meets an accuracy target and can see an impact is recommended.
+//!
+//! Files: `spec` (the sweep file), `grid` (points, keys, overrides, seeds), `results`
+//! (results.csv rows, append + resume), `engine` (parallel runs), `summary` (per-point Monte
+//! Carlo means, detectability), `recommend` (the choice and recommendation.md), `heatmaps`.
+
+pub mod engine;
+pub mod error;
+pub mod grid;
+pub mod heatmaps;
+pub mod recommend;
+pub mod results;
+pub mod spec;
+pub mod summary;
+
+#[cfg(test)]
+mod tests;
+
+pub use engine::{run_sweep, run_sweep_with, Control, SweepOutcome};
+pub use error::SweepError;
+pub use grid::{load_base, point_scenario, points, run_seed, Point};
+pub use recommend::{recommend, Recommendation};
+pub use results::{ResultRow, Status, METRICS};
+pub use spec::{AxisSpec, CostSpec, ImpactSpec, LevelSpec, SweepSpec, TargetSpec};
+pub use summary::PointSummary;
+
+use crate::scenario::Scenario;
+
+/// Errors of ONE run (one point, one seed), SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PointMetrics {
+    /// θ RMS error, rad.
+    pub theta_rms_rad: f64,
+    /// ω RMS error, rad/s.
+    pub omega_rms_rad_s: f64,
+    /// α RMS error, rad/s².
+    pub alpha_rms_rad_s2: f64,
+    /// 95th percentile of |ω error|, rad/s.
+    pub omega_p95_rad_s: f64,
+    /// 95th percentile of |α error|, rad/s².
+    pub alpha_p95_rad_s2: f64,
+    /// Frames in the recording.
+    pub frames_total: usize,
+    /// Frames where the marker was detected.
+    pub frames_detected: usize,
+    /// α error σ in dwell: the noise floor an impact must beat, rad/s².
+    pub dwell_alpha_std_rad_s2: f64,
+    /// Mean frame interval, s.
+    pub mean_frame_interval_s: f64,
+}
+
+/// Evaluates one scenario with one seed (the scenario's `seed` is already set to it).
+pub trait Evaluator: Sync {
+    fn evaluate(&self, scenario: &Scenario, seed: u64) -> Result<PointMetrics, String>;
+}

@@ -1,0 +1,543 @@
+//! Tests of the sweep: spec parsing and validation, grid and overrides, the engine (complete,
+//! deterministic across thread counts, resumable), and the recommendation.
+
+use super::*;
+use crate::estimate::Differentiator;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+fn sweeps_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/sweeps")
+}
+
+fn fast_spec() -> (SweepSpec, PathBuf) {
+    let path = sweeps_dir().join("fast.toml");
+    (SweepSpec::load(&path).unwrap(), path)
+}
+
+/// Deterministic function of the scenario and the seed; counts its calls.
+struct Fake {
+    calls: AtomicUsize,
+}
+
+impl Fake {
+    fn new() -> Self {
+        Self {
+            calls: AtomicUsize::new(0),
+        }
+    }
+    fn calls(&self) -> usize {
+        self.calls.load(Ordering::SeqCst)
+    }
+}
+
+impl Evaluator for Fake {
+    fn evaluate(&self, sc: &crate::scenario::Scenario, seed: u64) -> Result<PointMetrics, String> {
+        self.calls.fetch_add(1, Ordering::SeqCst);
+        assert_eq!(sc.seed, seed, "the run's scenario carries the run's seed");
+        let fps = sc.frame_timing.fps;
+        let smooth = matches!(
+            sc.estimator.differentiator,
+            Differentiator::SavitzkyGolay { .. }
+        );
+        let jitter = 1.0 + (seed % 100) as f64 * 1e-4;
+        let gain = if smooth { 0.5 } else { 1.0 };
+        Ok(PointMetrics {
+            theta_rms_rad: 1e-4 * jitter,
+            omega_rms_rad_s: 0.9 / fps * gain * jitter,
+            alpha_rms_rad_s2: 20.0 / fps * gain * jitter,
+            omega_p95_rad_s: 1.8 / fps * gain,
+            alpha_p95_rad_s2: 40.0 / fps * gain,
+            frames_total: (fps * sc.duration_s) as usize,
+            frames_detected: (fps * sc.duration_s) as usize,
+            dwell_alpha_std_rad_s2: if smooth { 0.01 } else { 0.1 },
+            mean_frame_interval_s: 1.0 / fps,
+        })
+    }
+}
+
+struct AlwaysFails;
+impl Evaluator for AlwaysFails {
+    fn evaluate(&self, _: &crate::scenario::Scenario, _: u64) -> Result<PointMetrics, String> {
+        Err("detector lost the marker\nat frame 3".into())
+    }
+}
+
+fn no_progress() -> &'static (dyn Fn(usize, usize) + Sync) {
+    &|_, _| {}
+}
+
+fn rows_in(dir: &Path) -> Vec<String> {
+    std::fs::read_to_string(dir.join("results.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(String::from)
+        .collect()
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
+// ---------- spec ----------
+
+#[test]
+fn shipped_sweeps_parse_and_have_the_expected_grids() {
+    let (fast, _) = fast_spec();
+    assert_eq!(points(&fast).len(), 4);
+    let seed = SweepSpec::load(&sweeps_dir().join("seed-camera.toml")).unwrap();
+    assert_eq!(seed.base, "seed-internal-4k");
+    assert_eq!(seed.seeds, 2);
+    let grid = points(&seed);
+    assert_eq!(grid.len(), 5 * 4 * 2);
+    assert_eq!(grid[0].key, "distance_m=0.2|fps=24|resolution=1080p");
+    assert_eq!(grid[1].key, "distance_m=0.2|fps=24|resolution=4k");
+    assert_eq!(grid[2].key, "distance_m=0.2|fps=30|resolution=1080p");
+    let p = grid
+        .iter()
+        .find(|p| p.key == "distance_m=0.3|fps=30|resolution=1080p")
+        .unwrap();
+    assert_eq!(p.levels, vec![1, 1, 0]);
+    let keys: HashSet<&str> = grid.iter().map(|p| p.key.as_str()).collect();
+    assert_eq!(keys.len(), grid.len(), "keys are unique");
+    assert!(p
+        .overrides
+        .contains(&("camera.width_px".into(), toml::Value::Integer(1920))));
+    assert!(p
+        .overrides
+        .contains(&("camera.distance_m".into(), toml::Value::Float(0.3))));
+}
+
+fn parse_err(text: &str) -> SweepError {
+    SweepSpec::from_str(text, Path::new("s.toml")).unwrap_err()
+}
+
+fn fields(e: &SweepError) -> Vec<String> {
+    e.problems().iter().map(|p| p.field.clone()).collect()
+}
+
+#[test]
+fn spec_errors_name_the_file_and_field() {
+    let axis = "[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0]\n";
+    // Unknown and mistyped fields come from serde with their path.
+    let e = parse_err(&format!("seedz = 2\n{axis}"));
+    assert!(
+        e.to_string().starts_with("s.toml: field `seedz`") || e.to_string().contains("seedz"),
+        "{e}"
+    );
+    let e = parse_err(&format!("seeds = \"two\"\n{axis}"));
+    assert!(
+        matches!(&e, SweepError::Field { field, .. } if field == "seeds"),
+        "{e}"
+    );
+    let e = parse_err(&format!("{axis}[impact]\nmin_snr = \"x\"\n"));
+    assert!(
+        matches!(&e, SweepError::Field { field, .. } if field == "impact.min_snr"),
+        "{e}"
+    );
+    // Range problems: all at once, with the allowed range.
+    let e = parse_err(&format!("seeds = 0\n{axis}[target]\nomega_rms_rad_s = -1.0\n[cost]\norder = [\"pixels\", \"price\"]\n"));
+    let f = fields(&e);
+    assert!(f.contains(&"seeds".into()), "{f:?}");
+    assert!(f.contains(&"target.omega_rms_rad_s".into()), "{f:?}");
+    assert!(f.contains(&"cost.order[1]".into()), "{f:?}");
+    assert!(e.to_string().contains("must be in [1, 1000], got 0"), "{e}");
+    assert!(e.to_string().starts_with("s.toml:"), "{e}");
+    // Axis shape problems.
+    let e = parse_err("[[axis]]\nname = \"a\"\nfield = \"x.y\"\n");
+    assert_eq!(fields(&e), vec!["axis[0]".to_string()]);
+    let e = parse_err("[[axis]]\nname = \"seed\"\nfield = \"x..y\"\nvalues = [1, 1]\n[[axis]]\nname = \"seed\"\nlevels = []\n");
+    let f = fields(&e);
+    for want in [
+        "axis[0].name",
+        "axis[0].field",
+        "axis[0].values",
+        "axis[1].levels",
+        "axis[1].name",
+    ] {
+        assert!(f.contains(&want.to_string()), "{want} missing in {f:?}");
+    }
+    let e = parse_err("");
+    assert_eq!(fields(&e), vec!["axis".to_string()]);
+}
+
+#[test]
+fn overrides_reach_the_point_scenarios() {
+    let (spec, path) = fast_spec();
+    let base = load_base(&spec, &path).unwrap();
+    let grid = points(&spec);
+    assert_eq!(
+        grid.iter().map(|p| p.key.as_str()).collect::<Vec<_>>(),
+        vec![
+            "fps=30|differentiator=central3",
+            "fps=30|differentiator=sg9",
+            "fps=60|differentiator=central3",
+            "fps=60|differentiator=sg9"
+        ]
+    );
+    let sc = point_scenario(&base, &grid[3], &path).unwrap();
+    assert_eq!(sc.frame_timing.fps, 60.0);
+    assert_eq!(
+        sc.estimator.differentiator,
+        Differentiator::SavitzkyGolay {
+            window_frames: 9,
+            window_s: None,
+            order: 2
+        }
+    );
+    assert_eq!(
+        sc.duration_s, base.duration_s,
+        "untouched fields keep the base values"
+    );
+    let sc0 = point_scenario(&base, &grid[0], &path).unwrap();
+    assert_eq!(sc0.frame_timing.fps, 30.0);
+    assert_eq!(sc0.estimator.differentiator, Differentiator::Central3);
+}
+
+#[test]
+fn run_seeds_are_deterministic_distinct_and_shared_by_points() {
+    assert_eq!(run_seed(7, 0), run_seed(7, 0));
+    assert_ne!(run_seed(7, 0), run_seed(7, 1));
+    assert_ne!(run_seed(7, 0), run_seed(8, 0));
+}
+
+// ---------- engine ----------
+
+#[test]
+fn a_sweep_completes_with_one_row_per_point_and_seed() {
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    let fake = Fake::new();
+    let seen = AtomicUsize::new(0);
+    let progress = |done: usize, total: usize| {
+        assert_eq!(total, 8);
+        seen.fetch_max(done, Ordering::SeqCst);
+    };
+    let out = run_sweep(&spec, &path, dir.path(), &fake, &progress).unwrap();
+    assert!(out.complete);
+    assert_eq!((out.jobs_total, out.jobs_resumed, out.jobs_run), (8, 0, 8));
+    assert_eq!(fake.calls(), 8);
+    assert_eq!(seen.load(Ordering::SeqCst), 8);
+    assert_eq!(rows_in(dir.path()).len(), 8);
+    assert_eq!(out.summary.len(), 4);
+    assert!(out
+        .summary
+        .iter()
+        .all(|s| s.status == "ok" && s.runs_ok == 2));
+    let summary_csv = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+    assert_eq!(summary_csv.lines().count(), 5);
+    assert!(dir.path().join("recommendation.md").exists());
+    // Rerunning a complete sweep evaluates nothing and gives the same summary.
+    let again = Fake::new();
+    let out2 = run_sweep(&spec, &path, dir.path(), &again, no_progress()).unwrap();
+    assert_eq!(again.calls(), 0);
+    assert_eq!(out2.jobs_resumed, 8);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("summary.csv")).unwrap(),
+        summary_csv
+    );
+}
+
+#[test]
+fn summary_is_identical_for_one_and_four_threads() {
+    let (spec, path) = fast_spec();
+    let run = |threads: usize| {
+        let dir = tempfile::tempdir().unwrap();
+        let fake = Fake::new();
+        pool(threads)
+            .install(|| run_sweep(&spec, &path, dir.path(), &fake, no_progress()))
+            .unwrap();
+        (
+            std::fs::read_to_string(dir.path().join("summary.csv")).unwrap(),
+            std::fs::read_to_string(dir.path().join("recommendation.md")).unwrap(),
+        )
+    };
+    assert_eq!(run(1), run(4));
+}
+
+#[test]
+fn an_interrupted_sweep_resumes_without_repeats_or_losses() {
+    let (spec, path) = fast_spec();
+    for k in [0usize, 1, 3, 7] {
+        let dir = tempfile::tempdir().unwrap();
+        let first = Fake::new();
+        let stop = || first.calls() >= k;
+        let out = pool(4)
+            .install(|| {
+                run_sweep_with(
+                    &spec,
+                    &path,
+                    dir.path(),
+                    &first,
+                    &Control {
+                        progress: no_progress(),
+                        stop: &stop,
+                    },
+                )
+            })
+            .unwrap();
+        assert!(!out.complete, "k = {k}");
+        assert!(!dir.path().join("summary.csv").exists());
+        let rows_first = rows_in(dir.path()).len();
+        assert_eq!(rows_first, first.calls(), "every finished job was written");
+        assert_eq!(out.jobs_run, rows_first);
+        let second = Fake::new();
+        let out = pool(4)
+            .install(|| run_sweep(&spec, &path, dir.path(), &second, no_progress()))
+            .unwrap();
+        assert!(out.complete);
+        assert_eq!(out.jobs_resumed, rows_first);
+        assert_eq!(
+            first.calls() + second.calls(),
+            8,
+            "k = {k}: no job repeated"
+        );
+        let rows = rows_in(dir.path());
+        assert_eq!(rows.len(), 8, "k = {k}: none lost");
+        let axis_names: Vec<String> = spec.axes.iter().map(|a| a.name.clone()).collect();
+        let parsed = results::read(&dir.path().join("results.csv"), &axis_names).unwrap();
+        let pairs: HashSet<(String, usize)> = parsed
+            .iter()
+            .map(|r| (r.key.clone(), r.seed_index))
+            .collect();
+        assert_eq!(pairs.len(), 8);
+    }
+}
+
+#[test]
+fn a_line_cut_by_an_interruption_is_redone() {
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    let file = dir.path().join("results.csv");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let cut = &text[..text.len() - 10]; // the last row loses its tail and its newline
+    std::fs::write(&file, cut).unwrap();
+    let fake = Fake::new();
+    let out = run_sweep(&spec, &path, dir.path(), &fake, no_progress()).unwrap();
+    assert_eq!(fake.calls(), 1);
+    assert!(out.complete);
+    assert_eq!(rows_in(dir.path()).len(), 8);
+}
+
+#[test]
+fn results_from_a_different_sweep_are_refused() {
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("results.csv"),
+        "point,key,distance_m,seed_index\n",
+    )
+    .unwrap();
+    let e = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap_err();
+    assert!(matches!(e, SweepError::HeaderMismatch { .. }), "{e}");
+    assert!(e.to_string().contains("different sweep"), "{e}");
+    // Same header, but a point this sweep does not have (values changed).
+    let dir = tempfile::tempdir().unwrap();
+    run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    let mut other = spec.clone();
+    other.axes[0].values = Some(vec![toml::Value::Float(24.0)]);
+    let e = run_sweep(&other, &path, dir.path(), &Fake::new(), no_progress()).unwrap_err();
+    assert!(e.to_string().contains("fps=30"), "{e}");
+}
+
+#[test]
+fn invalid_points_and_failed_runs_become_rows_not_aborts() {
+    let text = "base = \"fast\"\nseeds = 2\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0, -5.0]\n";
+    let path = sweeps_dir().join("inline.toml");
+    let spec = SweepSpec::from_str(text, &path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let fake = Fake::new();
+    let out = run_sweep(&spec, &path, dir.path(), &fake, no_progress()).unwrap();
+    assert!(out.complete);
+    assert_eq!(fake.calls(), 2, "the invalid point is never evaluated");
+    assert_eq!(rows_in(dir.path()).len(), 4);
+    assert_eq!(out.summary[1].status, "invalid");
+    assert!(
+        out.summary[1].error.contains("frame_timing.fps"),
+        "{}",
+        out.summary[1].error
+    );
+    assert_eq!(out.summary[0].status, "ok");
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &AlwaysFails, no_progress()).unwrap();
+    assert_eq!(out.summary[0].status, "failed");
+    assert_eq!(out.summary[0].error, "detector lost the marker at frame 3");
+    assert!(out.recommendation.unwrap().chosen.is_none());
+    assert!(out.recommendation_md.contains("No point qualifies"));
+}
+
+#[test]
+fn the_engine_recommends_the_cheapest_qualifying_point() {
+    // Fake: ω RMS = 0.9/fps, halved by SG; SG has 10× less dwell noise. At 30 fps central3 misses
+    // the ω target (0.03 > 0.02), SG9 meets it (0.015): the cheapest is 30 fps + SG9; the
+    // runner-up is the next by fps, then grid order: 60 fps + central3.
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    let rec = out.recommendation.unwrap();
+    let key = |i: Option<usize>| i.map(|i| out.summary[i].key.clone());
+    assert_eq!(
+        key(rec.chosen).as_deref(),
+        Some("fps=30|differentiator=sg9")
+    );
+    assert_eq!(
+        key(rec.runner_up).as_deref(),
+        Some("fps=60|differentiator=central3")
+    );
+    assert!(!out.summary[0].meets_target);
+    assert!(out.summary.iter().all(|s| s.impact.unwrap().detectable));
+    assert!(out.recommendation_md.contains("fps=30|differentiator=sg9"));
+    assert!(
+        out.recommendation_md
+            .contains("fps=30|differentiator=central3`: ω RMS 0.030"),
+        "{}",
+        out.recommendation_md
+    );
+}
+
+fn hand_point(index: usize, cost: Vec<f64>, qualifies: bool, omega: f64) -> PointSummary {
+    let mut metrics = vec![crate::budget::MeanCi::of(&[1e-3, 1e-3]); METRICS.len()];
+    metrics[1] = crate::budget::MeanCi::of(&[omega, omega]);
+    PointSummary {
+        index,
+        key: format!("p{index}"),
+        labels: vec![],
+        status: "ok".into(),
+        runs_ok: 2,
+        runs_expected: 2,
+        metrics,
+        impact: Some(crate::budget::detectability::Detectability {
+            peak_alpha_rad_s2: 1.0,
+            noise_alpha_rad_s2: 0.1,
+            snr: 10.0,
+            detectable: true,
+        }),
+        meets_target: qualifies,
+        qualifies,
+        cost,
+        error: String::new(),
+    }
+}
+
+#[test]
+fn recommendation_ranks_by_cost_keys_in_priority_order() {
+    let spec = SweepSpec::default();
+    let grid = vec![
+        hand_point(0, vec![8.3e6, 30.0], true, 0.01),
+        hand_point(1, vec![2.1e6, 120.0], true, 0.01),
+        hand_point(2, vec![2.1e6, 60.0], true, 0.01),
+        hand_point(3, vec![2.1e6, 24.0], false, 0.05),
+        hand_point(4, vec![2.1e6, 60.0], true, 0.01),
+    ];
+    let rec = recommend(&spec, &grid);
+    assert_eq!(
+        rec.chosen,
+        Some(2),
+        "fewest pixels, then lowest fps, then grid order"
+    );
+    assert_eq!(rec.runner_up, Some(4));
+    assert_eq!(rec.closest, None);
+    // Nothing qualifies: the closest is the smallest worst shortfall (ω 0.03 beats ω 0.05).
+    let none = vec![
+        hand_point(0, vec![1.0], false, 0.05),
+        hand_point(1, vec![2.0], false, 0.03),
+    ];
+    let rec = recommend(&spec, &none);
+    assert_eq!((rec.chosen, rec.closest), (None, Some(1)));
+    let md = recommend::markdown(&spec, &none, &rec);
+    assert!(md.contains("Closest") && md.contains("p1"), "{md}");
+}
+
+#[test]
+fn heatmaps_hold_the_first_two_axes_at_the_recommended_slice() {
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    for f in ["heatmap_alpha_rms.png", "heatmap_omega_rms.png"] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
+    let grid = points(&spec);
+    let rec = out.recommendation.unwrap();
+    let maps = heatmaps::heatmaps(&spec, &grid, &out.summary, &rec);
+    let (_, omega) = maps.iter().find(|(s, _)| s == "heatmap_omega_rms").unwrap();
+    assert_eq!(omega.x_ticks, vec!["30", "60"]);
+    assert_eq!(omega.y_ticks, vec!["central3", "sg9"]);
+    // values[row = differentiator][col = fps] is that point's mean ω RMS.
+    let p = grid
+        .iter()
+        .find(|p| p.key == "fps=60|differentiator=sg9")
+        .unwrap();
+    assert_eq!(
+        omega.values[1][1],
+        out.summary[p.index].mean("omega_rms_rad_s")
+    );
+}
+
+#[test]
+#[ignore = "writes example outputs to /tmp/sweep-example for a human look"]
+fn example_outputs() {
+    let (spec, path) = fast_spec();
+    let dir = Path::new("/tmp/sweep-example");
+    let _ = std::fs::remove_dir_all(dir);
+    run_sweep(&spec, &path, dir, &Fake::new(), no_progress()).unwrap();
+    let seed_path = sweeps_dir().join("seed-camera.toml");
+    let seed_spec = SweepSpec::load(&seed_path).unwrap();
+    let seed_dir = dir.join("seed-camera");
+    let out = run_sweep(
+        &seed_spec,
+        &seed_path,
+        &seed_dir,
+        &Fake::new(),
+        no_progress(),
+    )
+    .unwrap();
+    println!(
+        "seed-camera: {} points, first: {} {}",
+        out.summary.len(),
+        out.summary[0].status,
+        out.summary[0].error
+    );
+    for (name, d) in [
+        ("seed", Differentiator::Seed),
+        ("central3", Differentiator::Central3),
+        (
+            "sg9",
+            Differentiator::SavitzkyGolay {
+                window_frames: 9,
+                window_s: None,
+                order: 2,
+            },
+        ),
+    ] {
+        for fps in [24.0, 30.0, 60.0, 120.0] {
+            let h = 1.0 / fps;
+            let peak =
+                crate::budget::detectability::peak_alpha_response(&d, h, 0.05, 0.002).unwrap();
+            let gain = d.noise_gain(h).alpha_per_rad;
+            println!("{name} fps {fps}: peak {peak:.4} rad/s2, alpha gain {gain:.1} /s2, peak/gain {:.3e} rad", peak / gain);
+        }
+    }
+}
+
+#[test]
+fn an_automatic_kalman_lambda_is_reported_not_guessed() {
+    let text = "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"diff\"\nlevels = [{ label = \"kalman\", set = { \"estimator.differentiator\" = { kind = \"kalman_rts\" } } }]\n";
+    let path = sweeps_dir().join("inline.toml");
+    let spec = SweepSpec::from_str(text, &path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+    let s = &out.summary[0];
+    assert!(s.impact.is_none() && !s.qualifies);
+    assert!(s.error.contains("lambda"), "{}", s.error);
+    assert!(
+        out.recommendation_md.contains("lambda"),
+        "{}",
+        out.recommendation_md
+    );
+}
