@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
+mod analyze_cmd;
 mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
@@ -61,6 +62,8 @@ enum Command {
         #[arg(long)]
         video: Option<PathBuf>,
     },
+    /// Measure real data (video, frames + timestamps, or a corner track) with the same pipeline.
+    Analyze(analyze_cmd::AnalyzeArgs),
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -73,6 +76,7 @@ pub fn main() -> Result<()> {
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
+        Command::Analyze(args) => analyze_cmd::run(args),
         Command::Render {
             scenario,
             out,

@@ -37,7 +37,9 @@ impl CornerRefinement {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RoiConfig {
-    /// Use ROI detection when a predicted bounding box is available. Default: false.
+    /// Use ROI detection when a predicted bounding box is available. Default: true (it returns
+    /// exactly the corners full-frame detection returns, and falls back to the full frame when
+    /// it cannot guarantee that).
     pub enabled: bool,
     /// Allowance for prediction error, px: added around the predicted bounding box on top of the
     /// minimum margin that keeps ROI results exact (threshold window, polygon tolerance, candidate
@@ -48,7 +50,7 @@ pub struct RoiConfig {
 impl Default for RoiConfig {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: true,
             margin_px: 32,
         }
     }

@@ -4,6 +4,8 @@
 //! nothing here is maths.
 
 #[cfg(feature = "opencv-detector")]
+pub mod analyze;
+#[cfg(feature = "opencv-detector")]
 pub mod frames;
 pub mod measure;
 pub mod plots;

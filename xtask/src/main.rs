@@ -70,14 +70,11 @@ fn demo(extra: &[String]) -> Result<(), String> {
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
+    // Library, binaries, integration tests and doc tests; benchmarks run only under `xtask bench`.
     let mut command = cargo();
-    command.args(["test", "--workspace", "--all-targets"]);
+    command.args(["test", "--workspace"]);
     command.args(extra);
-    run(command)?;
-    // Doc tests are not part of --all-targets.
-    let mut docs = cargo();
-    docs.args(["test", "--workspace", "--doc"]);
-    run(docs)
+    run(command)
 }
 
 fn bench(extra: &[String]) -> Result<(), String> {
