@@ -239,7 +239,7 @@ fn marker_leaving_the_frame_is_an_error_naming_the_frame() {
         Err(e) => e.to_string(),
     };
     assert!(
-        msg.contains("frame 0") && msg.contains("leaves the image"),
+        msg.contains("frame 14 (t = 0.4667 s)") && msg.contains("leaves the image"),
         "{msg}"
     );
 }
