@@ -9,6 +9,7 @@ mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
 mod scenario_cmd;
+mod sweep_cmd;
 mod timing_cmd;
 
 /// Validates camera-based motion measurement of Geneva drives with synthetic data.
@@ -64,6 +65,13 @@ enum Command {
     },
     /// Measure real data (video, frames + timestamps, or a corner track) with the same pipeline.
     Analyze(analyze_cmd::AnalyzeArgs),
+    /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable).
+    Sweep {
+        /// Sweep file (see scenarios/sweeps/README.md).
+        sweep: PathBuf,
+        #[arg(long, default_value = "out/sweep")]
+        out: PathBuf,
+    },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -77,6 +85,7 @@ pub fn main() -> Result<()> {
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
         Command::Analyze(args) => analyze_cmd::run(args),
+        Command::Sweep { sweep, out } => sweep_cmd::run(&sweep, &out),
         Command::Render {
             scenario,
             out,

@@ -1,0 +1,43 @@
+//! The sweep evaluator backed by the real pipeline: one `run` per (point, seed), no files.
+
+use super::run::{run, RunOptions};
+use crate::scenario::Scenario;
+use crate::sweep::{Evaluator, PointMetrics};
+
+/// Evaluates sweep points with render → detect → estimate → budget.
+pub struct PipelineEvaluator;
+
+impl Evaluator for PipelineEvaluator {
+    fn evaluate(&self, scenario: &Scenario, _seed: u64) -> Result<PointMetrics, String> {
+        // The engine has already written the run seed into `scenario.seed`.
+        let options = RunOptions {
+            plots: false,
+            write_files: false,
+            ..RunOptions::default()
+        };
+        let out = run(scenario, std::path::Path::new("."), &options, &|_, _| {})
+            .map_err(|e| e.to_string())?;
+        let b = &out.budget;
+        let t = &out.truth.t_s;
+        let mean_interval = if t.len() > 1 {
+            (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64
+        } else {
+            f64::NAN
+        };
+        Ok(PointMetrics {
+            theta_rms_rad: b.theta.rms,
+            omega_rms_rad_s: b.omega.rms,
+            alpha_rms_rad_s2: b.alpha.rms,
+            omega_p95_rad_s: b.omega.p95,
+            alpha_p95_rad_s2: b.alpha.p95,
+            frames_total: b.frames.total,
+            frames_detected: b.frames.detected,
+            dwell_alpha_std_rad_s2: b
+                .phases
+                .get("dwell")
+                .map(|p| p.alpha.std)
+                .unwrap_or(f64::NAN),
+            mean_frame_interval_s: mean_interval,
+        })
+    }
+}
