@@ -101,8 +101,11 @@ pub fn main() -> Result<()> {
     }
 }
 
-/// The main job on the embedded default scenario. Grows with the pipeline: today the truth
-/// trajectory and its plots.
+/// The main job on the embedded default scenario: the truth trajectory and its plots, then the
+/// whole synthetic measurement (render → detect → estimate → budget) in the same folder.
 fn demo(out: &std::path::Path) -> Result<()> {
-    kinematics_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out)
+    kinematics_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out)?;
+    println!();
+    run_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out, false)?;
+    Ok(())
 }
