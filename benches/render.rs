@@ -14,7 +14,7 @@ fn time_per_frame_ms(
     settings: &RenderSettings,
     window: PixelRect,
     frames: u64,
-) -> f64 {
+) -> (f64, u64) {
     // One warm-up frame (buffer allocation, thread pool start); buffers are reused after.
     let mut buffers = FrameBuffers::default();
     let _ = render_frame_with(
@@ -40,10 +40,23 @@ fn time_per_frame_ms(
             },
             &mut buffers,
         );
-        checksum = checksum.wrapping_add(img.data.iter().map(|&v| v as u64).sum::<u64>());
+        checksum = fnv1a(checksum, &img.data);
     }
-    std::hint::black_box(checksum);
-    start.elapsed().as_secs_f64() * 1e3 / frames as f64
+    (
+        start.elapsed().as_secs_f64() * 1e3 / frames as f64,
+        checksum,
+    )
+}
+
+/// FNV-1a over the frame bytes: printed so an optimisation can be checked to keep every bit.
+fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    if h == 0 {
+        h = 0xcbf2_9ce4_8422_2325;
+    }
+    for &b in bytes {
+        h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+    }
+    h
 }
 
 fn main() {
@@ -85,10 +98,13 @@ fn main() {
                 side_px: side,
                 rate_rad_s: 3.0,
             };
-            let full = time_per_frame_ms(&scene, &settings, settings.frame_rect(), 10);
+            let (full, full_hash) = time_per_frame_ms(&scene, &settings, settings.frame_rect(), 10);
             let roi = PixelRect::new(centre.x as i64 - 150, centre.y as i64 - 150, 300, 300);
-            let roi_ms = time_per_frame_ms(&scene, &settings, roi, 200);
-            println!("{name:42} {w}x{h}: full frame {full:8.2} ms/frame, ROI 300x300 {roi_ms:7.3} ms/frame");
+            let (roi_ms, roi_hash) = time_per_frame_ms(&scene, &settings, roi, 200);
+            println!(
+                "{name:42} {w}x{h}: full frame {full:8.2} ms/frame, ROI 300x300 {roi_ms:7.3} \
+                 ms/frame  [hash {full_hash:016x} {roi_hash:016x}]"
+            );
         }
     }
 }

@@ -415,6 +415,37 @@ impl PreparedSnapshot {
         }
     }
 
+    /// Radiance of every pixel no layer covers.
+    pub fn background_radiance(&self) -> f32 {
+        self.background_radiance
+    }
+
+    /// Columns `[a, b)` (absolute) outside which no layer can cover any pixel of rows
+    /// `y0 .. y1`: there `render_into` leaves the background untouched. `None` if no layer
+    /// reaches those rows.
+    pub fn active_columns(&self, y0: i64, y1: i64) -> Option<(i64, i64)> {
+        let mut hull: Option<(i64, i64)> = None;
+        for layer in &self.layers {
+            if layer.edges.is_empty() {
+                continue;
+            }
+            let fp = layer.footprint(&PixelRect::new(
+                layer.col_min,
+                y0,
+                (layer.col_max - layer.col_min + 1) as usize,
+                (y1 - y0).max(0) as usize,
+            ));
+            if fp.is_empty() {
+                continue;
+            }
+            hull = Some(match hull {
+                None => (fp.x0, fp.x1()),
+                Some((a, b)) => (a.min(fp.x0), b.max(fp.x1())),
+            });
+        }
+        hull
+    }
+
     /// Linear radiance of every pixel of `window` (row-major, `window.len()` values) into `out`:
     /// background, then each layer "over" it: v ← v·(1 − c) + radiance·c.
     pub fn render_into(&self, window: &PixelRect, scratch: &mut RasterScratch, out: &mut [f32]) {
