@@ -75,7 +75,7 @@ impl BandPipeline<'_> {
             scratch.row_samples.clear();
             scratch
                 .row_samples
-                .extend((rows.0..rows.1).map(|y| prepare(y)));
+                .extend((rows.0..rows.1).map(prepare));
         }
         let snaps_of_row = |i: usize| -> &[PreparedSnapshot] {
             match &self.samples {
