@@ -25,6 +25,10 @@
 //! [i − 0.5, i + 0.5] × [j − 0.5, j + 0.5]. Internally coordinates are shifted by +0.5 so pixel i
 //! covers [i, i + 1]; that shift happens only in [`to_fixed`].
 
+mod composite;
+
+pub use composite::{RasterScratch, StaticCoverage};
+
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
@@ -144,7 +148,7 @@ fn to_fixed(v_px: f64) -> i64 {
 
 /// One polygon edge in canonical direction (ya < yb) with the sign that makes a polygon's
 /// interior coverage +1 whatever its winding.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Edge {
     xa: i64,
     ya: i64,
@@ -394,13 +398,6 @@ pub struct PreparedSnapshot {
     layers: Vec<PreparedLayer>,
 }
 
-/// Reusable buffers for [`PreparedSnapshot::render_into`].
-#[derive(Debug, Default)]
-pub struct RasterScratch {
-    acc: Vec<i64>,
-    coverage: Vec<f32>,
-}
-
 impl PreparedSnapshot {
     /// Prepares `snapshot`, applying the image-space `transform` (camera vibration) exactly to
     /// every vertex first.
@@ -444,37 +441,6 @@ impl PreparedSnapshot {
             });
         }
         hull
-    }
-
-    /// Linear radiance of every pixel of `window` (row-major, `window.len()` values) into `out`:
-    /// background, then each layer "over" it: v ← v·(1 − c) + radiance·c.
-    pub fn render_into(&self, window: &PixelRect, scratch: &mut RasterScratch, out: &mut [f32]) {
-        out[..window.len()].fill(self.background_radiance);
-        if window.is_empty() {
-            return;
-        }
-        scratch.coverage.resize(window.len(), 0.0);
-        for layer in &self.layers {
-            if layer.edges.is_empty() {
-                continue;
-            }
-            // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
-            // rasteriser gives the same coverage there whatever window it runs on.
-            let fp = layer.footprint(window);
-            if fp.is_empty() || !layer.coverage(&fp, &mut scratch.acc, &mut scratch.coverage) {
-                continue;
-            }
-            let r = layer.radiance;
-            for (row, cov_row) in scratch.coverage[..fp.len()]
-                .chunks_exact(fp.width)
-                .enumerate()
-            {
-                let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
-                for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
-                    *v = *v * (1.0 - c) + r * c;
-                }
-            }
-        }
     }
 }
 

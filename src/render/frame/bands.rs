@@ -9,7 +9,7 @@
 //! values of an "active" column range.
 
 use crate::render::effects::optical_blur::{constant_response, convolve_column, convolve_row};
-use crate::render::raster::{PixelRect, PreparedSnapshot, RasterScratch};
+use crate::render::raster::{PixelRect, PreparedSnapshot, RasterScratch, StaticCoverage};
 
 /// Output rows per band: with a blur margin of r rows, (rows + 2r) / rows of the rasterising
 /// is repeated, and the band's buffers should stay in L2.
@@ -34,6 +34,7 @@ pub(super) struct BandPipeline<'a> {
 #[derive(Debug, Default)]
 pub struct BandScratch {
     raster: RasterScratch,
+    statics: StaticCoverage,
     radiance: Vec<f32>,
     sample: Vec<f32>,
     horizontal: Vec<f32>,
@@ -138,6 +139,7 @@ impl BandPipeline<'_> {
                 &window,
                 snaps,
                 &mut scratch.raster,
+                &mut scratch.statics,
                 &mut scratch.sample,
                 &mut scratch.radiance,
             ),
@@ -147,6 +149,7 @@ impl BandPipeline<'_> {
                         &window.rows(rows.0 + i as i64, 1),
                         &scratch.row_samples[i],
                         &mut scratch.raster,
+                        &mut scratch.statics,
                         &mut scratch.sample,
                         out,
                     );
@@ -201,22 +204,26 @@ fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
 }
 
 /// Averages the renders of `window` at the K `snaps` into `out` (fixed summation order per
-/// pixel: first sample, plus each further sample in order, times 1/K).
+/// pixel: first sample, plus each further sample in order, times 1/K). Layers that do not move
+/// during the exposure are rasterised once.
 fn accumulate(
     window: &PixelRect,
     snaps: &[PreparedSnapshot],
     raster: &mut RasterScratch,
+    statics: &mut StaticCoverage,
     sample: &mut Vec<f32>,
     out: &mut [f32],
 ) {
     let k = snaps.len();
-    snaps[0].render_into(window, raster, out);
     if k == 1 {
+        snaps[0].render_into(window, raster, out);
         return;
     }
+    statics.compute(snaps, window);
+    snaps[0].render_with_static(window, raster, Some(statics), out);
     sample.resize(window.len(), 0.0);
     for s in &snaps[1..] {
-        s.render_into(window, raster, sample);
+        s.render_with_static(window, raster, Some(statics), sample);
         for (o, t) in out.iter_mut().zip(sample.iter()) {
             *o += t;
         }
