@@ -74,9 +74,7 @@ impl BandPipeline<'_> {
         let n_rows = band.height + 2 * r;
         if let Samples::Rolling(prepare) = &self.samples {
             scratch.row_samples.clear();
-            scratch
-                .row_samples
-                .extend((rows.0..rows.1).map(prepare));
+            scratch.row_samples.extend((rows.0..rows.1).map(prepare));
         }
         let snaps_of_row = |i: usize| -> &[PreparedSnapshot] {
             match &self.samples {
@@ -132,7 +130,7 @@ impl BandPipeline<'_> {
         }
         let width = (ob - oa) as usize;
         let window = PixelRect::new(oa - ri, rows.0, width + 2 * r, n_rows);
-        scratch.radiance.clear();
+        // Stale contents are fine below: every stage overwrites all of its buffer.
         scratch.radiance.resize(window.len(), 0.0);
         match &self.samples {
             Samples::Global(snaps) => accumulate(
@@ -164,7 +162,6 @@ impl BandPipeline<'_> {
                 values: &scratch.radiance,
             };
         }
-        scratch.horizontal.clear();
         scratch.horizontal.resize(width * n_rows, 0.0);
         for (h, src) in scratch
             .horizontal
@@ -173,7 +170,6 @@ impl BandPipeline<'_> {
         {
             convolve_row(src, &self.weights, h);
         }
-        scratch.blurred.clear();
         scratch.blurred.resize(width * band.height, 0.0);
         for (y, out) in scratch.blurred.chunks_exact_mut(width).enumerate() {
             convolve_column(&scratch.horizontal, width, y, &self.weights, out);
