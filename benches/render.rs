@@ -85,7 +85,10 @@ fn main() {
     ];
     // Optional filter: `cargo bench --bench render -- noise` runs the configs whose name
     // contains "noise".
-    let filter: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
     println!("threads: {}", rayon::current_num_threads());
     for (name, effects) in configs {
         if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {

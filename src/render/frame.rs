@@ -16,6 +16,10 @@
 //! blocks are aligned to the absolute 8-pixel grid (the window is grown to the grid, clipped to
 //! the frame, compressed and cropped). Rows are processed in parallel with rayon; the result
 //! does not depend on the thread count.
+//!
+//! Speed: each band of rows goes through rasterising, exposure averaging, blur, noise, tone
+//! and quantisation while its buffers are in cache ([`bands`], [`tone`]), and only the columns
+//! some layer reaches are rasterised and blurred — the flat rest of a band is one constant.
 
 mod bands;
 mod tone;
