@@ -18,7 +18,7 @@
 //! does not depend on the thread count.
 //!
 //! Speed: each band of rows goes through rasterising, exposure averaging, blur, noise, tone
-//! and quantisation while its buffers are in cache ([`bands`], [`tone`]), and only the columns
+//! and quantisation while its buffers are in cache (`bands`, `tone`), and only the columns
 //! some layer reaches are rasterised and blurred — the flat rest of a band is one constant.
 
 mod bands;
