@@ -31,21 +31,50 @@ use super::raster::{PixelRect, PreparedSnapshot};
 use super::shapes::{SceneAt, SceneSnapshot};
 use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
 use rayon::prelude::*;
+use std::sync::Mutex;
 use tone::ToneMap;
 
-/// Buffers reused from frame to frame by [`render_frame_with`] (one set per band of rows).
+/// Buffers reused from frame to frame by [`render_frame_with`]: a pool of band buffers, one
+/// per band being rendered at a time (about one per thread), so memory stays bounded by the
+/// thread count even when a band's active columns span the whole frame.
 #[derive(Debug, Default)]
 pub struct FrameBuffers {
-    bands: Vec<BandScratch>,
+    pool: Mutex<Vec<BandScratch>>,
+}
+
+/// A band buffer borrowed from the pool, returned on drop (the contents never affect a result:
+/// every stage overwrites what it reads).
+struct Borrowed<'a> {
+    pool: &'a Mutex<Vec<BandScratch>>,
+    scratch: Option<BandScratch>,
 }
 
 impl FrameBuffers {
-    fn for_bands(&mut self, rect: &PixelRect) -> &mut [BandScratch] {
-        let n = rect.height.div_ceil(BAND_ROWS);
-        if self.bands.len() < n {
-            self.bands.resize_with(n, BandScratch::default);
+    fn borrow(&self) -> Borrowed<'_> {
+        let scratch = self.pool.lock().ok().and_then(|mut p| p.pop());
+        Borrowed {
+            pool: &self.pool,
+            scratch: Some(scratch.unwrap_or_default()),
         }
-        &mut self.bands[..n]
+    }
+}
+
+impl Borrowed<'_> {
+    fn get(&mut self) -> &mut BandScratch {
+        self.scratch.get_or_insert_with(BandScratch::default)
+    }
+}
+
+impl Drop for Borrowed<'_> {
+    fn drop(&mut self) {
+        // A buffer abandoned by a panic may break the rasteriser's all-zero accumulator
+        // invariant: drop it instead of pooling it.
+        if std::thread::panicking() {
+            return;
+        }
+        if let (Some(s), Ok(mut pool)) = (self.scratch.take(), self.pool.lock()) {
+            pool.push(s);
+        }
     }
 }
 
@@ -113,21 +142,23 @@ pub fn render_frame_with(
         let rect = jpeg_rect;
         pixels
             .par_chunks_mut(rect.width * BAND_ROWS)
-            .zip(buffers.for_bands(&rect).par_iter_mut())
             .enumerate()
-            .for_each(|(b, (out, scratch))| {
-                let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
-                let v = pipeline.render(&band, scratch);
-                let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
-                for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
-                    let y = band.y0 + r as i64;
-                    let (o_left, rest) = o.split_at_mut(left);
-                    let (o_mid, o_right) = rest.split_at_mut(mid);
-                    tone.constant_run(v.constant, rect.x0, y, o_left);
-                    tone.run(v.row(r), v.x0, y, o_mid);
-                    tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
-                }
-            });
+            .for_each_init(
+                || buffers.borrow(),
+                |scratch, (b, out)| {
+                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                    let v = pipeline.render(&band, scratch.get());
+                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
+                        let y = band.y0 + r as i64;
+                        let (o_left, rest) = o.split_at_mut(left);
+                        let (o_mid, o_right) = rest.split_at_mut(mid);
+                        tone.constant_run(v.constant, rect.x0, y, o_left);
+                        tone.run(v.row(r), v.x0, y, o_mid);
+                        tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
+                    }
+                },
+            );
     }
     if fx.compression.enabled && !jpeg_rect.is_empty() {
         if let Ok(p) = compression::jpeg_round_trip(
@@ -159,19 +190,21 @@ pub fn render_linear(
     let mut data = vec![0.0f32; rect.len()];
     if !rect.is_empty() {
         let pipeline = band_pipeline(scene, settings, frame);
-        let mut buffers = FrameBuffers::default();
+        let buffers = FrameBuffers::default();
         data.par_chunks_mut(rect.width * BAND_ROWS)
-            .zip(buffers.for_bands(rect).par_iter_mut())
             .enumerate()
-            .for_each(|(b, (out, scratch))| {
-                let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
-                let v = pipeline.render(&band, scratch);
-                let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
-                for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
-                    o.fill(v.constant);
-                    o[left..left + mid].copy_from_slice(v.row(r));
-                }
-            });
+            .for_each_init(
+                || buffers.borrow(),
+                |scratch, (b, out)| {
+                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                    let v = pipeline.render(&band, scratch.get());
+                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
+                        o.fill(v.constant);
+                        o[left..left + mid].copy_from_slice(v.row(r));
+                    }
+                },
+            );
     }
     LinearImage {
         window: *rect,

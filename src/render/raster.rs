@@ -23,7 +23,7 @@
 //!
 //! Pixel convention: OpenCV's — pixel (i, j) has its centre at (i, j) and covers
 //! [i − 0.5, i + 0.5] × [j − 0.5, j + 0.5]. Internally coordinates are shifted by +0.5 so pixel i
-//! covers [i, i + 1]; that shift happens only in [`to_fixed`].
+//! covers [i, i + 1]; that shift happens only in `to_fixed`.
 
 mod composite;
 
