@@ -82,6 +82,11 @@ fn main() {
             "defaults (+motion blur, spinning 3 rad/s)",
             EffectsConfig::default(),
         ),
+        ("defaults + rolling shutter", {
+            let mut fx = EffectsConfig::default();
+            fx.rolling_shutter.enabled = true;
+            fx
+        }),
     ];
     // Optional filter: `cargo bench --bench render -- noise` runs the configs whose name
     // contains "noise".
