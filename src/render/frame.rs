@@ -16,27 +16,66 @@
 //! blocks are aligned to the absolute 8-pixel grid (the window is grown to the grid, clipped to
 //! the frame, compressed and cropped). Rows are processed in parallel with rayon; the result
 //! does not depend on the thread count.
+//!
+//! Speed: each band of rows goes through rasterising, exposure averaging, blur, noise, tone
+//! and quantisation while its buffers are in cache (`bands`, `tone`), and only the columns
+//! some layer reaches are rasterised and blurred — the flat rest of a band is one constant.
+
+mod bands;
+mod tone;
 
 use super::effects::camera_vibration::Vibration;
-use super::effects::{
-    compression, lighting, motion_blur, optical_blur, pixel_noise, EffectsConfig,
-};
+use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
-use super::raster::{PixelRect, PreparedSnapshot, RasterScratch};
+use super::raster::{PixelRect, PreparedSnapshot};
 use super::shapes::{SceneAt, SceneSnapshot};
+use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
 use rayon::prelude::*;
-use std::borrow::Cow;
+use std::sync::Mutex;
+use tone::ToneMap;
 
-/// Rows per parallel band when all rows share the same instants (global shutter).
-const BAND_ROWS: usize = 16;
-
-/// Buffers reused from frame to frame by [`render_frame_with`] (allocating fresh
-/// multi-megabyte buffers per 4K frame costs more in page faults than rendering).
+/// Buffers reused from frame to frame by [`render_frame_with`]: a pool of band buffers, one
+/// per band being rendered at a time (about one per thread), so memory stays bounded by the
+/// thread count even when a band's active columns span the whole frame.
 #[derive(Debug, Default)]
 pub struct FrameBuffers {
-    radiance: Vec<f32>,
-    blur_tmp: Vec<f32>,
-    blurred: Vec<f32>,
+    pool: Mutex<Vec<BandScratch>>,
+}
+
+/// A band buffer borrowed from the pool, returned on drop (the contents never affect a result:
+/// every stage overwrites what it reads).
+struct Borrowed<'a> {
+    pool: &'a Mutex<Vec<BandScratch>>,
+    scratch: Option<BandScratch>,
+}
+
+impl FrameBuffers {
+    fn borrow(&self) -> Borrowed<'_> {
+        let scratch = self.pool.lock().ok().and_then(|mut p| p.pop());
+        Borrowed {
+            pool: &self.pool,
+            scratch: Some(scratch.unwrap_or_default()),
+        }
+    }
+}
+
+impl Borrowed<'_> {
+    fn get(&mut self) -> &mut BandScratch {
+        self.scratch.get_or_insert_with(BandScratch::default)
+    }
+}
+
+impl Drop for Borrowed<'_> {
+    fn drop(&mut self) {
+        // A buffer abandoned by a panic may break the rasteriser's all-zero accumulator
+        // invariant: drop it instead of pooling it.
+        if std::thread::panicking() {
+            return;
+        }
+        if let (Some(s), Ok(mut pool)) = (self.scratch.take(), self.pool.lock()) {
+            pool.push(s);
+        }
+    }
 }
 
 /// What every frame of a scenario shares.
@@ -90,8 +129,37 @@ pub fn render_frame_with(
     } else {
         window
     };
-    let linear = render_linear_into(scene, settings, frame, &jpeg_rect, buffers);
-    let mut pixels = to_gray(&jpeg_rect, linear, settings, frame.index);
+    let mut pixels = vec![0u8; jpeg_rect.len()];
+    if !jpeg_rect.is_empty() {
+        let pipeline = band_pipeline(scene, settings, frame);
+        let tone = ToneMap::new(
+            fx,
+            settings.seed,
+            frame.index,
+            settings.width_px,
+            settings.height_px,
+        );
+        let rect = jpeg_rect;
+        pixels
+            .par_chunks_mut(rect.width * BAND_ROWS)
+            .enumerate()
+            .for_each_init(
+                || buffers.borrow(),
+                |scratch, (b, out)| {
+                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                    let v = pipeline.render(&band, scratch.get());
+                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
+                        let y = band.y0 + r as i64;
+                        let (o_left, rest) = o.split_at_mut(left);
+                        let (o_mid, o_right) = rest.split_at_mut(mid);
+                        tone.constant_run(v.constant, rect.x0, y, o_left);
+                        tone.run(v.row(r), v.x0, y, o_mid);
+                        tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
+                    }
+                },
+            );
+    }
     if fx.compression.enabled && !jpeg_rect.is_empty() {
         if let Ok(p) = compression::jpeg_round_trip(
             &pixels,
@@ -119,24 +187,38 @@ pub fn render_linear(
     frame: &FrameRequest,
     rect: &PixelRect,
 ) -> LinearImage {
-    let mut buffers = FrameBuffers::default();
-    let data = render_linear_into(scene, settings, frame, rect, &mut buffers).to_vec();
+    let mut data = vec![0.0f32; rect.len()];
+    if !rect.is_empty() {
+        let pipeline = band_pipeline(scene, settings, frame);
+        let buffers = FrameBuffers::default();
+        data.par_chunks_mut(rect.width * BAND_ROWS)
+            .enumerate()
+            .for_each_init(
+                || buffers.borrow(),
+                |scratch, (b, out)| {
+                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                    let v = pipeline.render(&band, scratch.get());
+                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
+                        o.fill(v.constant);
+                        o[left..left + mid].copy_from_slice(v.row(r));
+                    }
+                },
+            );
+    }
     LinearImage {
         window: *rect,
         data,
     }
 }
 
-fn render_linear_into<'b>(
-    scene: &dyn SceneAt,
-    settings: &RenderSettings,
+/// The exposure samples (K from the scene's motion) and blur taps of one frame.
+fn band_pipeline<'a>(
+    scene: &'a dyn SceneAt,
+    settings: &'a RenderSettings,
     frame: &FrameRequest,
-    rect: &PixelRect,
-    buffers: &'b mut FrameBuffers,
-) -> &'b [f32] {
+) -> BandPipeline<'a> {
     let fx = &settings.effects;
-    let radius = fx.optical_blur.radius_px();
-    let src = rect.expand(radius);
     let vibration = Vibration::new(
         &fx.camera_vibration,
         settings.seed,
@@ -156,105 +238,26 @@ fn render_linear_into<'b>(
         fx.motion_blur.sample_count(0.0)
     };
     let offsets = motion_blur::sample_offsets_s(exposure_s, k);
-    let prepare = |t: f64| {
+    let prepare = move |t: f64| {
         let transform = vibration.as_ref().map(|v| v.at(t));
         PreparedSnapshot::new(&scene.snapshot(t), transform.as_ref())
     };
-    let data = &mut buffers.radiance;
-    data.clear();
-    data.resize(src.len(), 0.0);
-    if !src.is_empty() {
-        if fx.rolling_shutter.enabled {
-            data.par_chunks_mut(src.width)
-                .enumerate()
-                .for_each(|(r, out)| {
-                    let y = src.y0 + r as i64;
-                    let t_row = frame.t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
-                    accumulate(&src.rows(y, 1), out, k, &|i| {
-                        Cow::Owned(prepare(t_row + offsets[i]))
-                    });
-                });
-        } else {
-            let snaps: Vec<PreparedSnapshot> =
-                offsets.iter().map(|o| prepare(frame.t_s + o)).collect();
-            data.par_chunks_mut(src.width * BAND_ROWS)
-                .enumerate()
-                .for_each(|(b, out)| {
-                    let band = src.rows(src.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
-                    accumulate(&band, out, k, &|i| Cow::Borrowed(&snaps[i]));
-                });
-        }
-    }
-    if radius == 0 {
-        return &buffers.radiance;
-    }
-    let weights = optical_blur::kernel(fx.optical_blur.sigma_px, radius);
-    optical_blur::blur_separable_into(
-        &buffers.radiance,
-        src.width,
-        src.height,
-        &weights,
-        &mut buffers.blur_tmp,
-        &mut buffers.blurred,
-    );
-    &buffers.blurred
-}
-
-/// Averages the K sample renders of `band` into `out` (fixed summation order per pixel).
-fn accumulate<'a>(
-    band: &PixelRect,
-    out: &mut [f32],
-    k: usize,
-    snaps: &dyn Fn(usize) -> Cow<'a, PreparedSnapshot>,
-) {
-    let mut scratch = RasterScratch::default();
-    let mut tmp = vec![0.0f32; if k > 1 { band.len() } else { 0 }];
-    snaps(0).render_into(band, &mut scratch, out);
-    for i in 1..k {
-        snaps(i).render_into(band, &mut scratch, &mut tmp);
-        for (o, t) in out.iter_mut().zip(&tmp) {
-            *o += t;
-        }
-    }
-    if k > 1 {
-        let inv_k = 1.0 / k as f32;
-        out.iter_mut().for_each(|o| *o *= inv_k);
-    }
-}
-
-/// Lighting, noise, tone curve and quantisation, per pixel at its absolute position.
-fn to_gray(
-    rect: &PixelRect,
-    linear: &[f32],
-    settings: &RenderSettings,
-    frame_index: u64,
-) -> Vec<u8> {
-    let fx = &settings.effects;
-    let rect = *rect;
-    let mut out = vec![0u8; rect.len()];
-    if rect.is_empty() {
-        return out;
-    }
-    let tone = fx.lighting.tone();
-    let key = pixel_noise::frame_key(settings.seed, frame_index);
-    let noise = fx.pixel_noise.enabled.then_some(&fx.pixel_noise);
-    out.par_chunks_mut(rect.width)
-        .zip(linear.par_chunks(rect.width))
-        .enumerate()
-        .for_each(|(r, (o_row, l_row))| {
-            let y = rect.y0 + r as i64;
-            for (i, (o, &v)) in o_row.iter_mut().zip(l_row).enumerate() {
-                let x = rect.x0 + i as i64;
-                let mut s = v * fx
-                    .lighting
-                    .gain(x, y, settings.width_px, settings.height_px);
-                if let Some(n) = noise {
-                    s = n.apply(s, pixel_noise::normal_at(key, x, y));
-                }
-                *o = lighting::quantise(tone.dn(s));
-            }
-        });
-    out
+    let t_s = frame.t_s;
+    let samples = if fx.rolling_shutter.enabled {
+        Samples::Rolling(Box::new(move |y: i64| {
+            let t_row = t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
+            offsets.iter().map(|o| prepare(t_row + o)).collect()
+        }))
+    } else {
+        Samples::Global(offsets.iter().map(|o| prepare(t_s + o)).collect())
+    };
+    let radius = fx.optical_blur.radius_px();
+    let weights = if radius == 0 {
+        Vec::new()
+    } else {
+        optical_blur::kernel(fx.optical_blur.sigma_px, radius)
+    };
+    BandPipeline { samples, weights }
 }
 
 /// Largest image distance (px) any scene vertex travels during the exposure of any row.

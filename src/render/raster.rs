@@ -23,7 +23,11 @@
 //!
 //! Pixel convention: OpenCV's — pixel (i, j) has its centre at (i, j) and covers
 //! [i − 0.5, i + 0.5] × [j − 0.5, j + 0.5]. Internally coordinates are shifted by +0.5 so pixel i
-//! covers [i, i + 1]; that shift happens only in [`to_fixed`].
+//! covers [i, i + 1]; that shift happens only in `to_fixed`.
+
+mod composite;
+
+pub use composite::{RasterScratch, StaticCoverage};
 
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;
@@ -142,9 +146,24 @@ fn to_fixed(v_px: f64) -> i64 {
     ((v_px.clamp(-COORD_LIMIT_PX, COORD_LIMIT_PX) + 0.5) * ONE as f64).round() as i64
 }
 
+/// `v.round() as i64` (half away from zero, saturating) without the libm call `round` costs
+/// on baseline x86-64: the truncation and the fraction `v − trunc(v)` are both exact.
+#[inline]
+fn round_to_i64(v: f64) -> i64 {
+    let t = v as i64;
+    let frac = v - t as f64;
+    if frac >= 0.5 {
+        t.saturating_add(1)
+    } else if frac <= -0.5 {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
 /// One polygon edge in canonical direction (ya < yb) with the sign that makes a polygon's
 /// interior coverage +1 whatever its winding.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Edge {
     xa: i64,
     ya: i64,
@@ -182,12 +201,12 @@ impl Edge {
         } else if y >= self.yb {
             self.xb
         } else {
-            self.xa + ((y - self.ya) as f64 * self.dxdy).round() as i64
+            self.xa + round_to_i64((y - self.ya) as f64 * self.dxdy)
         }
     }
 
     fn y_at(&self, x: i64) -> i64 {
-        self.ya + ((x - self.xa) as f64 * self.dydx).round() as i64
+        self.ya + round_to_i64((x - self.xa) as f64 * self.dydx)
     }
 
     /// Adds this edge's exact area deposits for the rows of `window` into `acc`
@@ -394,13 +413,6 @@ pub struct PreparedSnapshot {
     layers: Vec<PreparedLayer>,
 }
 
-/// Reusable buffers for [`PreparedSnapshot::render_into`].
-#[derive(Debug, Default)]
-pub struct RasterScratch {
-    acc: Vec<i64>,
-    coverage: Vec<f32>,
-}
-
 impl PreparedSnapshot {
     /// Prepares `snapshot`, applying the image-space `transform` (camera vibration) exactly to
     /// every vertex first.
@@ -415,35 +427,35 @@ impl PreparedSnapshot {
         }
     }
 
-    /// Linear radiance of every pixel of `window` (row-major, `window.len()` values) into `out`:
-    /// background, then each layer "over" it: v ← v·(1 − c) + radiance·c.
-    pub fn render_into(&self, window: &PixelRect, scratch: &mut RasterScratch, out: &mut [f32]) {
-        out[..window.len()].fill(self.background_radiance);
-        if window.is_empty() {
-            return;
-        }
-        scratch.coverage.resize(window.len(), 0.0);
+    /// Radiance of every pixel no layer covers.
+    pub fn background_radiance(&self) -> f32 {
+        self.background_radiance
+    }
+
+    /// Columns `[a, b)` (absolute) outside which no layer can cover any pixel of rows
+    /// `y0 .. y1`: there `render_into` leaves the background untouched. `None` if no layer
+    /// reaches those rows.
+    pub fn active_columns(&self, y0: i64, y1: i64) -> Option<(i64, i64)> {
+        let mut hull: Option<(i64, i64)> = None;
         for layer in &self.layers {
             if layer.edges.is_empty() {
                 continue;
             }
-            // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
-            // rasteriser gives the same coverage there whatever window it runs on.
-            let fp = layer.footprint(window);
-            if fp.is_empty() || !layer.coverage(&fp, &mut scratch.acc, &mut scratch.coverage) {
+            let fp = layer.footprint(&PixelRect::new(
+                layer.col_min,
+                y0,
+                (layer.col_max - layer.col_min + 1) as usize,
+                (y1 - y0).max(0) as usize,
+            ));
+            if fp.is_empty() {
                 continue;
             }
-            let r = layer.radiance;
-            for (row, cov_row) in scratch.coverage[..fp.len()]
-                .chunks_exact(fp.width)
-                .enumerate()
-            {
-                let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
-                for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
-                    *v = *v * (1.0 - c) + r * c;
-                }
-            }
+            hull = Some(match hull {
+                None => (fp.x0, fp.x1()),
+                Some((a, b)) => (a.min(fp.x0), b.max(fp.x1())),
+            });
         }
+        hull
     }
 }
 

@@ -2,7 +2,6 @@
 //! fixed truncation radius (so a region of interest needs exactly that much margin).
 
 use crate::validation::{join, Problems};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Truncation of the Gaussian kernel in standard deviations (weights beyond are < 3.4·10⁻⁴ of
@@ -56,9 +55,8 @@ pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
 
 /// Separable blur of `src` (`src_w` × `src_h`, row-major) with `weights` (odd length 2r + 1);
 /// the result is the `src_w − 2r` × `src_h − 2r` interior. Every output depends only on its
-/// (2r+1)² neighbourhood, computed in a fixed order, so the result is independent of the window.
-/// Constant neighbourhoods skip the multiply-adds (most of a marker frame is flat) but give the
-/// same bits as the full sum.
+/// (2r+1)² neighbourhood, computed in a fixed order, so the result is independent of the window
+/// (a flat neighbourhood gives exactly `constant_response` applied twice).
 pub fn blur_separable(src: &[f32], src_w: usize, src_h: usize, weights: &[f32]) -> Vec<f32> {
     let mut out = Vec::new();
     blur_separable_into(src, src_w, src_h, weights, &mut Vec::new(), &mut out);
@@ -77,92 +75,44 @@ pub fn blur_separable_into(
 ) {
     let r = weights.len() / 2;
     let (out_w, out_h) = (src_w - 2 * r, src_h - 2 * r);
-    // Horizontal pass: all rows, interior columns.
     tmp.clear();
     tmp.resize(out_w * src_h, 0.0);
-    tmp.par_chunks_mut(out_w)
-        .zip(src.par_chunks(src_w))
-        .for_each(|(tmp_row, src_row)| {
-            convolve_row(src_row, weights, tmp_row);
-        });
-    let tmp: &[f32] = tmp;
-    // Vertical pass: row-wise multiply-adds (vectorises; the fixed tap order keeps it exact
-    // per pixel whatever the window).
+    for (tmp_row, src_row) in tmp.chunks_exact_mut(out_w).zip(src.chunks_exact(src_w)) {
+        convolve_row(src_row, weights, tmp_row);
+    }
     out.clear();
     out.resize(out_w * out_h, 0.0);
-    // Chunks of a row that hold one constant value; an output chunk whose 2r + 1 source chunks
-    // are the same constant is that constant (flat areas far from edges cost no multiplies).
-    const CHUNK: usize = 64;
-    let chunks = out_w.div_ceil(CHUNK);
-    let constant: Vec<Option<f32>> = tmp
-        .par_chunks(out_w)
-        .flat_map_iter(|row| {
-            row.chunks(CHUNK)
-                .map(|c| c.iter().all(|&v| v == c[0]).then_some(c[0]))
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    out.par_chunks_mut(out_w)
-        .enumerate()
-        .for_each(|(y, out_row)| {
-            let flat: Vec<Option<f32>> = (0..chunks)
-                .map(|c| {
-                    let first = constant[y * chunks + c];
-                    (first.is_some()
-                        && (1..weights.len()).all(|k| constant[(y + k) * chunks + c] == first))
-                    .then_some(first)
-                    .flatten()
-                })
-                .collect();
-            for (c, dst) in out_row.chunks_mut(CHUNK).enumerate() {
-                if let Some(v) = flat[c] {
-                    dst.fill(constant_response(weights, v));
-                    continue;
-                }
-                let x0 = c * CHUNK;
-                for (k, &w) in weights.iter().enumerate() {
-                    let row = &tmp[(y + k) * out_w + x0..][..dst.len()];
-                    for (a, &v) in dst.iter_mut().zip(row) {
-                        *a += w * v;
-                    }
-                }
-            }
-        });
+    for (y, out_row) in out.chunks_exact_mut(out_w).enumerate() {
+        convolve_column(tmp, out_w, y, weights, out_row);
+    }
 }
 
-/// One row: out[x] = Σ_k w[k]·src[x + k]; constant neighbourhoods copy the input value.
-fn convolve_row(src: &[f32], weights: &[f32], out: &mut [f32]) {
-    let n = weights.len();
-    // run_end[x]: first index ≥ x whose value differs from src[x].
-    let mut same_until = vec![0usize; src.len()];
-    let mut end = src.len();
-    for x in (0..src.len()).rev() {
-        if x + 1 < src.len() && src[x + 1] != src[x] {
-            end = x + 1;
+/// One row: `out[x] = Σ_k w[k]·src[x + k]`, summed from 0 in tap order. Tap-major loops keep
+/// that per-pixel order (so the bits do not depend on the window) and vectorise.
+pub fn convolve_row(src: &[f32], weights: &[f32], out: &mut [f32]) {
+    out.fill(0.0);
+    let n = out.len();
+    for (k, &w) in weights.iter().enumerate() {
+        for (o, &v) in out.iter_mut().zip(&src[k..k + n]) {
+            *o += w * v;
         }
-        same_until[x] = end;
     }
-    let mut cache = (f32::NAN, 0.0f32);
-    for (x, o) in out.iter_mut().enumerate() {
-        if same_until[x] >= x + n {
-            // Same bits as the full sum over a constant neighbourhood, so skipping never
-            // changes a pixel (a window boundary must not change the result).
-            if cache.0.to_bits() != src[x].to_bits() {
-                cache = (src[x], constant_response(weights, src[x]));
-            }
-            *o = cache.1;
-        } else {
-            let mut a = 0.0f32;
-            for (k, &w) in weights.iter().enumerate() {
-                a += w * src[x + k];
-            }
-            *o = a;
+}
+
+/// Output row `y` of the vertical pass over `src` (rows of `width`): `out[x] = Σ_k w[k]·src[y +
+/// k][x]`, summed from 0 in tap order.
+pub fn convolve_column(src: &[f32], width: usize, y: usize, weights: &[f32], out: &mut [f32]) {
+    out.fill(0.0);
+    for (k, &w) in weights.iter().enumerate() {
+        let row = &src[(y + k) * width..][..out.len()];
+        for (o, &v) in out.iter_mut().zip(row) {
+            *o += w * v;
         }
     }
 }
 
 /// The convolution of a constant `v`, evaluated in the same order as the general case.
-fn constant_response(weights: &[f32], v: f32) -> f32 {
+pub fn constant_response(weights: &[f32], v: f32) -> f32 {
     let mut a = 0.0f32;
     for &w in weights {
         a += w * v;

@@ -46,6 +46,36 @@ impl PixelNoiseConfig {
     }
 }
 
+/// [`PixelNoiseConfig::apply`] with its per-config constants hoisted (same operations, same
+/// bits): for a run of pixels in a row.
+#[derive(Debug, Clone, Copy)]
+pub struct NoiseModel {
+    full_well: f32,
+    read_var: f32,
+}
+
+impl NoiseModel {
+    pub fn new(c: &PixelNoiseConfig) -> Self {
+        Self {
+            full_well: c.full_well_e as f32,
+            read_var: (c.read_noise_e * c.read_noise_e) as f32,
+        }
+    }
+
+    /// Mean electrons and σ for normalised signal `s`.
+    #[inline(always)]
+    pub fn electrons(&self, s: f32) -> (f32, f32) {
+        let e = s.max(0.0) * self.full_well;
+        (e, (e + self.read_var).sqrt())
+    }
+
+    /// Noisy normalised signal from [`Self::electrons`] and a standard normal `z`.
+    #[inline(always)]
+    pub fn noisy(&self, e: f32, sigma: f32, z: f32) -> f32 {
+        (e + sigma * z) / self.full_well
+    }
+}
+
 /// SplitMix64 finaliser.
 #[inline]
 fn mix(mut z: u64) -> u64 {
@@ -79,22 +109,47 @@ fn table() -> &'static [f32; TABLE_LEN + 1] {
     })
 }
 
+/// Hash multipliers of the pixel position.
+const X_MUL: u64 = 0x9E37_79B9_7F4A_7C15;
+const Y_MUL: u64 = 0xC2B2_AE3D_27D4_EB4F;
+
 /// A standard normal deviate for pixel (x, y) under `key`: inverse CDF of a 53-bit uniform from
 /// a SplitMix64 hash of the position, by table interpolation (exact Acklam formula in the outer
 /// 1/2048 of the distribution).
 #[inline]
 pub fn normal_at(key: u64, x: i64, y: i64) -> f32 {
-    let h = mix(key
-        ^ (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F));
+    let h = mix(key ^ (x as u64).wrapping_mul(X_MUL) ^ (y as u64).wrapping_mul(Y_MUL));
+    normal_from_hash(h, table())
+}
+
+/// [`normal_at`] for the pixels `x0 .. x0 + out.len()` of row `y` (same values; the row and
+/// table look-ups are hoisted and x·X_MUL is stepped by addition, which is exact mod 2⁶⁴).
+pub fn normals_row(key: u64, x0: i64, y: i64, out: &mut [f32]) {
+    let t = table();
+    let key_y = key ^ (y as u64).wrapping_mul(Y_MUL);
+    let mut x_term = (x0 as u64).wrapping_mul(X_MUL);
+    for o in out {
+        *o = normal_from_hash(mix(key_y ^ x_term), t);
+        x_term = x_term.wrapping_add(X_MUL);
+    }
+}
+
+#[inline(always)]
+fn normal_from_hash(h: u64, t: &[f32; TABLE_LEN + 1]) -> f32 {
     let idx = (h >> (64 - TABLE_BITS)) as usize;
     if idx == 0 || idx == TABLE_LEN - 1 {
-        let u = ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64);
-        return inverse_normal_cdf(u) as f32;
+        return tail_normal(h);
     }
     let frac = ((h >> (64 - TABLE_BITS - 24)) & 0xFF_FFFF) as f32 * (1.0 / (1u32 << 24) as f32);
-    let t = table();
     t[idx] + (t[idx + 1] - t[idx]) * frac
+}
+
+/// The exact path for the two outer table cells (1 pixel in 2048), kept out of line.
+#[cold]
+#[inline(never)]
+fn tail_normal(h: u64) -> f32 {
+    let u = ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64);
+    inverse_normal_cdf(u) as f32
 }
 
 /// Acklam's rational approximation of Φ⁻¹ (relative error < 1.2·10⁻⁹); the central region,
@@ -171,6 +226,17 @@ mod tests {
         assert!((kurt - 3.0).abs() < 0.05, "{kurt}");
         assert!(corr.abs() < 0.01, "{corr}");
         assert_ne!(normal_at(key, 3, 4), normal_at(frame_key(42, 8), 3, 4));
+        let mut row = vec![0.0f32; 100_000]; // ~50 pixels take the exact tail path
+        normals_row(key, -17, 9, &mut row);
+        for (i, z) in row.iter().enumerate() {
+            assert_eq!(z.to_bits(), normal_at(key, i as i64 - 17, 9).to_bits());
+        }
+        let c = PixelNoiseConfig::default();
+        let m = NoiseModel::new(&c);
+        for (s, z) in [(0.3f32, 0.7f32), (-0.1, -2.0), (1.2, 3.1)] {
+            let (e, sigma) = m.electrons(s);
+            assert_eq!(m.noisy(e, sigma, z).to_bits(), c.apply(s, z).to_bits());
+        }
         assert_eq!(normal_at(key, 3, 4), normal_at(frame_key(42, 7), 3, 4));
     }
 }

@@ -209,3 +209,35 @@ fn rigid_transform_rotates_about_the_centre_then_translates() {
     let p = t.apply(DVec2::new(12.0, 10.0));
     assert!((p - DVec2::new(11.0, 12.0)).length() < 1e-12);
 }
+
+#[test]
+fn fast_rounding_matches_the_standard_rounding() {
+    use rand::Rng;
+    let mut rng = crate::rng::stream(3, crate::rng::Stream::MonteCarlo, 1);
+    let special = [
+        0.0,
+        -0.0,
+        0.5,
+        -0.5,
+        1.5,
+        -2.5,
+        0.49999999999999994,
+        -0.49999999999999994,
+        4503599627370495.5,
+        4503599627370497.0,
+        -1e15 - 0.5,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        1e300,
+    ];
+    let random = (0..100_000).map(|i| {
+        let scale = 10f64.powi(i % 16);
+        (rng.gen::<f64>() - 0.5) * scale
+    });
+    for v in special.into_iter().chain(random) {
+        assert_eq!(super::round_to_i64(v), v.round() as i64, "{v}");
+        let half = v.trunc() + 0.5f64.copysign(v);
+        assert_eq!(super::round_to_i64(half), half.round() as i64, "{half}");
+    }
+}

@@ -1,0 +1,229 @@
+//! Fused rendering of one band of output rows to linear values: exposure samples rasterised
+//! and averaged, then the separable optical blur, all in band-sized buffers that stay in cache.
+//!
+//! Only the columns some layer can reach are computed. Every sample's layers lie inside their
+//! bounding boxes, so outside the hull of those boxes (over the band's rows plus the blur
+//! margin) every sample is the background, the exposure average is the average of the
+//! backgrounds and the blur of that constant is [`constant_response`] applied twice — the same
+//! bits the full computation gives there. A band is therefore described by one constant plus the
+//! values of an "active" column range.
+
+use crate::render::effects::optical_blur::{constant_response, convolve_column, convolve_row};
+use crate::render::raster::{PixelRect, PreparedSnapshot, RasterScratch, StaticCoverage};
+
+/// Output rows per band: with a blur margin of r rows, (rows + 2r) / rows of the rasterising
+/// is repeated, and the band's buffers should stay in L2.
+pub(super) const BAND_ROWS: usize = 32;
+
+/// The exposure samples of every row.
+pub(super) enum Samples<'a> {
+    /// Global shutter: the K prepared snapshots shared by every row.
+    Global(Vec<PreparedSnapshot>),
+    /// Rolling shutter: the K prepared snapshots of absolute row y.
+    Rolling(Box<dyn Fn(i64) -> Vec<PreparedSnapshot> + Sync + 'a>),
+}
+
+/// What every band of a frame shares.
+pub(super) struct BandPipeline<'a> {
+    pub samples: Samples<'a>,
+    /// Normalised blur taps (2r + 1 of them); empty without optical blur.
+    pub weights: Vec<f32>,
+}
+
+/// Buffers of one band, reused from frame to frame.
+#[derive(Debug, Default)]
+pub struct BandScratch {
+    raster: RasterScratch,
+    statics: StaticCoverage,
+    radiance: Vec<f32>,
+    sample: Vec<f32>,
+    horizontal: Vec<f32>,
+    blurred: Vec<f32>,
+    row_samples: Vec<Vec<PreparedSnapshot>>,
+}
+
+/// Linear values of a band: `constant` outside columns `x0 .. x0 + width`, `values` (row-major,
+/// `width` per row) inside.
+pub(super) struct BandValues<'s> {
+    pub constant: f32,
+    pub x0: i64,
+    pub width: usize,
+    pub values: &'s [f32],
+}
+
+impl BandValues<'_> {
+    pub(super) fn row(&self, r: usize) -> &[f32] {
+        &self.values[r * self.width..][..self.width]
+    }
+}
+
+impl BandPipeline<'_> {
+    fn radius(&self) -> usize {
+        self.weights.len() / 2
+    }
+
+    /// Linear values of the pixels of `band` (a block of whole rows of the output rectangle).
+    pub(super) fn render<'s>(
+        &self,
+        band: &PixelRect,
+        scratch: &'s mut BandScratch,
+    ) -> BandValues<'s> {
+        let r = self.radius();
+        let ri = r as i64;
+        let rows = (band.y0 - ri, band.y1() + ri);
+        let n_rows = band.height + 2 * r;
+        if let Samples::Rolling(prepare) = &self.samples {
+            scratch.row_samples.clear();
+            scratch.row_samples.extend((rows.0..rows.1).map(prepare));
+        }
+        let snaps_of_row = |i: usize| -> &[PreparedSnapshot] {
+            match &self.samples {
+                Samples::Global(s) => s,
+                Samples::Rolling(_) => &scratch.row_samples[i],
+            }
+        };
+        // The uncovered value of each radiance row; rows that disagree (a background changing
+        // during a rolling readout) make the whole band active.
+        let background = exposure_average(snaps_of_row(0).iter().map(|s| s.background_radiance()));
+        let uniform = (1..n_rows).all(|i| {
+            exposure_average(snaps_of_row(i).iter().map(|s| s.background_radiance())).to_bits()
+                == background.to_bits()
+        });
+        let hull = if !uniform {
+            Some((band.x0 - ri, band.x1() + ri))
+        } else {
+            let mut hull: Option<(i64, i64)> = None;
+            let mut add = |s: &PreparedSnapshot, y0: i64, y1: i64| {
+                if let Some((a, b)) = s.active_columns(y0, y1) {
+                    hull = Some(hull.map_or((a, b), |(ha, hb)| (ha.min(a), hb.max(b))));
+                }
+            };
+            match &self.samples {
+                Samples::Global(s) => s.iter().for_each(|s| add(s, rows.0, rows.1)),
+                Samples::Rolling(_) => {
+                    for (i, snaps) in scratch.row_samples.iter().enumerate() {
+                        let y = rows.0 + i as i64;
+                        snaps.iter().for_each(|s| add(s, y, y + 1));
+                    }
+                }
+            }
+            hull
+        };
+        let constant = if r == 0 {
+            background
+        } else {
+            let h = constant_response(&self.weights, background);
+            constant_response(&self.weights, h)
+        };
+        // Output columns whose blur neighbourhood reaches the hull.
+        let (oa, ob) = match hull {
+            Some((a, b)) => ((a - ri).max(band.x0), (b + ri).min(band.x1())),
+            None => (band.x0, band.x0),
+        };
+        if ob <= oa {
+            return BandValues {
+                constant,
+                x0: band.x0,
+                width: 0,
+                values: &[],
+            };
+        }
+        let width = (ob - oa) as usize;
+        let window = PixelRect::new(oa - ri, rows.0, width + 2 * r, n_rows);
+        // Stale contents are fine below: every stage overwrites all of its buffer.
+        scratch.radiance.resize(window.len(), 0.0);
+        match &self.samples {
+            Samples::Global(snaps) => accumulate(
+                &window,
+                snaps,
+                &mut scratch.raster,
+                &mut scratch.statics,
+                &mut scratch.sample,
+                &mut scratch.radiance,
+            ),
+            Samples::Rolling(_) => {
+                for (i, out) in scratch.radiance.chunks_exact_mut(window.width).enumerate() {
+                    accumulate(
+                        &window.rows(rows.0 + i as i64, 1),
+                        &scratch.row_samples[i],
+                        &mut scratch.raster,
+                        &mut scratch.statics,
+                        &mut scratch.sample,
+                        out,
+                    );
+                }
+            }
+        }
+        if r == 0 {
+            return BandValues {
+                constant,
+                x0: oa,
+                width,
+                values: &scratch.radiance,
+            };
+        }
+        scratch.horizontal.resize(width * n_rows, 0.0);
+        for (h, src) in scratch
+            .horizontal
+            .chunks_exact_mut(width)
+            .zip(scratch.radiance.chunks_exact(window.width))
+        {
+            convolve_row(src, &self.weights, h);
+        }
+        scratch.blurred.resize(width * band.height, 0.0);
+        for (y, out) in scratch.blurred.chunks_exact_mut(width).enumerate() {
+            convolve_column(&scratch.horizontal, width, y, &self.weights, out);
+        }
+        BandValues {
+            constant,
+            x0: oa,
+            width,
+            values: &scratch.blurred,
+        }
+    }
+}
+
+/// The exposure average of K sample values, summed in sample order then scaled by 1/K
+/// (exactly what [`accumulate`] computes per pixel).
+fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
+    let mut k = 0usize;
+    let mut sum = 0.0f32;
+    for v in values {
+        sum = if k == 0 { v } else { sum + v };
+        k += 1;
+    }
+    if k > 1 {
+        sum * (1.0 / k as f32)
+    } else {
+        sum
+    }
+}
+
+/// Averages the renders of `window` at the K `snaps` into `out` (fixed summation order per
+/// pixel: first sample, plus each further sample in order, times 1/K). Layers that do not move
+/// during the exposure are rasterised once.
+fn accumulate(
+    window: &PixelRect,
+    snaps: &[PreparedSnapshot],
+    raster: &mut RasterScratch,
+    statics: &mut StaticCoverage,
+    sample: &mut Vec<f32>,
+    out: &mut [f32],
+) {
+    let k = snaps.len();
+    if k == 1 {
+        snaps[0].render_into(window, raster, out);
+        return;
+    }
+    statics.compute(snaps, window);
+    snaps[0].render_with_static(window, raster, Some(statics), out);
+    sample.resize(window.len(), 0.0);
+    for s in &snaps[1..] {
+        s.render_with_static(window, raster, Some(statics), sample);
+        for (o, t) in out.iter_mut().zip(sample.iter()) {
+            *o += t;
+        }
+    }
+    let inv_k = 1.0 / k as f32;
+    out.iter_mut().for_each(|o| *o *= inv_k);
+}

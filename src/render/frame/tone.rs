@@ -1,0 +1,122 @@
+//! Linear radiance → 8-bit grey for runs of one row: illumination gain, shot and read noise,
+//! tone curve and quantisation, per pixel at its absolute position.
+//!
+//! Every pixel goes through exactly the operations of the reference per-pixel formula
+//! `quantise(tone.dn(noise.apply(v · gain(x, y), normal_at(key, x, y))))`; the loops only hoist
+//! what is constant along a run (gain under even light, the electron count of a flat run) and
+//! work in small chunks so the arithmetic vectorises.
+
+use crate::render::effects::lighting::{quantise, LightingConfig, Tone};
+use crate::render::effects::pixel_noise::{self, NoiseModel};
+use crate::render::effects::EffectsConfig;
+
+/// Pixels per chunk: the normals and signals of a chunk stay in L1.
+const CHUNK: usize = 256;
+
+/// Everything the conversion of one frame needs.
+pub(super) struct ToneMap<'a> {
+    lighting: &'a LightingConfig,
+    uneven: bool,
+    tone: Tone,
+    noise: Option<NoiseModel>,
+    key: u64,
+    width_px: usize,
+    height_px: usize,
+}
+
+impl<'a> ToneMap<'a> {
+    pub(super) fn new(
+        fx: &'a EffectsConfig,
+        seed: u64,
+        frame_index: u64,
+        width_px: usize,
+        height_px: usize,
+    ) -> Self {
+        Self {
+            lighting: &fx.lighting,
+            uneven: fx.lighting.uneven(),
+            tone: fx.lighting.tone(),
+            noise: fx
+                .pixel_noise
+                .enabled
+                .then(|| NoiseModel::new(&fx.pixel_noise)),
+            key: pixel_noise::frame_key(seed, frame_index),
+            width_px,
+            height_px,
+        }
+    }
+
+    /// Pixels `x0 .. x0 + out.len()` of row `y`, all of linear radiance `v`.
+    pub(super) fn constant_run(&self, v: f32, x0: i64, y: i64, out: &mut [u8]) {
+        if self.uneven {
+            for chunk_start in (0..out.len()).step_by(CHUNK) {
+                let n = CHUNK.min(out.len() - chunk_start);
+                let values = [v; CHUNK];
+                let x = x0 + chunk_start as i64;
+                self.run(&values[..n], x, y, &mut out[chunk_start..chunk_start + n]);
+            }
+            return;
+        }
+        let s = v * 1.0; // the even-light gain, kept so the bits match the general path
+        let Some(noise) = self.noise else {
+            out.fill(quantise(self.tone.dn(s)));
+            return;
+        };
+        let (e, sigma) = noise.electrons(s);
+        let mut z = [0.0f32; CHUNK];
+        for (i, o) in out.chunks_mut(CHUNK).enumerate() {
+            let z = &mut z[..o.len()];
+            pixel_noise::normals_row(self.key, x0 + (i * CHUNK) as i64, y, z);
+            self.tone_chunk(z, o, |z| noise.noisy(e, sigma, z));
+        }
+    }
+
+    /// Pixels `x0 .. x0 + values.len()` of row `y` with linear radiances `values`.
+    pub(super) fn run(&self, values: &[f32], x0: i64, y: i64, out: &mut [u8]) {
+        let mut s = [0.0f32; CHUNK];
+        let mut z = [0.0f32; CHUNK];
+        for (i, (v, o)) in values.chunks(CHUNK).zip(out.chunks_mut(CHUNK)).enumerate() {
+            let xc = x0 + (i * CHUNK) as i64;
+            let s = &mut s[..v.len()];
+            if self.uneven {
+                for (j, (s, &v)) in s.iter_mut().zip(v).enumerate() {
+                    let g = self
+                        .lighting
+                        .gain(xc + j as i64, y, self.width_px, self.height_px);
+                    *s = v * g;
+                }
+            } else {
+                for (s, &v) in s.iter_mut().zip(v) {
+                    *s = v * 1.0;
+                }
+            }
+            let Some(noise) = self.noise else {
+                self.tone_chunk(s, o, |s| s);
+                continue;
+            };
+            let z = &mut z[..v.len()];
+            pixel_noise::normals_row(self.key, xc, y, z);
+            for (s, &z) in s.iter_mut().zip(z.iter()) {
+                let (e, sigma) = noise.electrons(*s);
+                *s = noise.noisy(e, sigma, z);
+            }
+            self.tone_chunk(s, o, |s| s);
+        }
+    }
+
+    /// Tone curve and quantisation of `signal(input[i])` into `out[i]`.
+    #[inline(always)]
+    fn tone_chunk(&self, input: &[f32], out: &mut [u8], signal: impl Fn(f32) -> f32) {
+        let t = self.tone;
+        if t.inv_gamma == 1.0 {
+            for (o, &v) in out.iter_mut().zip(input) {
+                let s = signal(v).clamp(0.0, 1.0);
+                *o = quantise(t.black_dn + t.span_dn * s);
+            }
+        } else {
+            for (o, &v) in out.iter_mut().zip(input) {
+                *o = quantise(t.dn(signal(v)));
+            }
+        }
+    }
+}

@@ -1,0 +1,227 @@
+//! "Over" compositing of a prepared snapshot's layers onto the background, fused with the
+//! coverage prefix sum so that only the cells an edge touched cost a conversion.
+//!
+//! Per pixel the result is exactly `v ← v·(1 − c) + radiance·c` for every layer in order, with
+//! `c` the exact coverage of [`PreparedLayer::coverage`] — the fusion only changes which pixels
+//! share a hoisted `c`:
+//! * along a row, coverage changes only at cells holding a deposit; between them the running
+//!   sum, hence `c`, is constant and the blend is a vectorised loop with constant factors;
+//! * left of a row's first deposit and right of its last one with a zero sum, `c = 0`, and the
+//!   blend `v·1 + r·0` returns `v` unchanged whenever no value can be −0 or non-finite (checked
+//!   once per snapshot), so those pixels are skipped.
+//!
+//! Layers that do not move during an exposure ([`StaticCoverage`]) have their coverage computed
+//! once per window and reused by every sample.
+
+use super::{PixelRect, PreparedLayer, PreparedSnapshot, FULL, ONE};
+
+/// Reusable buffers for [`PreparedSnapshot::render_into`].
+#[derive(Debug, Default)]
+pub struct RasterScratch {
+    /// Deposit accumulator, all zero between uses (each use re-zeroes the cells it touched).
+    acc: Vec<i64>,
+}
+
+/// Coverage of the layers whose edges are identical in every sample of an exposure, over one
+/// window (computed once, blended by every sample).
+#[derive(Debug, Default)]
+pub struct StaticCoverage {
+    /// Per layer index: `Some((footprint, coverage))` if static (row-major over the footprint).
+    layers: Vec<Option<(PixelRect, Vec<f32>)>>,
+    acc: Vec<i64>,
+}
+
+impl StaticCoverage {
+    /// Finds the static layers of `snaps` (all samples of one exposure) and rasterises their
+    /// coverage over `window`. Only worth it for more than one sample.
+    pub fn compute(&mut self, snaps: &[PreparedSnapshot], window: &PixelRect) {
+        let n_layers = snaps.iter().map(|s| s.layers.len()).min().unwrap_or(0);
+        self.layers.resize_with(n_layers, || None);
+        for j in 0..n_layers {
+            let first = &snaps[0].layers[j];
+            let fixed = snaps.len() > 1
+                && !first.edges.is_empty()
+                && snaps[1..].iter().all(|s| s.layers[j].edges == first.edges);
+            let fp = first.footprint(window);
+            if !fixed || fp.is_empty() {
+                self.layers[j] = None;
+                continue;
+            }
+            let mut cov = self.layers[j].take().map(|(_, c)| c).unwrap_or_default();
+            cov.clear();
+            cov.resize(fp.len(), 0.0);
+            first.coverage(&fp, &mut self.acc, &mut cov);
+            self.layers[j] = Some((fp, cov));
+        }
+    }
+
+    fn layer(&self, j: usize) -> Option<&(PixelRect, Vec<f32>)> {
+        self.layers.get(j).and_then(|l| l.as_ref())
+    }
+}
+
+impl PreparedSnapshot {
+    /// Linear radiance of every pixel of `window` (row-major, `window.len()` values) into `out`:
+    /// background, then each layer "over" it: v ← v·(1 − c) + radiance·c.
+    pub fn render_into(&self, window: &PixelRect, scratch: &mut RasterScratch, out: &mut [f32]) {
+        self.render_with_static(window, scratch, None, out);
+    }
+
+    /// [`Self::render_into`] taking the coverage of the layers in `statics` (computed for this
+    /// `window` from snapshots whose layers have the same edges) instead of rasterising them.
+    pub fn render_with_static(
+        &self,
+        window: &PixelRect,
+        scratch: &mut RasterScratch,
+        statics: Option<&StaticCoverage>,
+        out: &mut [f32],
+    ) {
+        out[..window.len()].fill(self.background_radiance);
+        if window.is_empty() {
+            return;
+        }
+        let clean = |v: f32| v.is_finite() && v.is_sign_positive();
+        let skip_uncovered =
+            clean(self.background_radiance) && self.layers.iter().all(|l| clean(l.radiance));
+        for (j, layer) in self.layers.iter().enumerate() {
+            if layer.edges.is_empty() {
+                continue;
+            }
+            if let Some((fp, cov)) = statics.and_then(|s| s.layer(j)) {
+                blend_coverage(fp, cov, layer.radiance, window, out);
+                continue;
+            }
+            // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
+            // rasteriser gives the same coverage there whatever window it runs on.
+            let fp = layer.footprint(window);
+            if !fp.is_empty() {
+                layer.blend_into(&fp, window, &mut scratch.acc, out, skip_uncovered);
+            }
+        }
+    }
+}
+
+impl PreparedLayer {
+    /// Blends this layer over `out` (a `window` buffer) inside its footprint `fp`.
+    fn blend_into(
+        &self,
+        fp: &PixelRect,
+        window: &PixelRect,
+        acc: &mut Vec<i64>,
+        out: &mut [f32],
+        skip_uncovered: bool,
+    ) {
+        let (row_lo, row_hi) = (fp.y0 * ONE, fp.y1() * ONE);
+        if self.y_max <= row_lo || self.y_min >= row_hi {
+            return;
+        }
+        let w = fp.width;
+        let stride = w + 1;
+        let n = stride * fp.height;
+        if acc.len() < n {
+            acc.resize(n, 0);
+        }
+        let acc = &mut acc[..n];
+        for e in &self.edges {
+            if e.yb > row_lo && e.ya < row_hi {
+                e.deposit(fp, acc);
+            }
+        }
+        let r = self.radiance;
+        let scale = 1.0 / FULL as f64;
+        let coverage = |sum: i64| (sum as f64 * scale).clamp(0.0, 1.0) as f32;
+        for (row, a) in acc.chunks_exact_mut(stride).enumerate() {
+            let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
+            let o = &mut out[start..start + w];
+            let Some(lo) = first_nonzero(a) else {
+                if !skip_uncovered {
+                    blend_constant(o, r, 0.0);
+                }
+                continue;
+            };
+            let hi = last_nonzero(a).unwrap_or(lo);
+            if !skip_uncovered {
+                blend_constant(&mut o[..lo.min(w)], r, 0.0);
+            }
+            let end = (hi + 1).min(w);
+            let mut sum = 0i64;
+            let mut x = lo;
+            while x < end {
+                sum += a[x];
+                let c = coverage(sum);
+                o[x] = o[x] * (1.0 - c) + r * c;
+                x += 1;
+                let run_end = next_nonzero(a, x, end);
+                blend_constant(&mut o[x..run_end], r, c);
+                x = run_end;
+            }
+            if end < w {
+                let c = coverage(sum);
+                if !(skip_uncovered && c == 0.0) {
+                    blend_constant(&mut o[end..], r, c);
+                }
+            }
+            a[lo..=hi].fill(0);
+        }
+    }
+}
+
+/// Cells scanned at once when looking for deposits (an OR over a block vectorises).
+const SCAN: usize = 16;
+
+/// Index of the first non-zero cell.
+fn first_nonzero(a: &[i64]) -> Option<usize> {
+    let mut base = 0;
+    for block in a.chunks(SCAN) {
+        if block.iter().fold(0, |m, &v| m | v) != 0 {
+            return block.iter().position(|&v| v != 0).map(|i| base + i);
+        }
+        base += block.len();
+    }
+    None
+}
+
+/// Index of the last non-zero cell.
+fn last_nonzero(a: &[i64]) -> Option<usize> {
+    let mut end = a.len();
+    for block in a.rchunks(SCAN) {
+        let start = end - block.len();
+        if block.iter().fold(0, |m, &v| m | v) != 0 {
+            return block.iter().rposition(|&v| v != 0).map(|i| start + i);
+        }
+        end = start;
+    }
+    None
+}
+
+/// First index in `from .. end` whose deposit is non-zero (`end` if none).
+#[inline]
+fn next_nonzero(a: &[i64], from: usize, end: usize) -> usize {
+    let mut i = from;
+    while i + SCAN <= end && a[i..i + SCAN].iter().fold(0, |m, &v| m | v) == 0 {
+        i += SCAN;
+    }
+    while i < end && a[i] == 0 {
+        i += 1;
+    }
+    i
+}
+
+/// `v ← v·(1 − c) + r·c` with one coverage for the whole run.
+#[inline]
+fn blend_constant(out: &mut [f32], r: f32, c: f32) {
+    let (keep, add) = (1.0 - c, r * c);
+    for v in out {
+        *v = *v * keep + add;
+    }
+}
+
+/// `v ← v·(1 − c) + r·c` with per-pixel coverage `cov` over footprint `fp` of `window`.
+fn blend_coverage(fp: &PixelRect, cov: &[f32], r: f32, window: &PixelRect, out: &mut [f32]) {
+    for (row, cov_row) in cov.chunks_exact(fp.width).enumerate() {
+        let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
+        for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
+            *v = *v * (1.0 - c) + r * c;
+        }
+    }
+}
