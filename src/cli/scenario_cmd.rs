@@ -24,6 +24,16 @@ pub fn run(cmd: ScenarioCmd) -> Result<()> {
         ScenarioCmd::Show { scenario: spec } => {
             let s = scenario::load_any(&spec)?;
             print!("{}", s.to_toml());
+            // The camera both ways: physically and as an image scale, whichever the file gave.
+            match geneva_vision::camera::Camera::new(&s.camera) {
+                Ok(camera) => {
+                    println!();
+                    for line in camera.describe().lines() {
+                        println!("# {line}");
+                    }
+                }
+                Err(e) => println!("# camera: {e}"),
+            }
             Ok(())
         }
         ScenarioCmd::List => {
