@@ -45,8 +45,8 @@ fn subpix_corners_match_the_projected_marker() {
             let (cd, ct) = (mean(&d.corners_px), mean(&truth));
             let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
             assert!(dist(cd, ct) < 0.08, "centre off by {:.3} px (frame {frame}, {side_px:.0} px)", dist(cd, ct));
-            for i in 0..4 {
-                let raw = dist(d.corners_px[i], truth[i]);
+            for (i, (got, want)) in d.corners_px.iter().zip(&truth).enumerate() {
+                let raw = dist(*got, *want);
                 assert!(raw < 0.3, "corner {i} off by {raw:.3} px (frame {frame}, {side_px:.0} px)");
             }
         }
