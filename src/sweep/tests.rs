@@ -480,52 +480,6 @@ fn heatmaps_hold_the_first_two_axes_at_the_recommended_slice() {
 }
 
 #[test]
-#[ignore = "writes example outputs to /tmp/sweep-example for a human look"]
-fn example_outputs() {
-    let (spec, path) = fast_spec();
-    let dir = Path::new("/tmp/sweep-example");
-    let _ = std::fs::remove_dir_all(dir);
-    run_sweep(&spec, &path, dir, &Fake::new(), no_progress()).unwrap();
-    let seed_path = sweeps_dir().join("seed-camera.toml");
-    let seed_spec = SweepSpec::load(&seed_path).unwrap();
-    let seed_dir = dir.join("seed-camera");
-    let out = run_sweep(
-        &seed_spec,
-        &seed_path,
-        &seed_dir,
-        &Fake::new(),
-        no_progress(),
-    )
-    .unwrap();
-    println!(
-        "seed-camera: {} points, first: {} {}",
-        out.summary.len(),
-        out.summary[0].status,
-        out.summary[0].error
-    );
-    for (name, d) in [
-        ("seed", Differentiator::Seed),
-        ("central3", Differentiator::Central3),
-        (
-            "sg9",
-            Differentiator::SavitzkyGolay {
-                window_frames: 9,
-                window_s: None,
-                order: 2,
-            },
-        ),
-    ] {
-        for fps in [24.0, 30.0, 60.0, 120.0] {
-            let h = 1.0 / fps;
-            let peak =
-                crate::budget::detectability::peak_alpha_response(&d, h, 0.05, 0.002).unwrap();
-            let gain = d.noise_gain(h).alpha_per_rad;
-            println!("{name} fps {fps}: peak {peak:.4} rad/s2, alpha gain {gain:.1} /s2, peak/gain {:.3e} rad", peak / gain);
-        }
-    }
-}
-
-#[test]
 fn an_automatic_kalman_lambda_is_reported_not_guessed() {
     let text = "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"diff\"\nlevels = [{ label = \"kalman\", set = { \"estimator.differentiator\" = { kind = \"kalman_rts\" } } }]\n";
     let path = sweeps_dir().join("inline.toml");
