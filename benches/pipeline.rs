@@ -12,8 +12,16 @@ use std::time::Instant;
 fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).map(|l| l.to_string()))
-        .and_then(|l| l.split_whitespace().nth(1).and_then(|v| v.parse::<f64>().ok()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .map(|l| l.to_string())
+        })
+        .and_then(|l| {
+            l.split_whitespace()
+                .nth(1)
+                .and_then(|v| v.parse::<f64>().ok())
+        })
         .map(|kb| kb / 1024.0)
         .unwrap_or(f64::NAN)
 }
@@ -27,7 +35,16 @@ fn main() {
     let dir = std::env::temp_dir().join("geneva-bench-pipeline");
     println!("threads: {}", rayon::current_num_threads());
     let start = Instant::now();
-    let out = run(&s, &dir, &RunOptions { plots: false, ..RunOptions::default() }, &|_, _| {}).expect("run");
+    let out = run(
+        &s,
+        &dir,
+        &RunOptions {
+            plots: false,
+            ..RunOptions::default()
+        },
+        &|_, _| {},
+    )
+    .expect("run");
     let secs = start.elapsed().as_secs_f64();
     println!(
         "seed-internal-4k end to end, ROI detection: {} frames in {:.2} s = {:.1} frames/s ({} ROI, {} full); peak memory {:.0} MB",
@@ -42,7 +59,17 @@ fn main() {
     let frames = 0..24.min(rig.frame_times.len());
     let count = frames.len();
     let start = Instant::now();
-    detect_frames(&rig, frames, FrameLoopOptions { roi: false, chunk_frames: 8 }, |_| Ok(()), &|_| {}).expect("full frame");
+    detect_frames(
+        &rig,
+        frames,
+        FrameLoopOptions {
+            roi: false,
+            chunk_frames: 8,
+        },
+        |_| Ok(()),
+        &|_| {},
+    )
+    .expect("full frame");
     let secs = start.elapsed().as_secs_f64();
     println!(
         "seed-internal-4k render + full-frame detection: {count} frames in {:.2} s = {:.2} frames/s; peak memory {:.0} MB",

@@ -37,17 +37,47 @@ fn subpix_corners_match_the_projected_marker() {
         let side_px = 32.0 / scale;
         assert!(side_px >= 50.0);
         for (frame, &t_s) in rig.frame_times.as_slice().iter().enumerate().step_by(7) {
-            let img = render_frame(&scene, &rig.settings, &FrameRequest { index: frame as u64, t_s, window: rig.frame_rect() });
-            let found = detector.detect(GrayView::full(&img.data, rig.settings.width_px, rig.settings.height_px)).unwrap();
-            let d = found.iter().find(|d| d.id == 0).unwrap_or_else(|| panic!("marker not found, frame {frame}, scale {scale}"));
+            let img = render_frame(
+                &scene,
+                &rig.settings,
+                &FrameRequest {
+                    index: frame as u64,
+                    t_s,
+                    window: rig.frame_rect(),
+                },
+            );
+            let found = detector
+                .detect(GrayView::full(
+                    &img.data,
+                    rig.settings.width_px,
+                    rig.settings.height_px,
+                ))
+                .unwrap();
+            let d = found
+                .iter()
+                .find(|d| d.id == 0)
+                .unwrap_or_else(|| panic!("marker not found, frame {frame}, scale {scale}"));
             let truth = scene.marker_corners_px(t_s);
-            let mean = |c: &[[f64; 2]; 4]| [c.iter().map(|p| p[0]).sum::<f64>() / 4.0, c.iter().map(|p| p[1]).sum::<f64>() / 4.0];
+            let mean = |c: &[[f64; 2]; 4]| {
+                [
+                    c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
+                    c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
+                ]
+            };
             let (cd, ct) = (mean(&d.corners_px), mean(&truth));
-            let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
-            assert!(dist(cd, ct) < 0.08, "centre off by {:.3} px (frame {frame}, {side_px:.0} px)", dist(cd, ct));
+            let dist =
+                |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+            assert!(
+                dist(cd, ct) < 0.08,
+                "centre off by {:.3} px (frame {frame}, {side_px:.0} px)",
+                dist(cd, ct)
+            );
             for (i, (got, want)) in d.corners_px.iter().zip(&truth).enumerate() {
                 let raw = dist(*got, *want);
-                assert!(raw < 0.3, "corner {i} off by {raw:.3} px (frame {frame}, {side_px:.0} px)");
+                assert!(
+                    raw < 0.3,
+                    "corner {i} off by {raw:.3} px (frame {frame}, {side_px:.0} px)"
+                );
             }
         }
     }
@@ -64,13 +94,19 @@ fn video_keeps_variable_timestamps() {
     .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let video = dir.path().join("v.mp4");
-    let job = RenderJob { video: Some(video.clone()), ..RenderJob::default() };
+    let job = RenderJob {
+        video: Some(video.clone()),
+        ..RenderJob::default()
+    };
     render_job(&s, dir.path(), &job, &|_, _| {}).unwrap();
     let info = geneva_vision::io::video::probe(&video).unwrap();
     let expected = s.frame_times().unwrap().into_vec();
     assert_eq!(info.timestamps_s.len(), expected.len());
     for (got, want) in info.timestamps_s.iter().zip(&expected) {
-        assert!((got - want).abs() <= 1.0 / 90000.0 + 1e-9, "{got} vs {want}");
+        assert!(
+            (got - want).abs() <= 1.0 / 90000.0 + 1e-9,
+            "{got} vs {want}"
+        );
     }
     // Not resampled to a constant rate: the long first interval survives.
     let iv: Vec<f64> = info.timestamps_s.windows(2).map(|w| w[1] - w[0]).collect();

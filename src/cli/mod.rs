@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 mod analyze_cmd;
+mod budget_cmd;
 mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
@@ -72,6 +73,36 @@ enum Command {
         #[arg(long, default_value = "out/sweep")]
         out: PathBuf,
     },
+    /// Error budget over N seeds (Monte Carlo) with 95 % confidence intervals: budget.json,
+    /// per_seed.csv, error histograms, and the first seed's full run in seed0/.
+    Montecarlo {
+        scenario: String,
+        #[arg(long, default_value_t = 10)]
+        seeds: usize,
+        #[arg(long, default_value = "out/montecarlo")]
+        out: PathBuf,
+        #[arg(long)]
+        full_frame: bool,
+    },
+    /// Per-source decomposition of the omega2 and alpha2 error variance (each effect alone and
+    /// left out): table, CSV and bar charts.
+    Decompose {
+        scenario: String,
+        #[arg(long, default_value_t = 2)]
+        seeds: usize,
+        #[arg(long, default_value = "out/decompose")]
+        out: PathBuf,
+    },
+    /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition) deterministically.
+    Reports {
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        #[arg(long, default_value_t = 3)]
+        seeds: usize,
+        /// Only reports/fast (seconds instead of minutes).
+        #[arg(long)]
+        fast_only: bool,
+    },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
@@ -85,6 +116,22 @@ pub fn main() -> Result<()> {
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
         Command::Analyze(args) => analyze_cmd::run(args),
+        Command::Montecarlo {
+            scenario,
+            seeds,
+            out,
+            full_frame,
+        } => budget_cmd::montecarlo(&scenario, seeds, &out, full_frame),
+        Command::Decompose {
+            scenario,
+            seeds,
+            out,
+        } => budget_cmd::decompose(&scenario, seeds, &out),
+        Command::Reports {
+            out,
+            seeds,
+            fast_only,
+        } => budget_cmd::write_reports(&out, seeds, fast_only),
         Command::Sweep { sweep, out } => sweep_cmd::run(&sweep, &out),
         Command::Render {
             scenario,

@@ -99,7 +99,10 @@ impl VideoWriter {
             };
             // `framerate 90000` gives each still a 1/90000 time base, so durations are not
             // rounded to the image demuxer's default 1/25 s.
-            list.push_str(&format!("file '{:06}.png'\noption framerate 90000\nduration {:.9}\n", i, d));
+            list.push_str(&format!(
+                "file '{:06}.png'\noption framerate 90000\nduration {:.9}\n",
+                i, d
+            ));
         }
         std::fs::File::create(&list_path)
             .and_then(|mut f| f.write_all(list.as_bytes()))

@@ -3,6 +3,7 @@
 //! One job: turn series of numbers into a PNG file. Callers decide what to plot.
 
 pub mod heatmap;
+pub mod histogram;
 
 use plotters::prelude::*;
 use std::path::Path;

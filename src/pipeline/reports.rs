@@ -1,0 +1,735 @@
+//! `geneva reports`: the committed reports under `reports/` — a quick Monte Carlo of `fast`
+//! (the reproducibility check), the seed study redone for the internal and external rigs with
+//! the phone's real frame timing, and a per-source decomposition at 1080p. Every number in the
+//! markdown is formatted from computed results.
+
+use super::decompose::{decompose_effects, markdown_table, DecompositionError};
+use super::montecarlo::{monte_carlo, MonteCarloBudget, MonteCarloError, MonteCarloOptions};
+use super::rig::{Rig, RigError};
+use crate::budget::detectability::{detectability, Detectability};
+use crate::budget::report::{Budget, QuantityStats};
+use crate::budget::MeanCi;
+use crate::mechanism::Phase;
+use crate::plot::bars_png;
+use crate::scenario::{load_any, with_overrides, Scenario, ScenarioError};
+use std::path::{Path, PathBuf};
+use toml::Value;
+
+/// The seed report's own figures (seed §5.3): the doubled half-pixel ω and α changes, which the
+/// seed found to be of the same size as the scatter in its measurements.
+pub const SEED_OMEGA_DOUBLED_RAD_S: f64 = 0.057;
+pub const SEED_ALPHA_DOUBLED_RAD_S2: f64 = 1.73;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReportsError {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error("{name}: {source}")]
+    MonteCarlo {
+        name: String,
+        source: MonteCarloError,
+    },
+    #[error(transparent)]
+    Decomposition(#[from] DecompositionError),
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    #[error("{file}: {message}")]
+    Write { file: PathBuf, message: String },
+}
+
+/// What to generate.
+#[derive(Debug, Clone)]
+pub struct ReportsOptions {
+    /// Monte Carlo seeds of the main configurations.
+    pub seeds: usize,
+    /// Only `reports/fast/` (seconds instead of minutes).
+    pub fast_only: bool,
+}
+
+impl Default for ReportsOptions {
+    fn default() -> Self {
+        Self {
+            seeds: 3,
+            fast_only: false,
+        }
+    }
+}
+
+fn write_text(path: &Path, text: &str) -> Result<PathBuf, ReportsError> {
+    std::fs::write(path, text).map_err(|e| ReportsError::Write {
+        file: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    Ok(path.to_path_buf())
+}
+
+fn mc(
+    name: &str,
+    scenario: &Scenario,
+    out_dir: &Path,
+    seeds: usize,
+    plots: bool,
+) -> Result<MonteCarloBudget, ReportsError> {
+    let options = MonteCarloOptions {
+        seeds,
+        first_seed_files: plots,
+        ..MonteCarloOptions::default()
+    };
+    monte_carlo(scenario, out_dir, &options).map_err(|source| ReportsError::MonteCarlo {
+        name: name.into(),
+        source,
+    })
+}
+
+/// `mean [low, high]` in scientific notation (CI omitted when it is not finite: one seed).
+pub fn fmt_ci(m: MeanCi) -> String {
+    if m.ci95_low.is_finite() && m.ci95_high.is_finite() {
+        format!("{:.3e} [{:.2e}, {:.2e}]", m.mean, m.ci95_low, m.ci95_high)
+    } else {
+        format!("{:.3e}", m.mean)
+    }
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.1} %", 100.0 * x)
+}
+
+/// A signal's statistics (overall, or one phase) of a per-seed budget.
+fn stats<'a>(b: &'a Budget, signal: &str, phase: Option<&str>) -> Option<&'a QuantityStats> {
+    let s = b.signals.get(signal)?;
+    match phase {
+        None => Some(&s.overall),
+        Some(p) => s.phases.get(p),
+    }
+}
+
+fn metric(
+    m: &MonteCarloBudget,
+    signal: &str,
+    phase: Option<&str>,
+    f: fn(&QuantityStats) -> f64,
+) -> MeanCi {
+    m.metric(|b| stats(b, signal, phase).map_or(f64::NAN, f))
+}
+
+fn bound(
+    m: &MonteCarloBudget,
+    signal: &str,
+    f: fn(&crate::budget::report::BoundsReport) -> f64,
+) -> MeanCi {
+    m.metric(|b| b.bounds.get(signal).map_or(f64::NAN, f))
+}
+
+fn image_links(files: &[PathBuf], report_dir: &Path) -> String {
+    files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "png"))
+        .filter_map(|f| f.strip_prefix(report_dir).ok())
+        .map(|rel| format!("![{0}]({0})\n", rel.display()))
+        .collect()
+}
+
+/// The fast scenario's Monte Carlo report (what tests/reports_fast.rs regenerates).
+pub fn fast_report(out_dir: &Path, seeds: usize) -> Result<MonteCarloBudget, ReportsError> {
+    let scenario = load_any("fast")?;
+    let m = mc("fast", &scenario, out_dir, seeds, true)?;
+    let mut md = format!(
+        "# fast: Monte Carlo over {} seeds\n\nScenario `fast` (1280×720, 0.5 mm/px, constant \
+         30 fps, exact kinematics), seeds {:?}. Fused signal, mean over seeds with 95 % CI.\n\n",
+        m.seeds.len(),
+        m.seeds
+    );
+    md.push_str(&stats_table(&[("fast", &m)], "fused"));
+    md.push('\n');
+    md.push_str(&image_links(&m.files, out_dir));
+    let mut out = m;
+    out.files.push(write_text(&out_dir.join("README.md"), &md)?);
+    Ok(out)
+}
+
+/// Table of overall and per-phase RMS errors for named Monte Carlo results.
+fn stats_table(rows: &[(&str, &MonteCarloBudget)], signal: &str) -> String {
+    let mut s = String::from(
+        "| configuration | θ2 RMS (rad) | ω2 RMS (rad/s) | α2 RMS (rad/s²) | ω2 RMS dwell | ω2 RMS drive | α2 RMS dwell | α2 RMS drive |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for (name, m) in rows {
+        s.push_str(&format!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} |\n",
+            fmt_ci(metric(m, signal, None, |q| q.theta.rms)),
+            fmt_ci(metric(m, signal, None, |q| q.omega.rms)),
+            fmt_ci(metric(m, signal, None, |q| q.alpha.rms)),
+            fmt_ci(metric(m, signal, Some("dwell"), |q| q.omega.rms)),
+            fmt_ci(metric(m, signal, Some("drive"), |q| q.omega.rms)),
+            fmt_ci(metric(m, signal, Some("dwell"), |q| q.alpha.rms)),
+            fmt_ci(metric(m, signal, Some("drive"), |q| q.alpha.rms)),
+        ));
+    }
+    s
+}
+
+/// Which of the seed's rigs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SeedRig {
+    Internal,
+    External,
+}
+
+impl SeedRig {
+    pub fn scenario_name(self) -> &'static str {
+        match self {
+            SeedRig::Internal => "seed-internal-4k",
+            SeedRig::External => "seed-external-4k",
+        }
+    }
+    /// The phone log replayed (spans ≥ 10 s: model_test2 14.35 s, model_test5 11.04 s).
+    pub fn timing_log(self) -> &'static str {
+        match self {
+            SeedRig::Internal => "builtin:model_test2",
+            SeedRig::External => "builtin:model_test5",
+        }
+    }
+}
+
+fn ov(path: &str, v: Value) -> (String, Value) {
+    (path.to_string(), v)
+}
+
+fn kind_table(kind: &str, extra: &[(&str, Value)]) -> Value {
+    let mut t = toml::map::Map::new();
+    t.insert("kind".into(), Value::String(kind.into()));
+    for (k, v) in extra {
+        t.insert(k.to_string(), v.clone());
+    }
+    Value::Table(t)
+}
+
+/// The seed rig with the phone's real frame timing, 10 s.
+pub fn seed_base(rig: SeedRig) -> Result<Scenario, ScenarioError> {
+    let base = load_any(rig.scenario_name())?;
+    with_overrides(
+        &base,
+        &[
+            ov(
+                "frame_timing.model",
+                kind_table("log", &[("file", Value::String(rig.timing_log().into()))]),
+            ),
+            ov("duration_s", Value::Float(10.0)),
+        ],
+        Path::new(rig.scenario_name()),
+    )
+}
+
+/// Better settings than the seed's: geometric circle fit, diagonal-intersection centre,
+/// cornerSubPix refinement and non-uniform central differences on the real timestamps (a
+/// smoothing differentiator such as Savitzky–Golay over 9 frames biases ω2/α2 at the phase
+/// boundaries more than it removes noise at 4K).
+pub fn better_overrides() -> Vec<(String, Value)> {
+    vec![
+        ov(
+            "estimator.rotation_centre",
+            Value::String("geometric".into()),
+        ),
+        ov(
+            "estimator.marker_centre",
+            Value::String("diagonal_intersection".into()),
+        ),
+        ov(
+            "detector.corner_refinement_method",
+            Value::String("subpix".into()),
+        ),
+        ov("estimator.differentiator", kind_table("central3", &[])),
+    ]
+}
+
+/// The largest impact of the actual motion in an entry phase: the biggest change of ω2 within
+/// `window_s`, sampled every `step_s` (the rattle is at ~100 Hz, far above the frame rate).
+pub fn largest_entry_impact(rig: &Rig, window_s: f64, step_s: f64) -> f64 {
+    let n = (rig.scenario.duration_s / step_s) as usize;
+    let lag = ((window_s / step_s).round() as usize).max(1);
+    let samples: Vec<(f64, Phase)> = (0..=n)
+        .map(|i| {
+            let s = rig.mechanism.actual(i as f64 * step_s);
+            (s.omega2_rad_s, s.phase)
+        })
+        .collect();
+    samples
+        .windows(lag + 1)
+        .filter(|w| w[0].1 == Phase::Entry)
+        .map(|w| (w[lag].0 - w[0].0).abs())
+        .fold(0.0, f64::max)
+}
+
+/// What a seed reproduction report computed.
+pub struct SeedReport {
+    pub seed_settings: MonteCarloBudget,
+    pub better: MonteCarloBudget,
+    /// Dynamics off (ideal kinematics): the pure detection error (internal rig only; the
+    /// external rig has no dynamics, so there it equals the main runs).
+    pub seed_detection_only: Option<MonteCarloBudget>,
+    pub better_detection_only: Option<MonteCarloBudget>,
+    /// Seed estimator with the geometric rotation centre (isolates the centre method).
+    pub seed_geometric_centre: MonteCarloBudget,
+    /// Seed settings, dynamics off, analysed with an assumed constant 30 fps.
+    pub seed_constant_30fps: MonteCarloBudget,
+    pub impact_delta_omega_rad_s: f64,
+    pub impact_seed: Option<Detectability>,
+    pub impact_better: Option<Detectability>,
+    pub files: Vec<PathBuf>,
+}
+
+/// The seed study redone for one rig; writes `<out_dir>/README.md` and the runs' folders.
+pub fn seed_report(
+    rig_kind: SeedRig,
+    out_dir: &Path,
+    seeds: usize,
+) -> Result<SeedReport, ReportsError> {
+    let name = rig_kind.scenario_name();
+    let origin = Path::new(name);
+    let base = seed_base(rig_kind)?;
+    let better_sc = with_overrides(&base, &better_overrides(), origin)?;
+    let dyn_off = [ov("dynamics.enabled", Value::Boolean(false))];
+    let seed_settings = mc(
+        "seed settings",
+        &base,
+        &out_dir.join("seed-settings"),
+        seeds,
+        true,
+    )?;
+    let better = mc(
+        "better settings",
+        &better_sc,
+        &out_dir.join("better-settings"),
+        seeds,
+        true,
+    )?;
+    let (seed_det, better_det) = if base.dynamics.enabled {
+        let s = with_overrides(&base, &dyn_off, origin)?;
+        let b = with_overrides(&better_sc, &dyn_off, origin)?;
+        (
+            Some(mc(
+                "seed, dynamics off",
+                &s,
+                &out_dir.join("seed-settings-no-dynamics"),
+                1,
+                false,
+            )?),
+            Some(mc(
+                "better, dynamics off",
+                &b,
+                &out_dir.join("better-settings-no-dynamics"),
+                1,
+                false,
+            )?),
+        )
+    } else {
+        (None, None)
+    };
+    let geo = with_overrides(
+        &base,
+        &[
+            ov(
+                "estimator.rotation_centre",
+                Value::String("geometric".into()),
+            ),
+            dyn_off[0].clone(),
+        ],
+        origin,
+    )?;
+    let seed_geo = mc(
+        "seed, geometric centre",
+        &geo,
+        &out_dir.join("seed-geometric-centre"),
+        1,
+        false,
+    )?;
+    // Dynamics off: the rattle would hide what the time base alone costs.
+    let c30 = with_overrides(
+        &base,
+        &[
+            ov(
+                "estimator.timebase",
+                kind_table("constant_fps", &[("fps_hz", Value::Float(30.0))]),
+            ),
+            dyn_off[0].clone(),
+        ],
+        origin,
+    )?;
+    let seed_c30 = mc(
+        "seed, constant 30 fps",
+        &c30,
+        &out_dir.join("seed-constant-30fps"),
+        1,
+        false,
+    )?;
+
+    let rig = Rig::new(&base)?;
+    let impact = if base.dynamics.enabled {
+        largest_entry_impact(&rig, 0.002, 1e-4)
+    } else {
+        0.0
+    };
+    let intervals = rig.frame_times.intervals_s();
+    let h_mean = intervals.iter().sum::<f64>() / intervals.len().max(1) as f64;
+    let noise = |m: &MonteCarloBudget| metric(m, "fused", Some("dwell"), |q| q.alpha.std).mean;
+    let impact_seed = (impact > 0.0)
+        .then(|| {
+            let src = seed_det.as_ref().unwrap_or(&seed_settings);
+            detectability(
+                &base.estimator.differentiator,
+                h_mean,
+                impact,
+                0.002,
+                noise(src),
+                3.0,
+            )
+            .ok()
+        })
+        .flatten();
+    let impact_better = (impact > 0.0)
+        .then(|| {
+            let src = better_det.as_ref().unwrap_or(&better);
+            detectability(
+                &better_sc.estimator.differentiator,
+                h_mean,
+                impact,
+                0.002,
+                noise(src),
+                3.0,
+            )
+            .ok()
+        })
+        .flatten();
+
+    let mut report = SeedReport {
+        seed_settings,
+        better,
+        seed_detection_only: seed_det,
+        better_detection_only: better_det,
+        seed_geometric_centre: seed_geo,
+        seed_constant_30fps: seed_c30,
+        impact_delta_omega_rad_s: impact,
+        impact_seed,
+        impact_better,
+        files: vec![],
+    };
+    let mut files = Vec::new();
+    for (q, f) in [("omega", 0usize), ("alpha", 1usize)] {
+        let path = out_dir.join(format!("budget_{q}.png"));
+        let bars = budget_bars(&report, f);
+        let (symbol, unit) = if f == 0 {
+            ("ω2", "rad/s")
+        } else {
+            ("α2", "rad/s²")
+        };
+        bars_png(
+            &path,
+            &format!("{name}: fused {symbol} error RMS per configuration (log10)"),
+            &format!("log10 RMS ({unit})"),
+            &bars,
+        )
+        .map_err(|e| ReportsError::Write {
+            file: path.clone(),
+            message: e.message,
+        })?;
+        files.push(path);
+    }
+    let md = seed_markdown(rig_kind, &base, &report, out_dir);
+    files.push(write_text(&out_dir.join("README.md"), &md)?);
+    report.files = files;
+    Ok(report)
+}
+
+fn configurations(r: &SeedReport) -> Vec<(&'static str, &MonteCarloBudget)> {
+    let mut v = vec![("seed settings", &r.seed_settings)];
+    if let Some(m) = &r.seed_detection_only {
+        v.push(("seed settings, dynamics off", m));
+    }
+    v.push((
+        "seed + geometric centre, dynamics off",
+        &r.seed_geometric_centre,
+    ));
+    v.push((
+        "seed settings, dynamics off, constant 30 fps timebase",
+        &r.seed_constant_30fps,
+    ));
+    v.push(("better settings", &r.better));
+    if let Some(m) = &r.better_detection_only {
+        v.push(("better settings, dynamics off", m));
+    }
+    v
+}
+
+/// log10 of the fused RMS per configuration (the rattle and the detection error differ by
+/// orders of magnitude), labelled short enough to fit under the bars.
+fn budget_bars(r: &SeedReport, which: usize) -> Vec<(String, f64)> {
+    configurations(r)
+        .into_iter()
+        .map(|(n, m)| {
+            let label = n
+                .replace("seed settings", "seed")
+                .replace("better settings", "better")
+                .replace(", dynamics off", ", no dyn.")
+                .replace(", constant 30 fps timebase", ", k/30 s")
+                .replace("seed + geometric centre", "seed+geo");
+            let v = if which == 0 {
+                m.metric(|b| b.omega.rms).mean
+            } else {
+                m.metric(|b| b.alpha.rms).mean
+            };
+            (label, v.log10())
+        })
+        .collect()
+}
+
+fn bounds_table(r: &SeedReport, signal: &str) -> String {
+    let mut s = String::from(
+        "| configuration | δθ (rad) | θ frames over δθ | ω frames over 0.057-class doubled bound | α frames over 1.73-class doubled bound | ω frames over generalised bound | α frames over generalised bound |\n|---|---|---|---|---|---|---|\n",
+    );
+    for (name, m) in configurations(r) {
+        s.push_str(&format!(
+            "| {name} | {:.3e} | {} | {} | {} | {} | {} |\n",
+            bound(m, signal, |b| b.half_pixel.theta_rad).mean,
+            pct(bound(m, signal, |b| b.theta_exceedance.fraction).mean),
+            pct(bound(m, signal, |b| b.omega_seed_doubled_exceedance.fraction).mean),
+            pct(bound(m, signal, |b| b.alpha_seed_doubled_exceedance.fraction).mean),
+            pct(bound(m, signal, |b| b.omega_exceedance.fraction).mean),
+            pct(bound(m, signal, |b| b.alpha_exceedance.fraction).mean),
+        ));
+    }
+    s
+}
+
+fn seed_markdown(rig: SeedRig, base: &Scenario, r: &SeedReport, out_dir: &Path) -> String {
+    let name = rig.scenario_name();
+    let s = &r.seed_settings;
+    let det = r.seed_detection_only.as_ref().unwrap_or(s);
+    let bdet = r.better_detection_only.as_ref().unwrap_or(&r.better);
+    let mut md = format!(
+        "# {name}: the seed's experiment redone\n\n\
+         Scenario `{name}` with the phone's real frame timing (`{}`), {:.1} s, {} frames per run, \
+         4K. Seed settings: OpenCV's default detection (no corner refinement), the seed's \
+         estimator (mean of corners, truncated perpendicular-bisector rotation centre, \
+         `numpy.gradient` twice). Better settings: cornerSubPix refinement, diagonal-intersection \
+         marker centre, geometric circle fit, non-uniform 3-point central differences on the real timestamps. Main \
+         configurations: {} seeds (mean [95 % CI]); the others 1 seed. Errors are measured \
+         against the actual motion (with dynamics on: the rattling wheel). \
+         Generated by `geneva reports`; every number below is computed.\n\n",
+        rig.timing_log(),
+        base.duration_s,
+        s.per_seed.first().map_or(0, |b| b.frames.total),
+        s.seeds.len(),
+    );
+    md.push_str("## Errors per configuration (fused signal)\n\n");
+    md.push_str(&stats_table(&configurations(r), "fused"));
+    md.push_str("\n## Errors per configuration (centre signal: the seed's mean of corners)\n\n");
+    md.push_str(&stats_table(&configurations(r), "centre"));
+
+    md.push_str("\n## Does the half-pixel bound hold?\n\n");
+    md.push_str(&bounds_table(r, "centre"));
+    let th_seed = bound(s, "centre", |b| b.theta_exceedance.fraction).mean;
+    let th_geo = bound(&r.seed_geometric_centre, "centre", |b| {
+        b.theta_exceedance.fraction
+    })
+    .mean;
+    md.push_str(&format!(
+        "\nWith the seed's settings the centre signal's θ2 error exceeds the half-pixel angle \
+         bound δθ in {} of frames (θ2 RMS {}). The seed's rotation centre — perpendicular \
+         bisectors truncated to whole pixels — is the main cause: with the same detection and \
+         the geometric circle fit (dynamics off) the fraction is {} (θ2 RMS {:.3e} rad). \
+         With the better settings it is {}.\n",
+        pct(th_seed),
+        fmt_ci(metric(s, "centre", None, |q| q.theta.rms)),
+        pct(th_geo),
+        metric(&r.seed_geometric_centre, "centre", None, |q| q.theta.rms).mean,
+        pct(bound(&r.better, "centre", |b| b.theta_exceedance.fraction).mean),
+    ));
+
+    md.push_str("\n## Velocity and acceleration errors in dwell and drive\n\n");
+    md.push_str(&format!(
+        "Seed settings, fused signal: ω2 RMS {} rad/s in dwell and {} rad/s in drive; α2 RMS {} \
+         rad/s² in dwell and {} rad/s² in drive. Better settings: ω2 {} / {} rad/s, α2 {} / {} \
+         rad/s² (dwell / drive).\n",
+        fmt_ci(metric(s, "fused", Some("dwell"), |q| q.omega.rms)),
+        fmt_ci(metric(s, "fused", Some("drive"), |q| q.omega.rms)),
+        fmt_ci(metric(s, "fused", Some("dwell"), |q| q.alpha.rms)),
+        fmt_ci(metric(s, "fused", Some("drive"), |q| q.alpha.rms)),
+        fmt_ci(metric(&r.better, "fused", Some("dwell"), |q| q.omega.rms)),
+        fmt_ci(metric(&r.better, "fused", Some("drive"), |q| q.omega.rms)),
+        fmt_ci(metric(&r.better, "fused", Some("dwell"), |q| q.alpha.rms)),
+        fmt_ci(metric(&r.better, "fused", Some("drive"), |q| q.alpha.rms)),
+    ));
+
+    md.push_str("\n## How much of the seed's acceleration scatter is detection error?\n\n");
+    let det_p95 = metric(det, "centre", None, |q| q.alpha.p95).mean;
+    let det_std = metric(det, "centre", None, |q| q.alpha.std).mean;
+    md.push_str(&format!(
+        "The seed estimated a possible α2 change of {SEED_ALPHA_DOUBLED_RAD_S2} rad/s² \
+         (ω2: {SEED_OMEGA_DOUBLED_RAD_S} rad/s) from half-pixel errors and found its measured \
+         scatter of that size. The pure detection error (seed settings, ideal kinematics, no \
+         rattle) of the centre signal has α2 σ = {:.3} rad/s² and 95th percentile of |error| = \
+         {:.3} rad/s², i.e. {} of the {SEED_ALPHA_DOUBLED_RAD_S2} rad/s² scatter (p95 ratio); \
+         ω2 σ = {:.4} rad/s. With better settings the detection-only α2 σ is {:.3} rad/s² \
+         ({}).\n",
+        det_std,
+        det_p95,
+        pct(det_p95 / SEED_ALPHA_DOUBLED_RAD_S2),
+        metric(det, "centre", None, |q| q.omega.std).mean,
+        metric(bdet, "fused", None, |q| q.alpha.std).mean,
+        if metric(bdet, "fused", None, |q| q.alpha.std).mean
+            < metric(det, "fused", None, |q| q.alpha.std).mean
+        {
+            "lower than the seed settings: cornerSubPix lowers the angle noise"
+        } else {
+            "higher than the seed settings: cornerSubPix lowers the angle noise, but central \
+             differences amplify what is left more than `numpy.gradient` twice"
+        },
+    ));
+    if base.dynamics.enabled {
+        md.push_str(&format!(
+            "\nWith dynamics on, the errors against the actual motion grow to α2 RMS {} rad/s² \
+             (seed) and {} rad/s² (better): the wheel rattles (pin bouncing in the clearance \
+             much faster than 30 fps), and a 30 fps camera samples that motion without \
+             resolving it. Against the actual motion the difference between the dynamics-on \
+             and dynamics-off rows is this sampling of the real rattle, not detection error.\n",
+            fmt_ci(s.metric(|b| b.alpha.rms)),
+            fmt_ci(r.better.metric(|b| b.alpha.rms)),
+        ));
+    }
+
+    md.push_str("\n## Would the backlash impacts be visible?\n\n");
+    match (&r.impact_seed, &r.impact_better) {
+        (Some(a), Some(b)) => {
+            md.push_str(&format!(
+            "Largest entry impact in the simulated actual motion: Δω2 = {:.3} rad/s within 2 ms. \
+             Against the dwell α2 noise of the detection-only runs (fused signal): seed settings \
+             peak |α̂| {:.3} rad/s² vs noise σ {:.3} rad/s², SNR {:.2} → {}; better settings \
+             peak {:.3} rad/s² vs σ {:.3} rad/s², SNR {:.2} → {} (threshold SNR 3).\n",
+            r.impact_delta_omega_rad_s,
+            a.peak_alpha_rad_s2,
+            a.noise_alpha_rad_s2,
+            a.snr,
+            if a.detectable { "detectable" } else { "not detectable" },
+            b.peak_alpha_rad_s2,
+            b.noise_alpha_rad_s2,
+            b.snr,
+            if b.detectable { "detectable" } else { "not detectable" },
+        ))
+        }
+        _ => md.push_str(
+            "This rig has no clearance dynamics in the scenario (the external drive's rotation \
+             constraint), so there is no impact to detect.\n",
+        ),
+    }
+
+    md.push_str("\n## What the assumed constant 30 fps costs\n\n");
+    let c = &r.seed_constant_30fps;
+    let t = &det.per_seed[0];
+    let k = &c.per_seed[0];
+    let tb = |b: &Budget| {
+        b.bounds
+            .get("fused")
+            .map_or(f64::NAN, |x| x.timebase_error_std_s)
+    };
+    md.push_str(&format!(
+        "Seed settings with dynamics off (so only detection and timing matter), seed {}, fused \
+         signal, analysed on the real timestamps vs on k/30 s: ω2 RMS {:.4} vs {:.4} rad/s \
+         (drive: {:.4} vs {:.4}), α2 RMS {:.3} vs {:.3} rad/s² (drive: {:.3} vs {:.3}); the \
+         assumed time base is off the real frame times by σ {:.2e} s (the log's rate error and \
+         jitter accumulate over the run).\n",
+        c.seeds[0],
+        t.omega.rms,
+        k.omega.rms,
+        t.phases.get("drive").map_or(f64::NAN, |q| q.omega.rms),
+        k.phases.get("drive").map_or(f64::NAN, |q| q.omega.rms),
+        t.alpha.rms,
+        k.alpha.rms,
+        t.phases.get("drive").map_or(f64::NAN, |q| q.alpha.rms),
+        k.phases.get("drive").map_or(f64::NAN, |q| q.alpha.rms),
+        tb(k),
+    ));
+
+    md.push_str("\n## Plots\n\n");
+    for f in ["budget_omega.png", "budget_alpha.png"] {
+        md.push_str(&format!("![{f}]({f})\n"));
+    }
+    md.push_str("\nSeed settings (first seed; time series against truth, error histograms):\n\n");
+    md.push_str(&image_links(&s.files, out_dir));
+    md.push_str("\nBetter settings:\n\n");
+    md.push_str(&image_links(&r.better.files, out_dir));
+    md
+}
+
+/// Per-source decomposition of the internal seed rig at 1080p (4K would take too long), 4 s.
+pub fn decomposition_report(out_dir: &Path, seeds: usize) -> Result<Vec<PathBuf>, ReportsError> {
+    let base = seed_base(SeedRig::Internal)?;
+    let sc = with_overrides(
+        &base,
+        &[
+            ov("name", Value::String("seed-internal-1080p".into())),
+            ov("duration_s", Value::Float(4.0)),
+            ov("camera.width_px", Value::Integer(1920)),
+            ov("camera.height_px", Value::Integer(1080)),
+            ov("camera.focal.mm_per_px", Value::Float(0.39)),
+        ],
+        Path::new("decomposition"),
+    )?;
+    let with_dyn = decompose_effects(&sc, seeds, out_dir, true)?;
+    // The rattle dominates when dynamics are on; the detection-only split needs them off.
+    let det_dir = out_dir.join("dynamics-off");
+    let sc_det = with_overrides(
+        &sc,
+        &[ov("dynamics.enabled", Value::Boolean(false))],
+        Path::new("decomposition"),
+    )?;
+    let det = decompose_effects(&sc_det, seeds, &det_dir, true)?;
+    let md = format!(
+        "# Per-source error decomposition\n\nThe internal seed rig at 1080p (0.39 mm/px, half the \
+         4K resolution, to keep the runtime modest — the 4K runs take ~20 s each), phone timing \
+         `{}`, {:.1} s, seed settings. Each effect's share is its alone contribution \
+         V(alone) − V(none) over V(all) − V(none); the interaction is what the alone \
+         contributions leave over. Shares of effects whose contribution is within the \
+         seed-to-seed scatter can come out slightly negative.\n\n\
+         ## With dynamics (errors against the actual, rattling motion)\n\n{}\n\
+         ![omega](decomposition_omega.png)\n![alpha](decomposition_alpha.png)\n\n\
+         ## Detection only (dynamics off: errors against the ideal kinematics)\n\n{}\n\
+         ![omega](dynamics-off/decomposition_omega.png)\n\
+         ![alpha](dynamics-off/decomposition_alpha.png)\n",
+        SeedRig::Internal.timing_log(),
+        sc.duration_s,
+        markdown_table(&with_dyn),
+        markdown_table(&det),
+    );
+    let mut files = with_dyn.files;
+    files.extend(det.files);
+    files.push(write_text(&out_dir.join("README.md"), &md)?);
+    Ok(files)
+}
+
+/// Everything under `out_root`: `fast/`, and unless `fast_only`, `seed-internal-4k/`,
+/// `seed-external-4k/` and `decomposition-1080p/`.
+pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>, ReportsError> {
+    let mut files = fast_report(&out_root.join("fast"), options.seeds)?.files;
+    if !options.fast_only {
+        files.extend(
+            seed_report(
+                SeedRig::Internal,
+                &out_root.join("seed-internal-4k"),
+                options.seeds,
+            )?
+            .files,
+        );
+        files.extend(
+            seed_report(
+                SeedRig::External,
+                &out_root.join("seed-external-4k"),
+                options.seeds,
+            )?
+            .files,
+        );
+        files.extend(decomposition_report(
+            &out_root.join("decomposition-1080p"),
+            2,
+        )?);
+    }
+    Ok(files)
+}

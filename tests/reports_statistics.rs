@@ -1,0 +1,182 @@
+//! Statistical checks of the pipeline's error budget on small synthetic scenarios:
+//! - with pixel noise as the only random effect, the white-noise prediction of the ω2/α2 error
+//!   σ from the measured angle noise (`bounds.<signal>.statistical`) matches at 0.5 mm/px within
+//!   a tolerance derived from the number of frames, but in general is only an upper bound: the
+//!   detection error is mostly corner quantisation, correlated from frame to frame;
+//! - cornerSubPix makes the corner errors correlated from frame to frame, and the white-noise
+//!   prediction then overestimates the derivative noise several times (pinned finding);
+//! - with pixel noise, blur and quantisation only, the angle error against the half-pixel bound:
+//!   the seed's estimator does NOT stay under it (its rotation centre), the geometric fit does.
+
+#![cfg(feature = "opencv-detector")]
+
+use geneva_vision::budget::report::{BoundsReport, Budget};
+use geneva_vision::pipeline::run::{run, RunOptions};
+use geneva_vision::scenario::{load_any, with_overrides};
+use rand::Rng;
+use std::path::Path;
+use toml::Value;
+
+/// `fast` with lighting off (pixel noise, optical blur and quantisation are what remains;
+/// motion blur is already off there), 4 s, plus `extra`.
+fn budget(seed: u64, mm_per_px: f64, extra: &[(&str, Value)]) -> Budget {
+    let base = load_any("fast").unwrap();
+    let mut o: Vec<(String, Value)> = vec![
+        ("effects.lighting.enabled".into(), Value::Boolean(false)),
+        ("effects.pixel_noise.enabled".into(), Value::Boolean(true)),
+        ("duration_s".into(), Value::Float(4.0)),
+        ("seed".into(), Value::Integer(seed as i64)),
+        ("camera.focal.mm_per_px".into(), Value::Float(mm_per_px)),
+    ];
+    o.extend(extra.iter().map(|(a, b)| (a.to_string(), b.clone())));
+    let s = with_overrides(&base, &o, Path::new("reports_statistics")).unwrap();
+    let options = RunOptions {
+        write_files: false,
+        plots: false,
+        ..RunOptions::default()
+    };
+    run(&s, Path::new(""), &options, &|_, _| {}).unwrap().budget
+}
+
+fn ratios(b: &BoundsReport) -> (f64, f64) {
+    (
+        b.measured_omega_std_rad_s / b.statistical.sigma_omega_rad_s,
+        b.measured_alpha_std_rad_s2 / b.statistical.sigma_alpha_rad_s2,
+    )
+}
+
+/// Random variants (seed, image scale) with pixel noise on. Finding (see the module report):
+/// the measured σ does NOT match the white-noise prediction in general — measured/predicted
+/// ranges from about 0.37 to 0.98 over 0.40–0.60 mm/px — because the detection error is
+/// dominated by corner quantisation (contour pixels, no refinement), a deterministic function
+/// of the marker's sub-pixel pose: constant through a dwell and slowly varying, so it inflates
+/// the θ error σ (which the prediction scales) more than the derivatives. What holds is that the
+/// prediction is an upper bound: measured/predicted ≤ 1 + 4·√(1/(2N)) (N frames: the relative
+/// sampling σ of a standard deviation), and the same order of magnitude (> 0.3).
+#[test]
+fn pixel_noise_only_prediction_is_an_upper_bound() {
+    let mut rng =
+        geneva_vision::rng::stream(2024, geneva_vision::rng::Stream::MonteCarlo, u64::MAX);
+    for _ in 0..4 {
+        let seed = rng.gen_range(1..10_000u64);
+        let mm_per_px = rng.gen_range(0.4..0.6);
+        let b = budget(seed, mm_per_px, &[]);
+        let n = b.frames.detected as f64;
+        let tol = 4.0 * (1.0 / (2.0 * n)).sqrt();
+        for signal in ["centre", "fused"] {
+            let (w, a) = ratios(&b.bounds[signal]);
+            for (q, r) in [("ω", w), ("α", a)] {
+                assert!(
+                    r < 1.0 + tol && r > 0.3,
+                    "seed {seed}, {mm_per_px:.3} mm/px, {signal}: {q} measured/predicted {r:.3}, allowed (0.3, {:.3})",
+                    1.0 + tol
+                );
+            }
+        }
+    }
+}
+
+/// At the `fast` scale (0.5 mm/px) the prediction does match within the frame-count tolerance
+/// 4·√(1/(2N)) for several seeds.
+#[test]
+fn prediction_matches_at_the_fast_scale() {
+    for seed in [1u64, 2, 3] {
+        let b = budget(seed, 0.5, &[]);
+        let n = b.frames.detected as f64;
+        let tol = 4.0 * (1.0 / (2.0 * n)).sqrt();
+        let (w, a) = ratios(&b.bounds["centre"]);
+        assert!(
+            (w - 1.0).abs() < tol && (a - 1.0).abs() < tol,
+            "seed {seed}: ω {w:.3}, α {a:.3}, ±{tol:.3}"
+        );
+    }
+}
+
+/// Why: switching pixel noise off changes the ω error σ by little — quantisation, not noise,
+/// is the detection error at these scales.
+#[test]
+fn quantisation_not_pixel_noise_dominates_the_detection_error() {
+    for mm_per_px in [0.44, 0.52, 0.58] {
+        let on = budget(5, mm_per_px, &[]);
+        let off = budget(
+            5,
+            mm_per_px,
+            &[("effects.pixel_noise.enabled", Value::Boolean(false))],
+        );
+        let (a, b) = (
+            on.bounds["centre"].measured_omega_std_rad_s,
+            off.bounds["centre"].measured_omega_std_rad_s,
+        );
+        assert!(
+            (a / b - 1.0).abs() < 0.25,
+            "{mm_per_px} mm/px: ω σ {a:.3e} with noise, {b:.3e} without"
+        );
+    }
+}
+
+/// Finding: with cornerSubPix the corner errors are smooth functions of the marker's
+/// sub-pixel position (correlated from frame to frame), so differentiation amplifies them far
+/// less than white noise — measured σ is under half the white-noise prediction.
+#[test]
+fn subpix_errors_are_correlated_so_the_white_noise_prediction_overestimates() {
+    let b = budget(
+        3,
+        0.5,
+        &[(
+            "detector.corner_refinement_method",
+            Value::String("subpix".into()),
+        )],
+    );
+    for signal in ["centre", "fused"] {
+        let (w, a) = ratios(&b.bounds[signal]);
+        assert!(
+            w < 0.5 && a < 0.5,
+            "{signal}: ω ratio {w:.3}, α ratio {a:.3}"
+        );
+        assert!(
+            w > 0.05 && a > 0.05,
+            "{signal}: still noise-driven: {w:.3}, {a:.3}"
+        );
+    }
+}
+
+/// The generalised half-pixel bound on θ with pixel noise, blur and quantisation only. With the
+/// seed's estimator (truncated perpendicular-bisector rotation centre, numpy.gradient) the
+/// per-frame angle error does NOT stay under δθ in ≥ 99 % of frames: the wrong rotation centre
+/// puts most frames over it (measured 94–95 % of frames over at 0.5 mm/px, pinned here as
+/// > 80 %). The same frames with the geometric circle fit stay under it in ≥ 99 % of frames.
+#[test]
+fn half_pixel_angle_bound_fails_with_the_seed_centre_and_holds_with_the_geometric_fit() {
+    let seed_estimator = [
+        ("estimator.rotation_centre", Value::String("seed".into())),
+        (
+            "estimator.marker_centre",
+            Value::String("corner_mean".into()),
+        ),
+        (
+            "estimator.differentiator",
+            Value::Table(toml::toml! { kind = "seed" }),
+        ),
+    ];
+    let seed_b = budget(11, 0.5, &seed_estimator);
+    let geo = [
+        seed_estimator[0].clone(),
+        seed_estimator[1].clone(),
+        seed_estimator[2].clone(),
+        (
+            "estimator.rotation_centre",
+            Value::String("geometric".into()),
+        ),
+    ];
+    let geo_b = budget(11, 0.5, &geo);
+    let over_seed = seed_b.bounds["centre"].theta_exceedance.fraction;
+    let over_geo = geo_b.bounds["centre"].theta_exceedance.fraction;
+    assert!(
+        over_seed > 0.8,
+        "seed centre: {over_seed:.3} of frames over δθ (expected most)"
+    );
+    assert!(
+        over_geo <= 0.01,
+        "geometric centre: {over_geo:.3} of frames over δθ"
+    );
+}
