@@ -93,7 +93,17 @@ fn main() {
         .map(|k| {
             let mut s = mc.clone();
             s.seed = 1000 + k;
-            let o = run(&s, &dir, &RunOptions { plots: false, write_files: false, ..RunOptions::default() }, &|_, _| {}).expect("mc run");
+            let o = run(
+                &s,
+                &dir,
+                &RunOptions {
+                    plots: false,
+                    write_files: false,
+                    ..RunOptions::default()
+                },
+                &|_, _| {},
+            )
+            .expect("mc run");
             o.detections.len()
         })
         .sum();
