@@ -91,7 +91,13 @@ fn shipped_sweeps_parse_and_have_the_expected_grids() {
     let (fast, _) = fast_spec();
     assert_eq!(points(&fast).len(), 4);
     let seed = SweepSpec::load(&sweeps_dir().join("seed-camera.toml")).unwrap();
-    assert_eq!(seed.base, "seed-internal-4k");
+    assert_eq!(seed.base, "seed-camera-base.toml");
+    // The base resolves (a file beside the sweep) and fixes the lens, so distance changes scale.
+    let base = load_base(&seed, &sweeps_dir().join("seed-camera.toml")).unwrap();
+    assert!(matches!(
+        base.camera.focal,
+        crate::camera::FocalConfig::FieldOfView { .. }
+    ));
     assert_eq!(seed.seeds, 2);
     let grid = points(&seed);
     assert_eq!(grid.len(), 5 * 4 * 2);
