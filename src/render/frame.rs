@@ -27,7 +27,7 @@ mod tone;
 use super::effects::camera_vibration::Vibration;
 use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
-use super::raster::{PixelRect, PreparedSnapshot};
+use super::raster::{static_layers, PixelRect, PreparedSnapshot};
 use super::shapes::{SceneAt, SceneSnapshot};
 use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
 use rayon::prelude::*;
@@ -249,7 +249,9 @@ fn band_pipeline<'a>(
             offsets.iter().map(|o| prepare(t_row + o)).collect()
         }))
     } else {
-        Samples::Global(offsets.iter().map(|o| prepare(t_s + o)).collect())
+        let snaps: Vec<PreparedSnapshot> = offsets.iter().map(|o| prepare(t_s + o)).collect();
+        let fixed = static_layers(&snaps);
+        Samples::Global(snaps, fixed)
     };
     let radius = fx.optical_blur.radius_px();
     let weights = if radius == 0 {

@@ -27,7 +27,7 @@
 
 mod composite;
 
-pub use composite::{RasterScratch, StaticCoverage};
+pub use composite::{static_layers, RasterScratch, StaticCoverage};
 
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;

@@ -17,8 +17,9 @@ pub(super) const BAND_ROWS: usize = 32;
 
 /// The exposure samples of every row.
 pub(super) enum Samples<'a> {
-    /// Global shutter: the K prepared snapshots shared by every row.
-    Global(Vec<PreparedSnapshot>),
+    /// Global shutter: the K prepared snapshots shared by every row, and which of their
+    /// layers are static ([`crate::render::raster::static_layers`], found once for all bands).
+    Global(Vec<PreparedSnapshot>, Vec<bool>),
     /// Rolling shutter: the K prepared snapshots of absolute row y.
     Rolling(Box<dyn Fn(i64) -> Vec<PreparedSnapshot> + Sync + 'a>),
 }
@@ -78,7 +79,7 @@ impl BandPipeline<'_> {
         }
         let snaps_of_row = |i: usize| -> &[PreparedSnapshot] {
             match &self.samples {
-                Samples::Global(s) => s,
+                Samples::Global(s, _) => s,
                 Samples::Rolling(_) => &scratch.row_samples[i],
             }
         };
@@ -99,7 +100,7 @@ impl BandPipeline<'_> {
                 }
             };
             match &self.samples {
-                Samples::Global(s) => s.iter().for_each(|s| add(s, rows.0, rows.1)),
+                Samples::Global(s, _) => s.iter().for_each(|s| add(s, rows.0, rows.1)),
                 Samples::Rolling(_) => {
                     for (i, snaps) in scratch.row_samples.iter().enumerate() {
                         let y = rows.0 + i as i64;
@@ -133,9 +134,10 @@ impl BandPipeline<'_> {
         // Stale contents are fine below: every stage overwrites all of its buffer.
         scratch.radiance.resize(window.len(), 0.0);
         match &self.samples {
-            Samples::Global(snaps) => accumulate(
+            Samples::Global(snaps, fixed) => accumulate(
                 &window,
                 snaps,
+                Some(fixed),
                 &mut scratch.raster,
                 &mut scratch.statics,
                 &mut scratch.sample,
@@ -146,6 +148,7 @@ impl BandPipeline<'_> {
                     accumulate(
                         &window.rows(rows.0 + i as i64, 1),
                         &scratch.row_samples[i],
+                        None,
                         &mut scratch.raster,
                         &mut scratch.statics,
                         &mut scratch.sample,
@@ -201,10 +204,11 @@ fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
 
 /// Averages the renders of `window` at the K `snaps` into `out` (fixed summation order per
 /// pixel: first sample, plus each further sample in order, times 1/K). Layers that do not move
-/// during the exposure are rasterised once.
+/// during the exposure (`fixed`, else found here) are rasterised once.
 fn accumulate(
     window: &PixelRect,
     snaps: &[PreparedSnapshot],
+    fixed: Option<&[bool]>,
     raster: &mut RasterScratch,
     statics: &mut StaticCoverage,
     sample: &mut Vec<f32>,
@@ -215,7 +219,10 @@ fn accumulate(
         snaps[0].render_into(window, raster, out);
         return;
     }
-    statics.compute(snaps, window);
+    match fixed {
+        Some(f) => statics.compute_with(snaps, f, window),
+        None => statics.compute(snaps, window),
+    }
     snaps[0].render_with_static(window, raster, Some(statics), out);
     sample.resize(window.len(), 0.0);
     for s in &snaps[1..] {

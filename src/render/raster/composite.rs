@@ -24,26 +24,81 @@ pub struct RasterScratch {
 
 /// Coverage of the layers whose edges are identical in every sample of an exposure, over one
 /// window (computed once, blended by every sample).
+///
+/// When the leading layers are identical in every sample (same edges and radiance, same
+/// background), their composite over the window is also identical: it is computed once into
+/// `base` and every sample starts from a copy of it (the same per-pixel operations in the same
+/// order, so the same bits).
 #[derive(Debug, Default)]
 pub struct StaticCoverage {
     /// Per layer index: `Some((footprint, coverage))` if static (row-major over the footprint).
     layers: Vec<Option<(PixelRect, Vec<f32>)>>,
     acc: Vec<i64>,
+    /// Number of leading layers whose contribution is the same in every sample (0: no `base`).
+    prefix: usize,
+    /// Background plus the first `prefix` layers over `base_window`.
+    base: Vec<f32>,
+    base_window: Option<PixelRect>,
+}
+
+/// Per layer index: whether the layer has the same non-empty edges in every sample of `snaps`
+/// (all samples of one exposure). Only worth asking for more than one sample.
+pub fn static_layers(snaps: &[PreparedSnapshot]) -> Vec<bool> {
+    let n_layers = snaps.iter().map(|s| s.layers.len()).min().unwrap_or(0);
+    (0..n_layers)
+        .map(|j| {
+            let first = &snaps[0].layers[j];
+            snaps.len() > 1
+                && !first.edges.is_empty()
+                && snaps[1..].iter().all(|s| s.layers[j].edges == first.edges)
+        })
+        .collect()
+}
+
+/// Number of leading layers that every sample of `snaps` composites identically: same layer
+/// count and background bits, and per layer the same edges (`fixed`, or empty everywhere) and
+/// the same radiance bits.
+fn identical_prefix(snaps: &[PreparedSnapshot], fixed: &[bool]) -> usize {
+    let Some(first) = snaps.first() else {
+        return 0;
+    };
+    let bg = first.background_radiance.to_bits();
+    if snaps.len() < 2
+        || snaps
+            .iter()
+            .any(|s| s.layers.len() != first.layers.len() || s.background_radiance.to_bits() != bg)
+    {
+        return 0;
+    }
+    let mut n = 0;
+    for (j, layer) in first.layers.iter().enumerate() {
+        let same_edges = fixed.get(j).copied().unwrap_or(false)
+            || (layer.edges.is_empty() && snaps.iter().all(|s| s.layers[j].edges.is_empty()));
+        let r = layer.radiance.to_bits();
+        if !same_edges || snaps.iter().any(|s| s.layers[j].radiance.to_bits() != r) {
+            break;
+        }
+        n += 1;
+    }
+    n
 }
 
 impl StaticCoverage {
     /// Finds the static layers of `snaps` (all samples of one exposure) and rasterises their
     /// coverage over `window`. Only worth it for more than one sample.
     pub fn compute(&mut self, snaps: &[PreparedSnapshot], window: &PixelRect) {
+        self.compute_with(snaps, &static_layers(snaps), window);
+    }
+
+    /// [`Self::compute`] with the static layers already known (`fixed` = [`static_layers`] of
+    /// `snaps`, shared by every window of one exposure).
+    pub fn compute_with(&mut self, snaps: &[PreparedSnapshot], fixed: &[bool], window: &PixelRect) {
         let n_layers = snaps.iter().map(|s| s.layers.len()).min().unwrap_or(0);
         self.layers.resize_with(n_layers, || None);
         for j in 0..n_layers {
             let first = &snaps[0].layers[j];
-            let fixed = snaps.len() > 1
-                && !first.edges.is_empty()
-                && snaps[1..].iter().all(|s| s.layers[j].edges == first.edges);
             let fp = first.footprint(window);
-            if !fixed || fp.is_empty() {
+            if !fixed.get(j).copied().unwrap_or(false) || fp.is_empty() {
                 self.layers[j] = None;
                 continue;
             }
@@ -52,6 +107,28 @@ impl StaticCoverage {
             cov.resize(fp.len(), 0.0);
             first.coverage(&fp, &mut self.acc, &mut cov);
             self.layers[j] = Some((fp, cov));
+        }
+        self.prefix = if window.is_empty() {
+            0
+        } else {
+            identical_prefix(snaps, fixed).min(n_layers)
+        };
+        if self.prefix == 0 {
+            return;
+        }
+        // Exactly the first steps of `render_with_static` for any of the samples.
+        let first = &snaps[0];
+        self.base_window = Some(*window);
+        self.base.clear();
+        self.base.resize(window.len(), first.background_radiance);
+        for (j, layer) in first.layers[..self.prefix].iter().enumerate() {
+            if layer.edges.is_empty() {
+                continue;
+            }
+            // A fixed layer without coverage here has an empty footprint: it changes nothing.
+            if let Some(Some((fp, cov))) = self.layers.get(j) {
+                blend_coverage(fp, cov, layer.radiance, window, &mut self.base);
+            }
         }
     }
 
@@ -68,7 +145,8 @@ impl PreparedSnapshot {
     }
 
     /// [`Self::render_into`] taking the coverage of the layers in `statics` (computed for this
-    /// `window` from snapshots whose layers have the same edges) instead of rasterising them.
+    /// `window` from exposure samples that include this snapshot) instead of rasterising them,
+    /// and starting from its precomposited leading layers when there are any.
     pub fn render_with_static(
         &self,
         window: &PixelRect,
@@ -76,14 +154,23 @@ impl PreparedSnapshot {
         statics: Option<&StaticCoverage>,
         out: &mut [f32],
     ) {
-        out[..window.len()].fill(self.background_radiance);
+        let first_layer = match statics {
+            Some(s) if s.prefix > 0 && s.base_window == Some(*window) => {
+                out[..window.len()].copy_from_slice(&s.base);
+                s.prefix
+            }
+            _ => {
+                out[..window.len()].fill(self.background_radiance);
+                0
+            }
+        };
         if window.is_empty() {
             return;
         }
         let clean = |v: f32| v.is_finite() && v.is_sign_positive();
         let skip_uncovered =
             clean(self.background_radiance) && self.layers.iter().all(|l| clean(l.radiance));
-        for (j, layer) in self.layers.iter().enumerate() {
+        for (j, layer) in self.layers.iter().enumerate().skip(first_layer) {
             if layer.edges.is_empty() {
                 continue;
             }
