@@ -13,7 +13,7 @@ pub use roi::{
     corners_inside_exact_zone, required_margin_px, roi_exactness, roi_window,
     window_perimeter_rate, RoiExactness, RoiWindow,
 };
-pub use types::{Detection, GrayView};
+pub use types::{corners_bbox_px, Detection, GrayView};
 
 #[cfg(all(feature = "opencv-detector", not(opencv_aruco_objdetect)))]
 pub use opencv_aruco::opencv_parameters;

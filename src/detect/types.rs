@@ -45,13 +45,19 @@ impl Detection {
 
     /// Axis-aligned bounding box `(x_min, y_min, x_max, y_max)` of the corners, px.
     pub fn bbox_px(&self) -> (f64, f64, f64, f64) {
-        let xs = self.corners_px.iter().map(|p| p[0]);
-        let ys = self.corners_px.iter().map(|p| p[1]);
-        (
-            xs.clone().fold(f64::INFINITY, f64::min),
-            ys.clone().fold(f64::INFINITY, f64::min),
-            xs.fold(f64::NEG_INFINITY, f64::max),
-            ys.fold(f64::NEG_INFINITY, f64::max),
-        )
+        corners_bbox_px(&self.corners_px)
     }
+}
+
+/// Axis-aligned bounding box `(x_min, y_min, x_max, y_max)` of four corners, px — the
+/// predicted box that ROI detection takes.
+pub fn corners_bbox_px(corners_px: &[[f64; 2]; 4]) -> (f64, f64, f64, f64) {
+    let xs = corners_px.iter().map(|p| p[0]);
+    let ys = corners_px.iter().map(|p| p[1]);
+    (
+        xs.clone().fold(f64::INFINITY, f64::min),
+        ys.clone().fold(f64::INFINITY, f64::min),
+        xs.fold(f64::NEG_INFINITY, f64::max),
+        ys.fold(f64::NEG_INFINITY, f64::max),
+    )
 }

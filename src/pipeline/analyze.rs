@@ -5,7 +5,7 @@
 
 use super::measure::{estimate_track, relative_series};
 use crate::budget::compare::SignalErrors;
-use crate::detect::{ArucoDetector, DetectorConfig, GrayView};
+use crate::detect::{corners_bbox_px, ArucoDetector, DetectorConfig, GrayView};
 use crate::estimate::{Estimate, EstimatorConfig};
 use crate::io::kinematics_csv::write_kinematics_csv;
 use crate::io::tracks_csv::{read_tracks, Corners, TrackRow, TracksWriter};
@@ -65,18 +65,6 @@ pub struct AnalyzeOutput {
     pub files: Vec<PathBuf>,
 }
 
-fn bbox_of(c: &Corners) -> (f64, f64, f64, f64) {
-    c.iter().fold(
-        (
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ),
-        |b, p| (b.0.min(p[0]), b.1.min(p[1]), b.2.max(p[0]), b.3.max(p[1])),
-    )
-}
-
 /// Detection state carried from frame to frame.
 struct Tracker {
     detector: ArucoDetector,
@@ -96,13 +84,17 @@ impl Tracker {
         let view = GrayView::full(data, w, h);
         let m = self
             .detector
-            .detect_marker(view, self.marker_id, self.last.as_ref().map(bbox_of))
+            .detect_marker(
+                view,
+                self.marker_id,
+                self.last.as_ref().map(corners_bbox_px),
+            )
             .map_err(|e| e.to_string())?;
         let corners = m.detection.map(|d| d.corners_px);
         let reference = match self.reference_id {
             Some(id) => self
                 .detector
-                .detect_marker(view, id, self.last_reference.as_ref().map(bbox_of))
+                .detect_marker(view, id, self.last_reference.as_ref().map(corners_bbox_px))
                 .map_err(|e| e.to_string())?
                 .detection
                 .map(|d| d.corners_px),

@@ -8,7 +8,8 @@
 
 use super::rig::Rig;
 use crate::detect::{
-    roi_exactness, roi_window, ArucoDetector, DetectError, DetectionPath, GrayView, RoiExactness,
+    corners_bbox_px, roi_exactness, roi_window, ArucoDetector, DetectError, DetectionPath,
+    GrayView, RoiExactness,
 };
 use crate::io::tracks_csv::Corners;
 use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
@@ -89,18 +90,6 @@ impl Worker {
     }
 }
 
-fn bbox_of(c: &Corners) -> (f64, f64, f64, f64) {
-    c.iter().fold(
-        (
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ),
-        |b, p| (b.0.min(p[0]), b.1.min(p[1]), b.2.max(p[0]), b.3.max(p[1])),
-    )
-}
-
 /// The pixels ROI detection of `bbox` reads: its window plus the sub-pixel refinement window.
 fn render_rect_for(rig: &Rig, bbox: (f64, f64, f64, f64)) -> Option<PixelRect> {
     let cfg = &rig.scenario.detector;
@@ -128,7 +117,9 @@ fn process_frame(
     let err = |source| FrameError { frame, t_s, source };
     let reference_bbox =
         if rig.scenario.scene.reference_marker.enabled && cfg.reference_marker_id.is_some() {
-            rig.scene.reference_marker_corners_px().map(|c| bbox_of(&c))
+            rig.scene
+                .reference_marker_corners_px()
+                .map(|c| corners_bbox_px(&c))
         } else {
             None
         };

@@ -371,34 +371,21 @@ pub fn seed_report(
     let intervals = rig.frame_times.intervals_s();
     let h_mean = intervals.iter().sum::<f64>() / intervals.len().max(1) as f64;
     let noise = |m: &MonteCarloBudget| metric(m, "fused", Some("dwell"), |q| q.alpha.std).mean;
-    let impact_seed = (impact > 0.0)
-        .then(|| {
-            let src = seed_det.as_ref().unwrap_or(&seed_settings);
-            detectability(
-                &base.estimator.differentiator,
-                h_mean,
-                impact,
-                0.002,
-                noise(src),
-                3.0,
-            )
-            .ok()
-        })
-        .flatten();
-    let impact_better = (impact > 0.0)
-        .then(|| {
-            let src = better_det.as_ref().unwrap_or(&better);
-            detectability(
-                &better_sc.estimator.differentiator,
-                h_mean,
-                impact,
-                0.002,
-                noise(src),
-                3.0,
-            )
-            .ok()
-        })
-        .flatten();
+    // Detectability of the largest impact against a configuration's dwell noise (the
+    // detection-only run when there is one).
+    let impact_snr = |differentiator: &crate::estimate::Differentiator, src: &MonteCarloBudget| {
+        (impact > 0.0)
+            .then(|| detectability(differentiator, h_mean, impact, 0.002, noise(src), 3.0).ok())
+            .flatten()
+    };
+    let impact_seed = impact_snr(
+        &base.estimator.differentiator,
+        seed_det.as_ref().unwrap_or(&seed_settings),
+    );
+    let impact_better = impact_snr(
+        &better_sc.estimator.differentiator,
+        better_det.as_ref().unwrap_or(&better),
+    );
 
     let mut report = SeedReport {
         seed_settings,

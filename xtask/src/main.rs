@@ -53,7 +53,8 @@ fn run(mut command: Command) -> Result<(), String> {
     }
 }
 
-fn demo(extra: &[String]) -> Result<(), String> {
+/// `cargo run --release --bin geneva -- SUBCOMMAND --out OUT EXTRA…`
+fn geneva(subcommand: &str, out: &str, extra: &[String]) -> Result<(), String> {
     let mut command = cargo();
     command.args([
         "run",
@@ -61,12 +62,16 @@ fn demo(extra: &[String]) -> Result<(), String> {
         "--bin",
         "geneva",
         "--",
-        "demo",
+        subcommand,
         "--out",
-        "out/demo",
+        out,
     ]);
     command.args(extra);
     run(command)
+}
+
+fn demo(extra: &[String]) -> Result<(), String> {
+    geneva("demo", "out/demo", extra)
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
@@ -85,17 +90,5 @@ fn bench(extra: &[String]) -> Result<(), String> {
 }
 
 fn reports(extra: &[String]) -> Result<(), String> {
-    let mut command = cargo();
-    command.args([
-        "run",
-        "--release",
-        "--bin",
-        "geneva",
-        "--",
-        "reports",
-        "--out",
-        "reports",
-    ]);
-    command.args(extra);
-    run(command)
+    geneva("reports", "reports", extra)
 }
