@@ -14,6 +14,7 @@ use crate::detect::{
 use crate::io::tracks_csv::Corners;
 use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// How one frame was rendered and detected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,6 +87,45 @@ impl Worker {
                 let start = (w.y0 as usize + k) * width + w.x0 as usize;
                 self.canvas[start..start + w.width].fill(0);
             }
+        }
+    }
+}
+
+/// Workers kept from one rayon split to the next, so a full-size canvas and the render buffers
+/// are allocated about once per thread rather than once per split. A worker's state never
+/// affects a result (the canvas is blanked before use, buffers are overwritten).
+#[derive(Default)]
+struct WorkerPool {
+    idle: Mutex<Vec<Worker>>,
+}
+
+/// A worker taken from the pool (created on first use), returned on drop.
+struct PooledWorker<'a> {
+    pool: &'a WorkerPool,
+    worker: Option<Worker>,
+}
+
+impl WorkerPool {
+    fn borrow(&self) -> PooledWorker<'_> {
+        let worker = self.idle.lock().ok().and_then(|mut idle| idle.pop());
+        PooledWorker { pool: self, worker }
+    }
+}
+
+impl PooledWorker<'_> {
+    fn get(&mut self, create: impl FnOnce() -> Worker) -> &mut Worker {
+        self.worker.get_or_insert_with(create)
+    }
+}
+
+impl Drop for PooledWorker<'_> {
+    fn drop(&mut self) {
+        // A worker abandoned by a panic may hold half-pasted state: drop it instead.
+        if std::thread::panicking() {
+            return;
+        }
+        if let (Some(w), Ok(mut idle)) = (self.worker.take(), self.pool.idle.lock()) {
+            idle.push(w);
         }
     }
 }
@@ -225,6 +265,7 @@ pub fn detect_frames(
     let scene = rig.animated();
     let canvas_len = rig.settings.width_px * rig.settings.height_px;
     let chunk = options.chunk_frames.max(1);
+    let pool = WorkerPool::default();
     let mut start = frames.start;
     let mut done = 0;
     while start < frames.end {
@@ -232,13 +273,16 @@ pub fn detect_frames(
         let results: Vec<Result<FrameDetection, FrameError>> = (start..end)
             .into_par_iter()
             .map_init(
-                || Worker {
-                    detector: detector.clone(),
-                    buffers: FrameBuffers::default(),
-                    canvas: vec![0; canvas_len],
-                    pasted: Vec::new(),
+                || pool.borrow(),
+                |worker, i| {
+                    let worker = worker.get(|| Worker {
+                        detector: detector.clone(),
+                        buffers: FrameBuffers::default(),
+                        canvas: vec![0; canvas_len],
+                        pasted: Vec::new(),
+                    });
+                    process_frame(rig, &scene, worker, i, options.roi)
                 },
-                |worker, i| process_frame(rig, &scene, worker, i, options.roi),
             )
             .collect();
         let results: Vec<FrameDetection> = results.into_iter().collect::<Result<_, _>>()?;

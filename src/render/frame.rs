@@ -27,7 +27,7 @@ mod tone;
 use super::effects::camera_vibration::Vibration;
 use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
-use super::raster::{static_layers, PixelRect, PreparedSnapshot};
+use super::raster::{static_layers, PixelRect, PreparedSnapshot, RigidTransform};
 use super::shapes::{SceneAt, SceneSnapshot};
 use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
 use rayon::prelude::*;
@@ -238,18 +238,14 @@ fn band_pipeline<'a>(
         fx.motion_blur.sample_count(0.0)
     };
     let offsets = motion_blur::sample_offsets_s(exposure_s, k);
-    let prepare = move |t: f64| {
-        let transform = vibration.as_ref().map(|v| v.at(t));
-        PreparedSnapshot::new(&scene.snapshot(t), transform.as_ref())
-    };
     let t_s = frame.t_s;
     let samples = if fx.rolling_shutter.enabled {
         Samples::Rolling(Box::new(move |y: i64| {
             let t_row = t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
-            offsets.iter().map(|o| prepare(t_row + o)).collect()
+            prepare_sharing(scene, vibration.as_ref(), offsets.iter().map(|o| t_row + o))
         }))
     } else {
-        let snaps: Vec<PreparedSnapshot> = offsets.iter().map(|o| prepare(t_s + o)).collect();
+        let snaps = prepare_sharing(scene, vibration.as_ref(), offsets.iter().map(|o| t_s + o));
         let fixed = static_layers(&snaps);
         Samples::Global(snaps, fixed)
     };
@@ -260,6 +256,32 @@ fn band_pipeline<'a>(
         optical_blur::kernel(fx.optical_blur.sigma_px, radius)
     };
     BandPipeline { samples, weights }
+}
+
+/// The prepared snapshots at `times`, sharing every layer shape that does not change from the
+/// first sample (a static disc is converted once per frame, not once per sample).
+fn prepare_sharing(
+    scene: &dyn SceneAt,
+    vibration: Option<&Vibration>,
+    times: impl Iterator<Item = f64>,
+) -> Vec<PreparedSnapshot> {
+    let mut first: Option<(SceneSnapshot, Option<RigidTransform>)> = None;
+    let mut snaps: Vec<PreparedSnapshot> = Vec::new();
+    for t in times {
+        let transform = vibration.map(|v| v.at(t));
+        let snapshot = scene.snapshot(t);
+        let prepared = match (&first, snaps.first()) {
+            (Some((s0, tr0)), Some(p0)) if *tr0 == transform => {
+                PreparedSnapshot::new_sharing(&snapshot, transform.as_ref(), s0, p0)
+            }
+            _ => PreparedSnapshot::new(&snapshot, transform.as_ref()),
+        };
+        snaps.push(prepared);
+        if first.is_none() {
+            first = Some((snapshot, transform));
+        }
+    }
+    snaps
 }
 
 /// Largest image distance (px) any scene vertex travels during the exposure of any row.

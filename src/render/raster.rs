@@ -26,12 +26,15 @@
 //! covers [i, i + 1]; that shift happens only in `to_fixed`.
 
 mod composite;
+mod exposure;
 
 pub use composite::{static_layers, RasterScratch, StaticCoverage};
+pub use exposure::{average_exposure, ExposureScratch};
 
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Fixed-point fraction bits of vertex coordinates.
 pub const FRAC_BITS: u32 = 16;
@@ -290,10 +293,17 @@ impl Edge {
     }
 }
 
-/// A layer converted to canonical fixed-point edges.
+/// A layer converted to canonical fixed-point edges: its radiance and its shape (shared, not
+/// copied, by the exposure samples in which the layer does not move).
 #[derive(Debug, Clone)]
 struct PreparedLayer {
     radiance: f32,
+    shape: Arc<LayerShape>,
+}
+
+/// The fixed-point edges of a layer and their extent.
+#[derive(Debug, PartialEq)]
+struct LayerShape {
     edges: Vec<Edge>,
     y_min: i64,
     y_max: i64,
@@ -301,6 +311,14 @@ struct PreparedLayer {
     /// windings cancel left and right of their extent.
     col_min: i64,
     col_max: i64,
+}
+
+impl std::ops::Deref for PreparedLayer {
+    type Target = LayerShape;
+
+    fn deref(&self) -> &LayerShape {
+        &self.shape
+    }
 }
 
 impl PreparedLayer {
@@ -323,14 +341,23 @@ impl PreparedLayer {
             .unwrap_or(0);
         Self {
             radiance: layer.radiance,
-            edges,
-            y_min,
-            y_max,
-            col_min,
-            col_max,
+            shape: Arc::new(LayerShape {
+                edges,
+                y_min,
+                y_max,
+                col_min,
+                col_max,
+            }),
         }
     }
 
+    /// Whether both layers have the same edges (shared shapes are compared by address).
+    fn same_edges(&self, other: &PreparedLayer) -> bool {
+        Arc::ptr_eq(&self.shape, &other.shape) || self.edges == other.edges
+    }
+}
+
+impl LayerShape {
     /// The part of `window` where coverage can be non-zero.
     fn footprint(&self, window: &PixelRect) -> PixelRect {
         let rows = PixelRect::new(self.col_min, self.y_min.div_euclid(ONE), 0, 0);
@@ -423,6 +450,39 @@ impl PreparedSnapshot {
                 .layers
                 .iter()
                 .map(|l| PreparedLayer::new(l, transform))
+                .collect(),
+        }
+    }
+
+    /// [`Self::new`] reusing the prepared shapes of `earlier` (the preparation of
+    /// `earlier_snapshot` under the same `transform`) for every layer whose polygons are
+    /// unchanged — the shapes are identical, so sharing them changes no result.
+    pub fn new_sharing(
+        snapshot: &SceneSnapshot,
+        transform: Option<&RigidTransform>,
+        earlier_snapshot: &SceneSnapshot,
+        earlier: &PreparedSnapshot,
+    ) -> Self {
+        Self {
+            background_radiance: snapshot.background_radiance,
+            layers: snapshot
+                .layers
+                .iter()
+                .enumerate()
+                .map(
+                    |(j, l)| match (earlier_snapshot.layers.get(j), earlier.layers.get(j)) {
+                        (Some(e), Some(p))
+                            if earlier.layers.len() == earlier_snapshot.layers.len()
+                                && e.polygons == l.polygons =>
+                        {
+                            PreparedLayer {
+                                radiance: l.radiance,
+                                shape: Arc::clone(&p.shape),
+                            }
+                        }
+                        _ => PreparedLayer::new(l, transform),
+                    },
+                )
                 .collect(),
         }
     }

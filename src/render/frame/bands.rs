@@ -9,7 +9,7 @@
 //! values of an "active" column range.
 
 use crate::render::effects::optical_blur::{constant_response, convolve_column, convolve_row};
-use crate::render::raster::{PixelRect, PreparedSnapshot, RasterScratch, StaticCoverage};
+use crate::render::raster::{average_exposure, ExposureScratch, PixelRect, PreparedSnapshot};
 
 /// Output rows per band: with a blur margin of r rows, (rows + 2r) / rows of the rasterising
 /// is repeated, and the band's buffers should stay in L2.
@@ -34,10 +34,8 @@ pub(super) struct BandPipeline<'a> {
 /// Buffers of one band, reused from frame to frame.
 #[derive(Debug, Default)]
 pub struct BandScratch {
-    raster: RasterScratch,
-    statics: StaticCoverage,
+    exposure: ExposureScratch,
     radiance: Vec<f32>,
-    sample: Vec<f32>,
     horizontal: Vec<f32>,
     blurred: Vec<f32>,
     row_samples: Vec<Vec<PreparedSnapshot>>,
@@ -134,24 +132,20 @@ impl BandPipeline<'_> {
         // Stale contents are fine below: every stage overwrites all of its buffer.
         scratch.radiance.resize(window.len(), 0.0);
         match &self.samples {
-            Samples::Global(snaps, fixed) => accumulate(
+            Samples::Global(snaps, fixed) => average_exposure(
                 &window,
                 snaps,
                 Some(fixed),
-                &mut scratch.raster,
-                &mut scratch.statics,
-                &mut scratch.sample,
+                &mut scratch.exposure,
                 &mut scratch.radiance,
             ),
             Samples::Rolling(_) => {
                 for (i, out) in scratch.radiance.chunks_exact_mut(window.width).enumerate() {
-                    accumulate(
+                    average_exposure(
                         &window.rows(rows.0 + i as i64, 1),
                         &scratch.row_samples[i],
                         None,
-                        &mut scratch.raster,
-                        &mut scratch.statics,
-                        &mut scratch.sample,
+                        &mut scratch.exposure,
                         out,
                     );
                 }
@@ -187,7 +181,7 @@ impl BandPipeline<'_> {
 }
 
 /// The exposure average of K sample values, summed in sample order then scaled by 1/K
-/// (exactly what [`accumulate`] computes per pixel).
+/// (exactly what [`average_exposure`] computes per pixel).
 fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
     let mut k = 0usize;
     let mut sum = 0.0f32;
@@ -200,37 +194,4 @@ fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
     } else {
         sum
     }
-}
-
-/// Averages the renders of `window` at the K `snaps` into `out` (fixed summation order per
-/// pixel: first sample, plus each further sample in order, times 1/K). Layers that do not move
-/// during the exposure (`fixed`, else found here) are rasterised once.
-fn accumulate(
-    window: &PixelRect,
-    snaps: &[PreparedSnapshot],
-    fixed: Option<&[bool]>,
-    raster: &mut RasterScratch,
-    statics: &mut StaticCoverage,
-    sample: &mut Vec<f32>,
-    out: &mut [f32],
-) {
-    let k = snaps.len();
-    if k == 1 {
-        snaps[0].render_into(window, raster, out);
-        return;
-    }
-    match fixed {
-        Some(f) => statics.compute_with(snaps, f, window),
-        None => statics.compute(snaps, window),
-    }
-    snaps[0].render_with_static(window, raster, Some(statics), out);
-    sample.resize(window.len(), 0.0);
-    for s in &snaps[1..] {
-        s.render_with_static(window, raster, Some(statics), sample);
-        for (o, t) in out.iter_mut().zip(sample.iter()) {
-            *o += t;
-        }
-    }
-    let inv_k = 1.0 / k as f32;
-    out.iter_mut().for_each(|o| *o *= inv_k);
 }

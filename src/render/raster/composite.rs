@@ -19,7 +19,7 @@ use super::{PixelRect, PreparedLayer, PreparedSnapshot, FULL, ONE};
 #[derive(Debug, Default)]
 pub struct RasterScratch {
     /// Deposit accumulator, all zero between uses (each use re-zeroes the cells it touched).
-    acc: Vec<i64>,
+    pub(super) acc: Vec<i64>,
 }
 
 /// Coverage of the layers whose edges are identical in every sample of an exposure, over one
@@ -39,6 +39,8 @@ pub struct StaticCoverage {
     /// Background plus the first `prefix` layers over `base_window`.
     base: Vec<f32>,
     base_window: Option<PixelRect>,
+    /// Rasteriser buffers for compositing `base`.
+    raster: RasterScratch,
 }
 
 /// Per layer index: whether the layer has the same non-empty edges in every sample of `snaps`
@@ -50,7 +52,7 @@ pub fn static_layers(snaps: &[PreparedSnapshot]) -> Vec<bool> {
             let first = &snaps[0].layers[j];
             snaps.len() > 1
                 && !first.edges.is_empty()
-                && snaps[1..].iter().all(|s| s.layers[j].edges == first.edges)
+                && snaps[1..].iter().all(|s| s.layers[j].same_edges(first))
         })
         .collect()
 }
@@ -94,11 +96,17 @@ impl StaticCoverage {
     /// `snaps`, shared by every window of one exposure).
     pub fn compute_with(&mut self, snaps: &[PreparedSnapshot], fixed: &[bool], window: &PixelRect) {
         let n_layers = snaps.iter().map(|s| s.layers.len()).min().unwrap_or(0);
+        self.prefix = if window.is_empty() {
+            0
+        } else {
+            identical_prefix(snaps, fixed).min(n_layers)
+        };
         self.layers.resize_with(n_layers, || None);
         for j in 0..n_layers {
             let first = &snaps[0].layers[j];
             let fp = first.footprint(window);
-            if !fixed.get(j).copied().unwrap_or(false) || fp.is_empty() {
+            // Precomposited layers need no coverage of their own: the base holds them.
+            if j < self.prefix || !fixed.get(j).copied().unwrap_or(false) || fp.is_empty() {
                 self.layers[j] = None;
                 continue;
             }
@@ -108,32 +116,41 @@ impl StaticCoverage {
             first.coverage(&fp, &mut self.acc, &mut cov);
             self.layers[j] = Some((fp, cov));
         }
-        self.prefix = if window.is_empty() {
-            0
-        } else {
-            identical_prefix(snaps, fixed).min(n_layers)
-        };
         if self.prefix == 0 {
             return;
         }
-        // Exactly the first steps of `render_with_static` for any of the samples.
+        // Exactly the first steps of `render_with_static` without statics, for any sample.
         let first = &snaps[0];
+        let skip_uncovered = first.uncovered_unchanged();
         self.base_window = Some(*window);
         self.base.clear();
         self.base.resize(window.len(), first.background_radiance);
-        for (j, layer) in first.layers[..self.prefix].iter().enumerate() {
+        for layer in &first.layers[..self.prefix] {
             if layer.edges.is_empty() {
                 continue;
             }
-            // A fixed layer without coverage here has an empty footprint: it changes nothing.
-            if let Some(Some((fp, cov))) = self.layers.get(j) {
-                blend_coverage(fp, cov, layer.radiance, window, &mut self.base);
+            let fp = layer.footprint(window);
+            if !fp.is_empty() {
+                layer.blend_into(
+                    &fp,
+                    window,
+                    &mut self.raster.acc,
+                    &mut self.base,
+                    skip_uncovered,
+                );
             }
         }
     }
 
-    fn layer(&self, j: usize) -> Option<&(PixelRect, Vec<f32>)> {
+    pub(super) fn layer(&self, j: usize) -> Option<&(PixelRect, Vec<f32>)> {
         self.layers.get(j).and_then(|l| l.as_ref())
+    }
+
+    /// The number of precomposited leading layers and their composite over `window`, when the
+    /// last computation was for `window` and found any.
+    pub(super) fn base_of(&self, window: &PixelRect) -> Option<(usize, &[f32])> {
+        (self.prefix > 0 && self.base_window == Some(*window))
+            .then(|| (self.prefix, &self.base[..window.len()]))
     }
 }
 
@@ -167,9 +184,7 @@ impl PreparedSnapshot {
         if window.is_empty() {
             return;
         }
-        let clean = |v: f32| v.is_finite() && v.is_sign_positive();
-        let skip_uncovered =
-            clean(self.background_radiance) && self.layers.iter().all(|l| clean(l.radiance));
+        let skip_uncovered = self.uncovered_unchanged();
         for (j, layer) in self.layers.iter().enumerate().skip(first_layer) {
             if layer.edges.is_empty() {
                 continue;
@@ -188,9 +203,18 @@ impl PreparedSnapshot {
     }
 }
 
+impl PreparedSnapshot {
+    /// Whether blending a layer with coverage 0 leaves every value unchanged: no value can be
+    /// −0 or non-finite (`v·1 + r·0 = v` then).
+    pub(super) fn uncovered_unchanged(&self) -> bool {
+        let clean = |v: f32| v.is_finite() && v.is_sign_positive();
+        clean(self.background_radiance) && self.layers.iter().all(|l| clean(l.radiance))
+    }
+}
+
 impl PreparedLayer {
     /// Blends this layer over `out` (a `window` buffer) inside its footprint `fp`.
-    fn blend_into(
+    pub(super) fn blend_into(
         &self,
         fp: &PixelRect,
         window: &PixelRect,
@@ -308,6 +332,28 @@ fn blend_coverage(fp: &PixelRect, cov: &[f32], r: f32, window: &PixelRect, out: 
     for (row, cov_row) in cov.chunks_exact(fp.width).enumerate() {
         let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
         for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
+            *v = *v * (1.0 - c) + r * c;
+        }
+    }
+}
+
+/// [`blend_coverage`] restricted to the pixels of `fp` inside `sub`, into a `sub` buffer.
+pub(super) fn blend_coverage_clipped(
+    fp: &PixelRect,
+    cov: &[f32],
+    r: f32,
+    sub: &PixelRect,
+    out: &mut [f32],
+) {
+    let clip = fp.intersect(sub);
+    if clip.is_empty() {
+        return;
+    }
+    let dx = (clip.x0 - fp.x0) as usize;
+    for y in clip.y0..clip.y1() {
+        let c = &cov[(y - fp.y0) as usize * fp.width + dx..][..clip.width];
+        let start = sub.index(clip.x0, y).unwrap_or(0);
+        for (v, &c) in out[start..start + clip.width].iter_mut().zip(c) {
             *v = *v * (1.0 - c) + r * c;
         }
     }
