@@ -4,7 +4,8 @@
 #![cfg(feature = "opencv-detector")]
 
 use geneva_vision::detect::{
-    ArucoDetector, CornerRefinement, Detection, DetectionPath, DetectorConfig, GrayView, RoiConfig,
+    roi_window, ArucoDetector, CornerRefinement, Detection, DetectionPath, DetectorConfig,
+    GrayView, RoiConfig,
 };
 use geneva_vision::rng::{stream, Stream};
 use opencv::core::{Mat, Scalar, Size, BORDER_CONSTANT, BORDER_DEFAULT};
@@ -313,4 +314,187 @@ fn roi_on_4k_frame_matches_full_frame() {
         assert_eq!(obs.path, DetectionPath::Roi);
         assert_eq!(bits(&obs.detection), bits(&full));
     }
+}
+
+/// Clutter where the window ends: dark squares, square outlines and marker-like squares (an
+/// outline around a filled square) of the marker's size, placed so that they straddle the edge
+/// of the ROI window. Candidates there are cut by the window, so this is where a too-small
+/// margin would show: ROI corners must still equal full-frame corners bit for bit.
+#[test]
+fn roi_equals_full_frame_with_clutter_across_the_window_edge() {
+    const CW: usize = 480;
+    const CH: usize = 360;
+    let mut straddling = 0;
+    let mut framed = 0;
+    let mut compared = 0;
+    for method in [CornerRefinement::None, CornerRefinement::Subpix] {
+        let cfg = config(method);
+        let det = ArucoDetector::new(&cfg).unwrap();
+        for index in 0..150u64 {
+            let mut rng = stream(4242, Stream::PixelNoise, index);
+            let side = rng.gen_range(40..80usize);
+            let (dark, light) = (rng.gen_range(10..60u8), rng.gen_range(180..250u8));
+            let dict = opencv::aruco::get_predefined_dictionary_i32(0).unwrap();
+            let mut marker = Mat::default();
+            opencv::aruco::draw_marker(&dict, 0, side as i32, &mut marker, 1).unwrap();
+            let bytes = marker.data_bytes().unwrap().to_vec();
+            let mut canvas = vec![light; CW * CH];
+            for r in 0..side {
+                for c in 0..side {
+                    if bytes[r * side + c] < 128 {
+                        canvas[r * CW + c] = dark;
+                    }
+                }
+            }
+            let src = Mat::new_rows_cols_with_data(CH as i32, CW as i32, &canvas).unwrap();
+            let c_src = (side as f64 - 1.0) / 2.0;
+            let angle = rng.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
+            let (cx, cy) = (
+                rng.gen_range(180.0..CW as f64 - 180.0),
+                rng.gen_range(150.0..CH as f64 - 150.0),
+            );
+            let (s, c) = angle.sin_cos();
+            let m = Mat::from_slice_2d(&[
+                [c, -s, cx - (c * c_src - s * c_src)],
+                [s, c, cy - (s * c_src + c * c_src)],
+            ])
+            .unwrap();
+            let mut img = Mat::default();
+            opencv::imgproc::warp_affine(
+                &src,
+                &mut img,
+                &m,
+                Size::new(CW as i32, CH as i32),
+                opencv::imgproc::INTER_LINEAR,
+                BORDER_CONSTANT,
+                Scalar::all(f64::from(light)),
+            )
+            .unwrap();
+            let h = side as f64 / 2.0;
+            let pts = [(-h, -h), (h, -h), (h, h), (-h, h)]
+                .map(|(x, y)| (cx + c * x - s * y, cy + s * x + c * y));
+            let bbox = (
+                pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
+                pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
+                pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
+                pts.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
+            );
+            let win = roi_window(&cfg, bbox, CW, CH).expect("window");
+            let edges = [
+                (f64::from(win.x0_px), true),
+                (f64::from(win.x0_px + win.width_px - 1), true),
+                (f64::from(win.y0_px), false),
+                (f64::from(win.y0_px + win.height_px - 1), false),
+            ];
+            // A dark frame around the marker, close enough that some are grouped with it
+            // (OpenCV then keeps the bigger contour): the whole group must be inside the window.
+            if rng.gen_bool(0.5) {
+                let gap = side as f64 * rng.gen_range(0.03..0.2);
+                let thickness = rng.gen_range(2..(side as i32 / 5).max(3));
+                let half = h + gap + f64::from(thickness) / 2.0;
+                let frame: opencv::core::Vector<opencv::core::Vector<opencv::core::Point>> =
+                    [[(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                        .iter()
+                        .map(|&(u, v)| {
+                            opencv::core::Point::new(
+                                (cx + half * (c * u - s * v)).round() as i32,
+                                (cy + half * (s * u + c * v)).round() as i32,
+                            )
+                        })
+                        .collect()]
+                    .into_iter()
+                    .collect();
+                let ink = Scalar::all(f64::from(dark));
+                opencv::imgproc::polylines(&mut img, &frame, true, ink, thickness, 8, 0).unwrap();
+                framed += 1;
+            }
+            for _ in 0..rng.gen_range(1..4) {
+                let size = side as f64 * rng.gen_range(0.6..1.4);
+                let (at, vertical) = edges[rng.gen_range(0..4)];
+                let across = at + rng.gen_range(-0.6..0.6) * size;
+                let along = if vertical {
+                    rng.gen_range(f64::from(win.y0_px)..f64::from(win.y0_px + win.height_px))
+                } else {
+                    rng.gen_range(f64::from(win.x0_px)..f64::from(win.x0_px + win.width_px))
+                };
+                let (qx, qy) = if vertical {
+                    (across, along)
+                } else {
+                    (along, across)
+                };
+                let (qs, qc) = rng.gen_range(0.0..std::f64::consts::FRAC_PI_2).sin_cos();
+                let quad = |half: f64| -> opencv::core::Vector<opencv::core::Point> {
+                    [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                        .iter()
+                        .map(|&(u, v)| {
+                            opencv::core::Point::new(
+                                (qx + half * (qc * u - qs * v)).round() as i32,
+                                (qy + half * (qs * u + qc * v)).round() as i32,
+                            )
+                        })
+                        .collect()
+                };
+                let ink = Scalar::all(f64::from(dark));
+                match rng.gen_range(0..3) {
+                    0 => opencv::imgproc::fill_convex_poly(&mut img, &quad(size / 2.0), ink, 8, 0)
+                        .unwrap(),
+                    kind => {
+                        let thickness = rng.gen_range(2..(side as i32 / 6).max(3));
+                        let outline: opencv::core::Vector<
+                            opencv::core::Vector<opencv::core::Point>,
+                        > = [quad(size / 2.0)].into_iter().collect();
+                        opencv::imgproc::polylines(&mut img, &outline, true, ink, thickness, 8, 0)
+                            .unwrap();
+                        if kind == 2 {
+                            opencv::imgproc::fill_convex_poly(
+                                &mut img,
+                                &quad(size / 4.0),
+                                ink,
+                                8,
+                                0,
+                            )
+                            .unwrap();
+                        }
+                    }
+                }
+                straddling += 1;
+            }
+            let mut blurred = Mat::default();
+            let sigma = rng.gen_range(0.3..1.2);
+            opencv::imgproc::gaussian_blur(
+                &img,
+                &mut blurred,
+                Size::new(0, 0),
+                sigma,
+                sigma,
+                BORDER_DEFAULT,
+            )
+            .unwrap();
+            let noise = Normal::new(0.0, rng.gen_range(0.0..3.0)).unwrap();
+            let pixels: Vec<u8> = blurred
+                .data_bytes()
+                .unwrap()
+                .iter()
+                .map(|&v| {
+                    (f64::from(v) + noise.sample(&mut rng))
+                        .round()
+                        .clamp(0.0, 255.0) as u8
+                })
+                .collect();
+            let view = GrayView::full(&pixels, CW, CH);
+            let full = det.detect(view).unwrap().into_iter().find(|d| d.id == 0);
+            let obs = det.detect_marker(view, 0, Some(bbox)).unwrap();
+            assert_eq!(
+                bits(&obs.detection),
+                bits(&full),
+                "{method:?} frame {index}: {:?}",
+                obs.path
+            );
+            compared += usize::from(obs.path == DetectionPath::Roi);
+        }
+    }
+    eprintln!(
+        "clutter: {straddling} distractors across window edges, {framed} markers framed, {compared} ROI detections"
+    );
+    assert!(compared >= 200, "ROI path taken only {compared} times");
 }

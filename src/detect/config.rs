@@ -42,8 +42,8 @@ pub struct RoiConfig {
     /// it cannot guarantee that).
     pub enabled: bool,
     /// Allowance for prediction error, px: added around the predicted bounding box on top of the
-    /// minimum margin that keeps ROI results exact (threshold window, polygon tolerance, candidate
-    /// merge distance, border distance). Default: 32.
+    /// minimum margin that keeps ROI results exact (threshold window, reach of a candidate that
+    /// can be grouped with the marker, border distance). Default: 32.
     pub margin_px: u32,
 }
 

@@ -42,11 +42,22 @@ pub fn roi_exactness(cfg: &DetectorConfig) -> RoiExactness {
     }
 }
 
-/// Distance a marker with perimeter `perimeter_px` must keep from any window edge that is not a
-/// frame edge so that the window reproduces full-frame candidates: half the largest threshold
-/// window, plus how far the contour may stray from the fitted quad (polygon tolerance), plus how
-/// far a competing candidate may sit and still be merged with it (2 × min marker distance), plus
-/// the border-distance rule and 2 px for the contour's 8-neighbourhood.
+/// Distance a marker whose bounding box has perimeter `perimeter_px` must keep from any window
+/// edge that is not a frame edge so that the window reproduces the full-frame candidates that
+/// decide its corners:
+/// * half the largest adaptive-threshold window (beyond it the threshold is the frame's);
+/// * the reach of a candidate that can be grouped with the marker: OpenCV merges two candidates
+///   when their mean squared corner distance is below (`min_marker_distance_rate` × the
+///   smaller contour's point count)², so each corner of a grouped candidate lies within
+///   2 · rate · N of a marker corner, and N ≤ the bounding-box perimeter (an 8-connected
+///   convex contour has Σ max(|dx|, |dy|) ≤ Σ (|dx| + |dy|) points);
+/// * how far that candidate's contour may stray from its quad (the polygon tolerance,
+///   `polygonal_approx_accuracy_rate` × its point count, at most the perimeter of a box grown
+///   by the corner reach on every side);
+/// * the border-distance rule and 2 px for the contour's 8-neighbourhood.
+///
+/// Chains of groupings (a candidate grouped with a grouped candidate) are not bounded by this;
+/// `tests/detect_roi.rs` checks ROI against full-frame detection on hundreds of rendered frames.
 pub fn required_margin_px(cfg: &DetectorConfig, perimeter_px: f64) -> f64 {
     let half_window = cfg
         .threshold_window_sizes_px()
@@ -54,9 +65,9 @@ pub fn required_margin_px(cfg: &DetectorConfig, perimeter_px: f64) -> f64 {
         .max()
         .unwrap_or(3)
         / 2;
-    let stray = 2.0
-        * (cfg.polygonal_approx_accuracy_rate + 2.0 * cfg.min_marker_distance_rate)
-        * perimeter_px;
+    let corner_reach = 2.0 * cfg.min_marker_distance_rate * perimeter_px;
+    let candidate_perimeter = perimeter_px + 8.0 * corner_reach;
+    let stray = corner_reach + cfg.polygonal_approx_accuracy_rate * candidate_perimeter;
     f64::from(half_window) + stray.ceil() + f64::from(cfg.min_distance_to_border_px.max(0)) + 2.0
 }
 
