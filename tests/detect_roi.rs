@@ -22,37 +22,38 @@ struct Frame {
     true_bbox_px: Option<(f64, f64, f64, f64)>,
 }
 
-fn synth_frame(index: u64) -> Frame {
-    let mut rng = stream(2024, Stream::PixelNoise, index);
-    let present = rng.gen_bool(0.9);
-    let side = rng.gen_range(40..90usize);
-    let (dark, light) = (rng.gen_range(10..70u8), rng.gen_range(170..250u8));
+/// Marker 0 of 4X4_50, `side` px, drawn `dark` on `light` (or only the background when not
+/// `present`), rotated by `angle_rad` and centred at `centre_px` in a `width × height` image by a
+/// bilinear warpAffine. Returns the image and the bounding box of the marker's true outline.
+#[allow(clippy::too_many_arguments)]
+fn warped_marker(
+    width: usize,
+    height: usize,
+    side: usize,
+    (dark, light): (u8, u8),
+    present: bool,
+    angle_rad: f64,
+    centre_px: (f64, f64),
+) -> (Mat, (f64, f64, f64, f64)) {
     let dict = opencv::aruco::get_predefined_dictionary_i32(0).unwrap();
     let mut marker = Mat::default();
     opencv::aruco::draw_marker(&dict, 0, side as i32, &mut marker, 1).unwrap();
-    let mut canvas = vec![light; W * H];
+    let mut canvas = vec![light; width * height];
     if present {
         let bytes = marker.data_bytes().unwrap();
         for r in 0..side {
             for c in 0..side {
-                canvas[r * W + c] = if bytes[r * side + c] < 128 {
-                    dark
-                } else {
-                    light
-                };
+                if bytes[r * side + c] < 128 {
+                    canvas[r * width + c] = dark;
+                }
             }
         }
     }
-    let src = Mat::new_rows_cols_with_data(H as i32, W as i32, &canvas).unwrap();
+    let src = Mat::new_rows_cols_with_data(height as i32, width as i32, &canvas).unwrap();
     // Marker outline in canvas pixels runs from -0.5 to side - 0.5 (pixel-centre convention).
     let c_src = (side as f64 - 1.0) / 2.0;
-    let angle = rng.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
-    // A tenth of the frames put the marker partly outside the frame.
-    let edge = rng.gen_bool(0.1);
-    let reach = if edge { 0.0 } else { side as f64 * 0.75 + 4.0 };
-    let cx = rng.gen_range(reach..W as f64 - reach);
-    let cy = rng.gen_range(reach..H as f64 - reach);
-    let (s, c) = angle.sin_cos();
+    let (cx, cy) = centre_px;
+    let (s, c) = angle_rad.sin_cos();
     let m = Mat::from_slice_2d(&[
         [c, -s, cx - (c * c_src - s * c_src)],
         [s, c, cy - (s * c_src + c * c_src)],
@@ -63,50 +64,67 @@ fn synth_frame(index: u64) -> Frame {
         &src,
         &mut warped,
         &m,
-        Size::new(W as i32, H as i32),
+        Size::new(width as i32, height as i32),
         opencv::imgproc::INTER_LINEAR,
         BORDER_CONSTANT,
         Scalar::all(f64::from(light)),
     )
     .unwrap();
-    let sigma = rng.gen_range(0.3..1.5);
+    let h = side as f64 / 2.0;
+    let pts =
+        [(-h, -h), (h, -h), (h, h), (-h, h)].map(|(x, y)| (cx + c * x - s * y, cy + s * x + c * y));
+    let bbox = (
+        pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
+        pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
+        pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
+        pts.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
+    );
+    (warped, bbox)
+}
+
+/// Gaussian blur of `sigma_px`, then seeded Gaussian noise of `noise_dn`, rounded to 8 bits.
+fn blur_and_noise(
+    img: &Mat,
+    sigma_px: f64,
+    noise_dn: f64,
+    rng: &mut rand_pcg::Pcg64Mcg,
+) -> Vec<u8> {
     let mut blurred = Mat::default();
     opencv::imgproc::gaussian_blur(
-        &warped,
+        img,
         &mut blurred,
         Size::new(0, 0),
-        sigma,
-        sigma,
+        sigma_px,
+        sigma_px,
         BORDER_DEFAULT,
     )
     .unwrap();
-    let noise = Normal::new(0.0, rng.gen_range(0.0..4.0)).unwrap();
-    let pixels = blurred
+    let noise = Normal::new(0.0, noise_dn).unwrap();
+    blurred
         .data_bytes()
         .unwrap()
         .iter()
-        .map(|&v| {
-            (f64::from(v) + noise.sample(&mut rng))
-                .round()
-                .clamp(0.0, 255.0) as u8
-        })
-        .collect();
-    let true_bbox_px = present.then(|| {
-        let h = side as f64 / 2.0;
-        let pts = [(-h, -h), (h, -h), (h, h), (-h, h)]
-            .map(|(x, y)| (cx + c * x - s * y, cy + s * x + c * y));
-        let xs = pts.map(|p| p.0);
-        let ys = pts.map(|p| p.1);
-        (
-            xs.iter().cloned().fold(f64::INFINITY, f64::min),
-            ys.iter().cloned().fold(f64::INFINITY, f64::min),
-            xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-            ys.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-        )
-    });
+        .map(|&v| (f64::from(v) + noise.sample(rng)).round().clamp(0.0, 255.0) as u8)
+        .collect()
+}
+
+fn synth_frame(index: u64) -> Frame {
+    let mut rng = stream(2024, Stream::PixelNoise, index);
+    let present = rng.gen_bool(0.9);
+    let side = rng.gen_range(40..90usize);
+    let levels = (rng.gen_range(10..70u8), rng.gen_range(170..250u8));
+    let angle = rng.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
+    // A tenth of the frames put the marker partly outside the frame.
+    let edge = rng.gen_bool(0.1);
+    let reach = if edge { 0.0 } else { side as f64 * 0.75 + 4.0 };
+    let cx = rng.gen_range(reach..W as f64 - reach);
+    let cy = rng.gen_range(reach..H as f64 - reach);
+    let (warped, bbox) = warped_marker(W, H, side, levels, present, angle, (cx, cy));
+    let sigma = rng.gen_range(0.3..1.5);
+    let noise_dn = rng.gen_range(0.0..4.0);
     Frame {
-        pixels,
-        true_bbox_px,
+        pixels: blur_and_noise(&warped, sigma, noise_dn, &mut rng),
+        true_bbox_px: present.then_some(bbox),
     }
 }
 
@@ -334,51 +352,14 @@ fn roi_equals_full_frame_with_clutter_across_the_window_edge() {
             let mut rng = stream(4242, Stream::PixelNoise, index);
             let side = rng.gen_range(40..80usize);
             let (dark, light) = (rng.gen_range(10..60u8), rng.gen_range(180..250u8));
-            let dict = opencv::aruco::get_predefined_dictionary_i32(0).unwrap();
-            let mut marker = Mat::default();
-            opencv::aruco::draw_marker(&dict, 0, side as i32, &mut marker, 1).unwrap();
-            let bytes = marker.data_bytes().unwrap().to_vec();
-            let mut canvas = vec![light; CW * CH];
-            for r in 0..side {
-                for c in 0..side {
-                    if bytes[r * side + c] < 128 {
-                        canvas[r * CW + c] = dark;
-                    }
-                }
-            }
-            let src = Mat::new_rows_cols_with_data(CH as i32, CW as i32, &canvas).unwrap();
-            let c_src = (side as f64 - 1.0) / 2.0;
             let angle = rng.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
             let (cx, cy) = (
                 rng.gen_range(180.0..CW as f64 - 180.0),
                 rng.gen_range(150.0..CH as f64 - 150.0),
             );
+            let (mut img, bbox) = warped_marker(CW, CH, side, (dark, light), true, angle, (cx, cy));
             let (s, c) = angle.sin_cos();
-            let m = Mat::from_slice_2d(&[
-                [c, -s, cx - (c * c_src - s * c_src)],
-                [s, c, cy - (s * c_src + c * c_src)],
-            ])
-            .unwrap();
-            let mut img = Mat::default();
-            opencv::imgproc::warp_affine(
-                &src,
-                &mut img,
-                &m,
-                Size::new(CW as i32, CH as i32),
-                opencv::imgproc::INTER_LINEAR,
-                BORDER_CONSTANT,
-                Scalar::all(f64::from(light)),
-            )
-            .unwrap();
             let h = side as f64 / 2.0;
-            let pts = [(-h, -h), (h, -h), (h, h), (-h, h)]
-                .map(|(x, y)| (cx + c * x - s * y, cy + s * x + c * y));
-            let bbox = (
-                pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
-                pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
-                pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
-                pts.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
-            );
             let win = roi_window(&cfg, bbox, CW, CH).expect("window");
             let edges = [
                 (f64::from(win.x0_px), true),
@@ -459,28 +440,9 @@ fn roi_equals_full_frame_with_clutter_across_the_window_edge() {
                 }
                 straddling += 1;
             }
-            let mut blurred = Mat::default();
             let sigma = rng.gen_range(0.3..1.2);
-            opencv::imgproc::gaussian_blur(
-                &img,
-                &mut blurred,
-                Size::new(0, 0),
-                sigma,
-                sigma,
-                BORDER_DEFAULT,
-            )
-            .unwrap();
-            let noise = Normal::new(0.0, rng.gen_range(0.0..3.0)).unwrap();
-            let pixels: Vec<u8> = blurred
-                .data_bytes()
-                .unwrap()
-                .iter()
-                .map(|&v| {
-                    (f64::from(v) + noise.sample(&mut rng))
-                        .round()
-                        .clamp(0.0, 255.0) as u8
-                })
-                .collect();
+            let noise_dn = rng.gen_range(0.0..3.0);
+            let pixels = blur_and_noise(&img, sigma, noise_dn, &mut rng);
             let view = GrayView::full(&pixels, CW, CH);
             let full = det.detect(view).unwrap().into_iter().find(|d| d.id == 0);
             let obs = det.detect_marker(view, 0, Some(bbox)).unwrap();
