@@ -27,7 +27,7 @@ mod tone;
 use super::effects::camera_vibration::Vibration;
 use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
-use super::raster::{static_layers, PixelRect, PreparedSnapshot, RigidTransform};
+use super::raster::{ExposurePlan, PixelRect, PreparedSnapshot, RigidTransform};
 use super::shapes::{SceneAt, SceneSnapshot};
 use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
 use rayon::prelude::*;
@@ -242,12 +242,23 @@ fn band_pipeline<'a>(
     let samples = if fx.rolling_shutter.enabled {
         Samples::Rolling(Box::new(move |y: i64| {
             let t_row = t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
-            prepare_sharing(scene, vibration.as_ref(), offsets.iter().map(|o| t_row + o))
+            sample_scene(
+                scene,
+                vibration.as_ref(),
+                offsets.iter().map(|o| t_row + o),
+                false,
+            )
+            .prepared
         }))
     } else {
-        let snaps = prepare_sharing(scene, vibration.as_ref(), offsets.iter().map(|o| t_s + o));
-        let fixed = static_layers(&snaps);
-        Samples::Global(snaps, fixed)
+        let s = sample_scene(
+            scene,
+            vibration.as_ref(),
+            offsets.iter().map(|o| t_s + o),
+            true,
+        );
+        let plan = ExposurePlan::new(&s.prepared, &s.scenes, &s.transforms);
+        Samples::Global(s.prepared, plan)
     };
     let radius = fx.optical_blur.radius_px();
     let weights = if radius == 0 {
@@ -258,30 +269,47 @@ fn band_pipeline<'a>(
     BandPipeline { samples, weights }
 }
 
-/// The prepared snapshots at `times`, sharing every layer shape that does not change from the
-/// first sample (a static disc is converted once per frame, not once per sample).
-fn prepare_sharing(
+/// The samples at `times`: their preparations, which share every layer shape that does not
+/// change from the first sample (a static disc is converted once per frame, not once per
+/// sample), their image transforms (camera vibration) and, when `keep_scenes`, the scene
+/// snapshots themselves (only the first otherwise).
+struct Sampled {
+    scenes: Vec<SceneSnapshot>,
+    transforms: Vec<Option<RigidTransform>>,
+    prepared: Vec<PreparedSnapshot>,
+}
+
+fn sample_scene(
     scene: &dyn SceneAt,
     vibration: Option<&Vibration>,
     times: impl Iterator<Item = f64>,
-) -> Vec<PreparedSnapshot> {
-    let mut first: Option<(SceneSnapshot, Option<RigidTransform>)> = None;
-    let mut snaps: Vec<PreparedSnapshot> = Vec::new();
+    keep_scenes: bool,
+) -> Sampled {
+    let mut sampled = Sampled {
+        scenes: Vec::new(),
+        transforms: Vec::new(),
+        prepared: Vec::new(),
+    };
     for t in times {
         let transform = vibration.map(|v| v.at(t));
         let snapshot = scene.snapshot(t);
-        let prepared = match (&first, snaps.first()) {
-            (Some((s0, tr0)), Some(p0)) if *tr0 == transform => {
+        let prepared = match (
+            sampled.scenes.first(),
+            sampled.transforms.first(),
+            sampled.prepared.first(),
+        ) {
+            (Some(s0), Some(tr0), Some(p0)) if *tr0 == transform => {
                 PreparedSnapshot::new_sharing(&snapshot, transform.as_ref(), s0, p0)
             }
             _ => PreparedSnapshot::new(&snapshot, transform.as_ref()),
         };
-        snaps.push(prepared);
-        if first.is_none() {
-            first = Some((snapshot, transform));
+        if keep_scenes || sampled.scenes.is_empty() {
+            sampled.scenes.push(snapshot);
         }
+        sampled.transforms.push(transform);
+        sampled.prepared.push(prepared);
     }
-    snaps
+    sampled
 }
 
 /// Largest image distance (px) any scene vertex travels during the exposure of any row.

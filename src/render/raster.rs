@@ -27,9 +27,10 @@
 
 mod composite;
 mod exposure;
+mod nesting;
 
 pub use composite::{static_layers, RasterScratch, StaticCoverage};
-pub use exposure::{average_exposure, ExposureScratch};
+pub use exposure::{average_exposure, ExposurePlan, ExposureScratch};
 
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;

@@ -9,7 +9,9 @@
 //! values of an "active" column range.
 
 use crate::render::effects::optical_blur::{constant_response, convolve_column, convolve_row};
-use crate::render::raster::{average_exposure, ExposureScratch, PixelRect, PreparedSnapshot};
+use crate::render::raster::{
+    average_exposure, ExposurePlan, ExposureScratch, PixelRect, PreparedSnapshot,
+};
 
 /// Output rows per band: with a blur margin of r rows, (rows + 2r) / rows of the rasterising
 /// is repeated, and the band's buffers should stay in L2.
@@ -17,9 +19,9 @@ pub(super) const BAND_ROWS: usize = 32;
 
 /// The exposure samples of every row.
 pub(super) enum Samples<'a> {
-    /// Global shutter: the K prepared snapshots shared by every row, and which of their
-    /// layers are static ([`crate::render::raster::static_layers`], found once for all bands).
-    Global(Vec<PreparedSnapshot>, Vec<bool>),
+    /// Global shutter: the K prepared snapshots shared by every row, and how they are averaged
+    /// (decided once for all bands).
+    Global(Vec<PreparedSnapshot>, ExposurePlan),
     /// Rolling shutter: the K prepared snapshots of absolute row y.
     Rolling(Box<dyn Fn(i64) -> Vec<PreparedSnapshot> + Sync + 'a>),
 }
@@ -132,19 +134,20 @@ impl BandPipeline<'_> {
         // Stale contents are fine below: every stage overwrites all of its buffer.
         scratch.radiance.resize(window.len(), 0.0);
         match &self.samples {
-            Samples::Global(snaps, fixed) => average_exposure(
+            Samples::Global(snaps, plan) => average_exposure(
                 &window,
                 snaps,
-                Some(fixed),
+                plan,
                 &mut scratch.exposure,
                 &mut scratch.radiance,
             ),
             Samples::Rolling(_) => {
                 for (i, out) in scratch.radiance.chunks_exact_mut(window.width).enumerate() {
+                    let snaps = &scratch.row_samples[i];
                     average_exposure(
                         &window.rows(rows.0 + i as i64, 1),
-                        &scratch.row_samples[i],
-                        None,
+                        snaps,
+                        &ExposurePlan::per_sample(snaps),
                         &mut scratch.exposure,
                         out,
                     );

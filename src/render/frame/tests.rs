@@ -369,9 +369,11 @@ impl SceneAt for HalfStatic {
 }
 
 #[test]
-fn exposure_average_is_bit_identical_to_summing_whole_sample_renders() {
+fn exposure_average_matches_summing_whole_sample_renders() {
     // The band renderer skips inactive columns, reuses static layers' coverage and composites
-    // only deposit spans; the reference renders every sample over the whole frame.
+    // mean coverages of the nested moving square; the reference renders every sample over the
+    // whole frame and averages them (equal up to float rounding: the raster tests pin the
+    // sample-by-sample path bit for bit).
     let mut fx = EffectsConfig::none();
     fx.motion_blur.enabled = true;
     fx.motion_blur.exposure_s = 0.01;
@@ -390,7 +392,7 @@ fn exposure_average_is_bit_identical_to_summing_whole_sample_renders() {
     }
     reference.iter_mut().for_each(|r| *r *= 1.0 / 7.0f32);
     for (i, (a, b)) in fast.data.iter().zip(&reference).enumerate() {
-        assert_eq!(a.to_bits(), b.to_bits(), "pixel {i}");
+        assert!((a - b).abs() <= 2e-7, "pixel {i}: {a} vs {b}");
     }
     // And with the optical blur on, a window still equals the full frame.
     fx.optical_blur.enabled = true;

@@ -60,7 +60,7 @@ pub fn static_layers(snaps: &[PreparedSnapshot]) -> Vec<bool> {
 /// Number of leading layers that every sample of `snaps` composites identically: same layer
 /// count and background bits, and per layer the same edges (`fixed`, or empty everywhere) and
 /// the same radiance bits.
-fn identical_prefix(snaps: &[PreparedSnapshot], fixed: &[bool]) -> usize {
+pub(super) fn identical_prefix(snaps: &[PreparedSnapshot], fixed: &[bool]) -> usize {
     let Some(first) = snaps.first() else {
         return 0;
     };
