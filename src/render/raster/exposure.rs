@@ -381,13 +381,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn square(cx: f64, cy: f64, half: f64, angle: f64) -> Polygon {
-        let (s, c) = angle.sin_cos();
-        Polygon {
-            vertices_px: [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .iter()
-                .map(|&(u, v)| DVec2::new(cx + half * (c * u - s * v), cy + half * (s * u + c * v)))
-                .collect(),
-        }
+        crate::render::test_scenes::rotated_square(DVec2::new(cx, cy), 2.0 * half, angle)
     }
 
     fn disc(cx: f64, cy: f64, r: f64) -> Polygon {
