@@ -13,6 +13,15 @@ pub struct Problem {
     pub message: String,
 }
 
+/// The problems as an indented bullet list, one per line (for error messages).
+pub fn bullet_list(problems: &[Problem]) -> String {
+    problems
+        .iter()
+        .map(|p| format!("  - {p}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 impl fmt::Display for Problem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {}", self.field, self.message)

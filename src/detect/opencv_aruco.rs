@@ -219,6 +219,47 @@ fn to_detection(id: i32, corners: &[Point2f; 4], origin_px: (i32, i32)) -> Detec
     }
 }
 
+/// Sets every `DetectorParameters` field from a [`DetectorConfig`]: the same setters exist on the
+/// 4.6 `aruco` and the 4.7+ `objdetect` parameter types, which share no trait.
+macro_rules! set_detector_parameters {
+    ($p:ident, $cfg:ident) => {{
+        $p.set_adaptive_thresh_win_size_min($cfg.adaptive_thresh_win_size_min_px);
+        $p.set_adaptive_thresh_win_size_max($cfg.adaptive_thresh_win_size_max_px);
+        $p.set_adaptive_thresh_win_size_step($cfg.adaptive_thresh_win_size_step_px);
+        $p.set_adaptive_thresh_constant($cfg.adaptive_thresh_constant_dn);
+        $p.set_min_marker_perimeter_rate($cfg.min_marker_perimeter_rate);
+        $p.set_max_marker_perimeter_rate($cfg.max_marker_perimeter_rate);
+        $p.set_polygonal_approx_accuracy_rate($cfg.polygonal_approx_accuracy_rate);
+        $p.set_min_corner_distance_rate($cfg.min_corner_distance_rate);
+        $p.set_min_distance_to_border($cfg.min_distance_to_border_px);
+        $p.set_min_marker_distance_rate($cfg.min_marker_distance_rate);
+        $p.set_corner_refinement_method($cfg.corner_refinement_method.opencv_code());
+        $p.set_corner_refinement_win_size($cfg.corner_refinement_win_size_px);
+        $p.set_corner_refinement_max_iterations($cfg.corner_refinement_max_iterations);
+        $p.set_corner_refinement_min_accuracy($cfg.corner_refinement_min_accuracy_px);
+        $p.set_marker_border_bits($cfg.marker_border_bits);
+        $p.set_perspective_remove_pixel_per_cell($cfg.perspective_remove_pixel_per_cell_px);
+        $p.set_perspective_remove_ignored_margin_per_cell(
+            $cfg.perspective_remove_ignored_margin_per_cell,
+        );
+        $p.set_max_erroneous_bits_in_border_rate($cfg.max_erroneous_bits_in_border_rate);
+        $p.set_min_otsu_std_dev($cfg.min_otsu_std_dev_dn);
+        $p.set_error_correction_rate($cfg.error_correction_rate);
+        $p.set_april_tag_quad_decimate($cfg.april_tag_quad_decimate);
+        $p.set_april_tag_quad_sigma($cfg.april_tag_quad_sigma_px);
+        $p.set_april_tag_min_cluster_pixels($cfg.april_tag_min_cluster_pixels);
+        $p.set_april_tag_max_nmaxima($cfg.april_tag_max_nmaxima);
+        $p.set_april_tag_critical_rad($cfg.april_tag_critical_rad);
+        $p.set_april_tag_max_line_fit_mse($cfg.april_tag_max_line_fit_mse_px2);
+        $p.set_april_tag_min_white_black_diff($cfg.april_tag_min_white_black_diff_dn);
+        $p.set_april_tag_deglitch(i32::from($cfg.april_tag_deglitch));
+        $p.set_detect_inverted_marker($cfg.detect_inverted_marker);
+        $p.set_use_aruco3_detection($cfg.use_aruco3_detection);
+        $p.set_min_side_length_canonical_img($cfg.min_side_length_canonical_img_px);
+        $p.set_min_marker_length_ratio_original_img($cfg.min_marker_length_ratio_original_img);
+    }};
+}
+
 /// OpenCV 4.6 contrib `aruco` API.
 #[cfg(not(opencv_aruco_objdetect))]
 mod backend {
@@ -230,40 +271,7 @@ mod backend {
         cfg: &DetectorConfig,
     ) -> opencv::Result<opencv::core::Ptr<aruco::DetectorParameters>> {
         let mut p = aruco::DetectorParameters::create()?;
-        p.set_adaptive_thresh_win_size_min(cfg.adaptive_thresh_win_size_min_px);
-        p.set_adaptive_thresh_win_size_max(cfg.adaptive_thresh_win_size_max_px);
-        p.set_adaptive_thresh_win_size_step(cfg.adaptive_thresh_win_size_step_px);
-        p.set_adaptive_thresh_constant(cfg.adaptive_thresh_constant_dn);
-        p.set_min_marker_perimeter_rate(cfg.min_marker_perimeter_rate);
-        p.set_max_marker_perimeter_rate(cfg.max_marker_perimeter_rate);
-        p.set_polygonal_approx_accuracy_rate(cfg.polygonal_approx_accuracy_rate);
-        p.set_min_corner_distance_rate(cfg.min_corner_distance_rate);
-        p.set_min_distance_to_border(cfg.min_distance_to_border_px);
-        p.set_min_marker_distance_rate(cfg.min_marker_distance_rate);
-        p.set_corner_refinement_method(cfg.corner_refinement_method.opencv_code());
-        p.set_corner_refinement_win_size(cfg.corner_refinement_win_size_px);
-        p.set_corner_refinement_max_iterations(cfg.corner_refinement_max_iterations);
-        p.set_corner_refinement_min_accuracy(cfg.corner_refinement_min_accuracy_px);
-        p.set_marker_border_bits(cfg.marker_border_bits);
-        p.set_perspective_remove_pixel_per_cell(cfg.perspective_remove_pixel_per_cell_px);
-        p.set_perspective_remove_ignored_margin_per_cell(
-            cfg.perspective_remove_ignored_margin_per_cell,
-        );
-        p.set_max_erroneous_bits_in_border_rate(cfg.max_erroneous_bits_in_border_rate);
-        p.set_min_otsu_std_dev(cfg.min_otsu_std_dev_dn);
-        p.set_error_correction_rate(cfg.error_correction_rate);
-        p.set_april_tag_quad_decimate(cfg.april_tag_quad_decimate);
-        p.set_april_tag_quad_sigma(cfg.april_tag_quad_sigma_px);
-        p.set_april_tag_min_cluster_pixels(cfg.april_tag_min_cluster_pixels);
-        p.set_april_tag_max_nmaxima(cfg.april_tag_max_nmaxima);
-        p.set_april_tag_critical_rad(cfg.april_tag_critical_rad);
-        p.set_april_tag_max_line_fit_mse(cfg.april_tag_max_line_fit_mse_px2);
-        p.set_april_tag_min_white_black_diff(cfg.april_tag_min_white_black_diff_dn);
-        p.set_april_tag_deglitch(i32::from(cfg.april_tag_deglitch));
-        p.set_detect_inverted_marker(cfg.detect_inverted_marker);
-        p.set_use_aruco3_detection(cfg.use_aruco3_detection);
-        p.set_min_side_length_canonical_img(cfg.min_side_length_canonical_img_px);
-        p.set_min_marker_length_ratio_original_img(cfg.min_marker_length_ratio_original_img);
+        set_detector_parameters!(p, cfg);
         Ok(p)
     }
 
@@ -325,40 +333,7 @@ mod backend {
     ) -> opencv::Result<Vec<(i32, [Point2f; 4])>> {
         let dictionary = objdetect::get_predefined_dictionary_i32(dictionary_code)?;
         let mut p = objdetect::DetectorParameters::default()?;
-        p.set_adaptive_thresh_win_size_min(cfg.adaptive_thresh_win_size_min_px);
-        p.set_adaptive_thresh_win_size_max(cfg.adaptive_thresh_win_size_max_px);
-        p.set_adaptive_thresh_win_size_step(cfg.adaptive_thresh_win_size_step_px);
-        p.set_adaptive_thresh_constant(cfg.adaptive_thresh_constant_dn);
-        p.set_min_marker_perimeter_rate(cfg.min_marker_perimeter_rate);
-        p.set_max_marker_perimeter_rate(cfg.max_marker_perimeter_rate);
-        p.set_polygonal_approx_accuracy_rate(cfg.polygonal_approx_accuracy_rate);
-        p.set_min_corner_distance_rate(cfg.min_corner_distance_rate);
-        p.set_min_distance_to_border(cfg.min_distance_to_border_px);
-        p.set_min_marker_distance_rate(cfg.min_marker_distance_rate);
-        p.set_corner_refinement_method(cfg.corner_refinement_method.opencv_code());
-        p.set_corner_refinement_win_size(cfg.corner_refinement_win_size_px);
-        p.set_corner_refinement_max_iterations(cfg.corner_refinement_max_iterations);
-        p.set_corner_refinement_min_accuracy(cfg.corner_refinement_min_accuracy_px);
-        p.set_marker_border_bits(cfg.marker_border_bits);
-        p.set_perspective_remove_pixel_per_cell(cfg.perspective_remove_pixel_per_cell_px);
-        p.set_perspective_remove_ignored_margin_per_cell(
-            cfg.perspective_remove_ignored_margin_per_cell,
-        );
-        p.set_max_erroneous_bits_in_border_rate(cfg.max_erroneous_bits_in_border_rate);
-        p.set_min_otsu_std_dev(cfg.min_otsu_std_dev_dn);
-        p.set_error_correction_rate(cfg.error_correction_rate);
-        p.set_april_tag_quad_decimate(cfg.april_tag_quad_decimate);
-        p.set_april_tag_quad_sigma(cfg.april_tag_quad_sigma_px);
-        p.set_april_tag_min_cluster_pixels(cfg.april_tag_min_cluster_pixels);
-        p.set_april_tag_max_nmaxima(cfg.april_tag_max_nmaxima);
-        p.set_april_tag_critical_rad(cfg.april_tag_critical_rad);
-        p.set_april_tag_max_line_fit_mse(cfg.april_tag_max_line_fit_mse_px2);
-        p.set_april_tag_min_white_black_diff(cfg.april_tag_min_white_black_diff_dn);
-        p.set_april_tag_deglitch(i32::from(cfg.april_tag_deglitch));
-        p.set_detect_inverted_marker(cfg.detect_inverted_marker);
-        p.set_use_aruco3_detection(cfg.use_aruco3_detection);
-        p.set_min_side_length_canonical_img(cfg.min_side_length_canonical_img_px);
-        p.set_min_marker_length_ratio_original_img(cfg.min_marker_length_ratio_original_img);
+        set_detector_parameters!(p, cfg);
         let refine = objdetect::RefineParameters::new_def()?;
         let detector = objdetect::ArucoDetector::new(&dictionary, &p, refine)?;
         let mut corners: Vector<Vector<Point2f>> = Vector::new();

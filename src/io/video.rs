@@ -232,7 +232,14 @@ impl VideoFrames {
             .stderr(Stdio::piped())
             .spawn()
             .map_err(|e| spawn_error(path, "ffmpeg", e))?;
-        let stdout = child.stdout.take().expect("stdout was piped");
+        let Some(stdout) = child.stdout.take() else {
+            let _ = child.kill();
+            return Err(spawn_error(
+                path,
+                "ffmpeg",
+                std::io::Error::other("no pipe to ffmpeg's standard output"),
+            ));
+        };
         Ok(Self {
             path: path.into(),
             info,

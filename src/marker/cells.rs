@@ -85,6 +85,9 @@ mod tests {
         assert_eq!(Dictionary::Dict6x6_1000.opencv_id(), 11);
         assert_eq!(Dictionary::ArucoOriginal.opencv_id(), 16);
         assert_eq!(Dictionary::Dict5x5_250.opencv_name(), "DICT_5X5_250");
+        for (i, d) in Dictionary::ALL.iter().enumerate() {
+            assert_eq!(d.opencv_id(), i as i32, "{d:?}");
+        }
     }
 
     #[test]

@@ -9,10 +9,13 @@ use super::dictionaries as tables;
 ///
 /// Scenario names are lower case without the `DICT_` prefix (`"4x4_50"`, `"6x6_1000"`,
 /// `"aruco_original"`); OpenCV's spelling (`"DICT_4X4_50"`) is accepted as an alias.
+///
+/// The variants are declared in OpenCV's order, so the discriminant is OpenCV's id.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[repr(i32)]
 pub enum Dictionary {
     #[serde(rename = "4x4_50", alias = "DICT_4X4_50")]
-    Dict4x4_50,
+    Dict4x4_50 = 0,
     #[serde(rename = "4x4_100", alias = "DICT_4X4_100")]
     Dict4x4_100,
     #[serde(rename = "4x4_250", alias = "DICT_4X4_250")]
@@ -71,7 +74,7 @@ impl Dictionary {
 
     /// OpenCV's `cv::aruco::PREDEFINED_DICTIONARY_NAME` value (DICT_4X4_50 = 0 … DICT_ARUCO_ORIGINAL = 16).
     pub fn opencv_id(self) -> i32 {
-        Self::ALL.iter().position(|d| *d == self).unwrap() as i32
+        self as i32
     }
 
     /// Number of data bits along one side (the border is not counted).

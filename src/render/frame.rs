@@ -29,7 +29,7 @@ use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
 use super::raster::{ExposurePlan, PixelRect, PreparedSnapshot, RigidTransform};
 use super::shapes::{SceneAt, SceneSnapshot};
-use bands::{BandPipeline, BandScratch, Samples, BAND_ROWS};
+use bands::{BandPipeline, BandScratch, BandValues, Samples, BAND_ROWS};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use tone::ToneMap;
@@ -140,25 +140,14 @@ pub fn render_frame_with(
             settings.height_px,
         );
         let rect = jpeg_rect;
-        pixels
-            .par_chunks_mut(rect.width * BAND_ROWS)
-            .enumerate()
-            .for_each_init(
-                || buffers.borrow(),
-                |scratch, (b, out)| {
-                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
-                    let v = pipeline.render(&band, scratch.get());
-                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
-                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
-                        let y = band.y0 + r as i64;
-                        let (o_left, rest) = o.split_at_mut(left);
-                        let (o_mid, o_right) = rest.split_at_mut(mid);
-                        tone.constant_run(v.constant, rect.x0, y, o_left);
-                        tone.run(v.row(r), v.x0, y, o_mid);
-                        tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
-                    }
-                },
-            );
+        render_bands(&pipeline, &rect, buffers, &mut pixels, |v, r, y, o| {
+            let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+            let (o_left, rest) = o.split_at_mut(left);
+            let (o_mid, o_right) = rest.split_at_mut(mid);
+            tone.constant_run(v.constant, rect.x0, y, o_left);
+            tone.run(v.row(r), v.x0, y, o_mid);
+            tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
+        });
     }
     if fx.compression.enabled && !jpeg_rect.is_empty() {
         if let Ok(p) = compression::jpeg_round_trip(
@@ -190,26 +179,45 @@ pub fn render_linear(
     let mut data = vec![0.0f32; rect.len()];
     if !rect.is_empty() {
         let pipeline = band_pipeline(scene, settings, frame);
-        let buffers = FrameBuffers::default();
-        data.par_chunks_mut(rect.width * BAND_ROWS)
-            .enumerate()
-            .for_each_init(
-                || buffers.borrow(),
-                |scratch, (b, out)| {
-                    let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
-                    let v = pipeline.render(&band, scratch.get());
-                    let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
-                    for (r, o) in out.chunks_exact_mut(rect.width).enumerate() {
-                        o.fill(v.constant);
-                        o[left..left + mid].copy_from_slice(v.row(r));
-                    }
-                },
-            );
+        render_bands(
+            &pipeline,
+            rect,
+            &FrameBuffers::default(),
+            &mut data,
+            |v, r, _, o| {
+                let left = (v.x0 - rect.x0) as usize;
+                o.fill(v.constant);
+                o[left..left + v.width].copy_from_slice(v.row(r));
+            },
+        );
     }
     LinearImage {
         window: *rect,
         data,
     }
+}
+
+/// Renders the bands of `rect` in parallel and hands every output row to `write_row` with its
+/// band's values, its row within the band and its absolute y; `out` is row-major over `rect`.
+fn render_bands<T: Send>(
+    pipeline: &BandPipeline<'_>,
+    rect: &PixelRect,
+    buffers: &FrameBuffers,
+    out: &mut [T],
+    write_row: impl Fn(&BandValues<'_>, usize, i64, &mut [T]) + Sync,
+) {
+    out.par_chunks_mut(rect.width * BAND_ROWS)
+        .enumerate()
+        .for_each_init(
+            || buffers.borrow(),
+            |scratch, (b, band_out)| {
+                let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                let v = pipeline.render(&band, scratch.get());
+                for (r, o) in band_out.chunks_exact_mut(rect.width).enumerate() {
+                    write_row(&v, r, band.y0 + r as i64, o);
+                }
+            },
+        );
 }
 
 /// The exposure samples (K from the scene's motion) and blur taps of one frame.

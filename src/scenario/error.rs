@@ -1,6 +1,6 @@
 //! Errors from loading a scenario: every one names the file and, where it applies, the field.
 
-use crate::validation::Problem;
+use crate::validation::{bullet_list, Problem};
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
@@ -24,7 +24,7 @@ pub enum ScenarioError {
         target: String,
         message: String,
     },
-    #[error("{file}: {} invalid field(s):\n{}", problems.len(), list(problems))]
+    #[error("{file}: {} invalid field(s):\n{}", problems.len(), bullet_list(problems))]
     Invalid {
         file: PathBuf,
         problems: Vec<Problem>,
@@ -36,14 +36,6 @@ pub enum ScenarioError {
         path: PathBuf,
         message: String,
     },
-}
-
-fn list(problems: &[Problem]) -> String {
-    problems
-        .iter()
-        .map(|p| format!("  - {p}"))
-        .collect::<Vec<_>>()
-        .join("\n")
 }
 
 impl ScenarioError {

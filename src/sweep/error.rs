@@ -1,6 +1,6 @@
 //! Errors of a sweep: every one names the file and, where it applies, the field or row.
 
-use crate::validation::Problem;
+use crate::validation::{bullet_list, Problem};
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
@@ -16,7 +16,7 @@ pub enum SweepError {
         field: String,
         message: String,
     },
-    #[error("{file}: {} invalid field(s):\n{}", problems.len(), list(problems))]
+    #[error("{file}: {} invalid field(s):\n{}", problems.len(), bullet_list(problems))]
     Invalid {
         file: PathBuf,
         problems: Vec<Problem>,
@@ -40,14 +40,6 @@ pub enum SweepError {
         line: u64,
         message: String,
     },
-}
-
-fn list(problems: &[Problem]) -> String {
-    problems
-        .iter()
-        .map(|p| format!("  - {p}"))
-        .collect::<Vec<_>>()
-        .join("\n")
 }
 
 impl SweepError {
