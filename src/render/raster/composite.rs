@@ -86,14 +86,9 @@ pub(super) fn identical_prefix(snaps: &[PreparedSnapshot], fixed: &[bool]) -> us
 }
 
 impl StaticCoverage {
-    /// Finds the static layers of `snaps` (all samples of one exposure) and rasterises their
-    /// coverage over `window`. Only worth it for more than one sample.
-    pub fn compute(&mut self, snaps: &[PreparedSnapshot], window: &PixelRect) {
-        self.compute_with(snaps, &static_layers(snaps), window);
-    }
-
-    /// [`Self::compute`] with the static layers already known (`fixed` = [`static_layers`] of
-    /// `snaps`, shared by every window of one exposure).
+    /// Rasterises over `window` the coverage of the static layers `fixed` (= [`static_layers`]
+    /// of `snaps`, all samples of one exposure) and precomposites the leading layers that every
+    /// sample shares. Only worth it for more than one sample.
     pub fn compute_with(&mut self, snaps: &[PreparedSnapshot], fixed: &[bool], window: &PixelRect) {
         let n_layers = snaps.iter().map(|s| s.layers.len()).min().unwrap_or(0);
         self.prefix = if window.is_empty() {
@@ -190,7 +185,7 @@ impl PreparedSnapshot {
                 continue;
             }
             if let Some((fp, cov)) = statics.and_then(|s| s.layer(j)) {
-                blend_coverage(fp, cov, layer.radiance, window, out);
+                blend_coverage_clipped(fp, cov, layer.radiance, window, out);
                 continue;
             }
             // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
@@ -327,17 +322,8 @@ fn blend_constant(out: &mut [f32], r: f32, c: f32) {
     }
 }
 
-/// `v ← v·(1 − c) + r·c` with per-pixel coverage `cov` over footprint `fp` of `window`.
-fn blend_coverage(fp: &PixelRect, cov: &[f32], r: f32, window: &PixelRect, out: &mut [f32]) {
-    for (row, cov_row) in cov.chunks_exact(fp.width).enumerate() {
-        let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
-        for (v, &c) in out[start..start + fp.width].iter_mut().zip(cov_row) {
-            *v = *v * (1.0 - c) + r * c;
-        }
-    }
-}
-
-/// [`blend_coverage`] restricted to the pixels of `fp` inside `sub`, into a `sub` buffer.
+/// `v ← v·(1 − c) + r·c` with per-pixel coverage `cov` (row-major over footprint `fp`), for the
+/// pixels of `fp` inside `sub`, into a `sub` buffer.
 pub(super) fn blend_coverage_clipped(
     fp: &PixelRect,
     cov: &[f32],
