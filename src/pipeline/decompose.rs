@@ -6,64 +6,9 @@
 use super::montecarlo::{monte_carlo, MonteCarloError, MonteCarloOptions};
 use crate::budget::decompose::{decompose, DecomposeError, Decomposition, VarianceRuns};
 use crate::plot::bars_png;
-use crate::scenario::{with_overrides, Scenario, ScenarioError};
+use crate::scenario::effects::Effect;
+use crate::scenario::{Scenario, ScenarioError};
 use std::path::{Path, PathBuf};
-use toml::Value;
-
-/// An effect: its name, the scenario path that switches it, and the value that turns it OFF.
-/// ON is whatever the base scenario holds there; an effect is decomposed only when that differs
-/// from OFF.
-pub struct EffectSwitch {
-    pub name: &'static str,
-    pub path: &'static str,
-    pub off: fn() -> Value,
-}
-
-fn off_flag() -> Value {
-    Value::Boolean(false)
-}
-
-fn table(pairs: &[(&str, Value)]) -> Value {
-    Value::Table(
-        pairs
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.clone()))
-            .collect(),
-    )
-}
-
-/// The effects that can be switched off, in report order.
-pub fn effect_switches() -> Vec<EffectSwitch> {
-    let flag = |name, path| EffectSwitch {
-        name,
-        path,
-        off: off_flag,
-    };
-    vec![
-        flag("pixel_noise", "effects.pixel_noise.enabled"),
-        flag("optical_blur", "effects.optical_blur.enabled"),
-        flag("motion_blur", "effects.motion_blur.enabled"),
-        flag("rolling_shutter", "effects.rolling_shutter.enabled"),
-        flag("camera_vibration", "effects.camera_vibration.enabled"),
-        flag("lighting", "effects.lighting.enabled"),
-        flag("compression", "effects.compression.enabled"),
-        flag("lens_distortion", "camera.lens_distortion.enabled"),
-        flag("perspective_tilt", "camera.perspective_tilt.enabled"),
-        EffectSwitch {
-            name: "frame_timing",
-            path: "frame_timing.model",
-            off: || table(&[("kind", Value::String("constant".into()))]),
-        },
-        EffectSwitch {
-            name: "timebase",
-            path: "estimator.timebase",
-            off: || table(&[("kind", Value::String("timestamps".into()))]),
-        },
-        flag("dynamics", "dynamics.enabled"),
-        flag("disc_vibration", "dynamics.disc_vibration.enabled"),
-        flag("axis_runout", "dynamics.axis_runout.enabled"),
-    ]
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum DecompositionError {
@@ -94,30 +39,28 @@ pub struct DecompositionOutput {
     pub files: Vec<PathBuf>,
 }
 
-fn lookup<'a>(root: &'a Value, path: &str) -> Option<&'a Value> {
-    path.split('.').try_fold(root, |v, key| v.get(key))
+/// The effects of the registry that are on in `base`, grouped by shared switch (a group is
+/// decomposed as one source, named `a+b`), in registry order.
+pub fn active_effects(base: &Scenario) -> Vec<Vec<Effect>> {
+    let mut groups: Vec<Vec<Effect>> = Vec::new();
+    for e in Effect::ALL {
+        if !e.is_on(base) || groups.iter().flatten().any(|g| *g == e) {
+            continue;
+        }
+        let mut group = vec![e];
+        group.extend(
+            e.shares_switch_with()
+                .iter()
+                .copied()
+                .filter(|o| o.is_on(base)),
+        );
+        groups.push(group);
+    }
+    groups
 }
 
-/// (on, off) effect names of `base`, and the ON values of those that are on.
-pub fn active_effects(base: &Scenario) -> Result<Vec<(EffectSwitch, Value)>, ScenarioError> {
-    let root = Value::try_from(base).map_err(|e| ScenarioError::Field {
-        file: PathBuf::from(&base.name),
-        field: String::new(),
-        message: e.to_string(),
-    })?;
-    Ok(effect_switches()
-        .into_iter()
-        .filter_map(|e| {
-            let on = lookup(&root, e.path)?.clone();
-            let off = (e.off)();
-            // Tables are "off" when their kind matches (other fields of an off variant differ).
-            let is_off = match (&on, &off) {
-                (Value::Table(a), Value::Table(b)) => a.get("kind") == b.get("kind"),
-                _ => on == off,
-            };
-            (!is_off).then_some((e, on))
-        })
-        .collect())
+fn group_name(group: &[Effect]) -> String {
+    group.iter().map(|e| e.name()).collect::<Vec<_>>().join("+")
 }
 
 /// Mean over seeds of the fused ω2 and α2 error variances of one configuration.
@@ -151,19 +94,17 @@ pub fn decompose_effects(
     out_dir: &Path,
     write_files: bool,
 ) -> Result<DecompositionOutput, DecompositionError> {
-    let origin = Path::new("decompose");
-    let active = active_effects(base)?;
-    let on_names: Vec<String> = active.iter().map(|(e, _)| e.name.to_string()).collect();
-    let effects_off: Vec<String> = effect_switches()
+    let active = active_effects(base);
+    let on_names: Vec<String> = active.iter().map(|g| group_name(g)).collect();
+    let effects_off: Vec<String> = Effect::ALL
         .iter()
-        .map(|e| e.name.to_string())
-        .filter(|n| !on_names.contains(n))
+        .filter(|e| !active.iter().flatten().any(|a| a == *e))
+        .map(|e| e.name().to_string())
         .collect();
-    let all_off: Vec<(String, Value)> = active
-        .iter()
-        .map(|(e, _)| (e.path.to_string(), (e.off)()))
-        .collect();
-    let none = with_overrides(base, &all_off, origin)?;
+    let mut none = base.clone();
+    for e in active.iter().flatten() {
+        e.switch_off(&mut none);
+    }
     let (w_none, a_none) = variances(&none, seeds, "none")?;
     let (w_all, a_all) = variances(base, seeds, "all")?;
     let mut w_runs = VarianceRuns {
@@ -178,13 +119,15 @@ pub fn decompose_effects(
         alone: vec![],
         left_out: vec![],
     };
-    for (effect, on) in &active {
-        let name = effect.name.to_string();
-        let alone = with_overrides(&none, &[(effect.path.to_string(), on.clone())], origin)?;
+    for group in &active {
+        let name = group_name(group);
+        let mut alone = none.clone();
+        group[0].copy_section(base, &mut alone);
         let (w, a) = variances(&alone, seeds, &format!("{name} alone"))?;
         w_runs.alone.push((name.clone(), w));
         a_runs.alone.push((name.clone(), a));
-        let out = with_overrides(base, &[(effect.path.to_string(), (effect.off)())], origin)?;
+        let mut out = base.clone();
+        group[0].switch_off(&mut out);
         let (w, a) = variances(&out, seeds, &format!("{name} left out"))?;
         w_runs.left_out.push((name.clone(), w));
         a_runs.left_out.push((name, a));
@@ -336,23 +279,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn active_effects_of_fast_are_its_enabled_flags() {
+    fn active_effects_of_fast_are_its_enabled_effects() {
         let s = crate::scenario::load_any("fast").unwrap();
-        let names: Vec<&str> = active_effects(&s)
-            .unwrap()
-            .iter()
-            .map(|(e, _)| e.name)
-            .collect();
-        assert!(names.contains(&"pixel_noise"));
-        assert!(!names.contains(&"motion_blur"), "fast switches it off");
-        assert!(!names.contains(&"frame_timing"), "fast has constant timing");
+        let names: Vec<String> = active_effects(&s).iter().map(|g| group_name(g)).collect();
+        assert!(names.contains(&"pixel_noise".to_string()));
+        assert!(
+            !names.contains(&"motion_blur".to_string()),
+            "fast switches it off"
+        );
+        assert!(
+            !names.contains(&"frame_timing".to_string()),
+            "fast has constant timing"
+        );
     }
 
     #[test]
-    fn every_switch_path_exists_in_a_default_scenario() {
-        let root = Value::try_from(Scenario::default()).unwrap();
-        for e in effect_switches() {
-            assert!(lookup(&root, e.path).is_some(), "{}", e.path);
-        }
+    fn effects_sharing_a_switch_are_one_source() {
+        let s = crate::scenario::load_any("seed-internal-4k").unwrap();
+        let names: Vec<String> = active_effects(&s).iter().map(|g| group_name(g)).collect();
+        assert!(
+            names.contains(&"backlash+overrotation".to_string()),
+            "{names:?}"
+        );
+        assert!(!names.contains(&"overrotation".to_string()));
     }
 }

@@ -1,0 +1,933 @@
+//! The effect vocabulary as one typed registry: for each effect of the design brief, its
+//! scenario section, its parameters (units, valid range, a sensible search range) and how to
+//! switch it on and off on a [`Scenario`].
+//!
+//! `decompose`, `sweep` and `diagnose` use this registry; nothing else lists effects.
+//!
+//! Architecture invariant: [`Effect::switch_off`] and [`Effect::apply`] change only the
+//! effect's own section (see [`Effect::section`]) plus, for the clearance dynamics, the switch
+//! `dynamics.enabled` and the pin diameter; a scenario that passed validation stays valid
+//! after `apply` with values inside [`ParamSpec::valid`] (checked by a test over every effect).
+//! Effects that share a switch (`backlash` and `overrotation` are both the clearance dynamics)
+//! say so in [`Effect::shares_switch_with`]: switching one off switches off the other.
+
+use super::Scenario;
+use crate::estimate::Timebase;
+use crate::mechanism::DriveSpeedConfig;
+use crate::render::effects::Sinusoid;
+use crate::timing::{TimingModel, VfrModel};
+
+/// One effect of the vocabulary (`../shared/design/pipeline.md`), in the brief's order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Effect {
+    DriveSpeed,
+    Backlash,
+    Overrotation,
+    DiscVibration,
+    AxisRunout,
+    CameraVibration,
+    FrameTiming,
+    Timebase,
+    PixelNoise,
+    OpticalBlur,
+    MotionBlur,
+    RollingShutter,
+    LensDistortion,
+    PerspectiveTilt,
+    Compression,
+    Lighting,
+}
+
+/// Where an effect acts: on the motion, on the times, or on the image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EffectKind {
+    /// Changes the wheel's motion (visible in corner tracks).
+    Mechanism,
+    /// Changes frame times or the analysis time base (visible in tracks and timestamps).
+    Timing,
+    /// Changes where the marker appears (visible in corner tracks).
+    Geometry,
+    /// Changes pixel values only (visible in tracks only through detection error).
+    Image,
+}
+
+/// One fitted parameter of an effect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamSpec {
+    /// Short name used in reports and `diagnosis.json` (`sigma_px`, `readout_s`, ...).
+    pub name: &'static str,
+    /// The scenario field it sets (dotted path, as in `geneva scenario show`).
+    pub path: &'static str,
+    pub unit: &'static str,
+    /// Values the scenario accepts for this parameter (validation range).
+    pub valid: (f64, f64),
+    /// Range a fit searches: values a real rig can plausibly have.
+    pub search: (f64, f64),
+    /// Search on a logarithmic scale (strictly positive ranges).
+    pub log_scale: bool,
+    /// A clearly visible value, used to probe the effect's signature.
+    pub probe: f64,
+}
+
+const fn param(
+    name: &'static str,
+    path: &'static str,
+    unit: &'static str,
+    valid: (f64, f64),
+    search: (f64, f64),
+    log_scale: bool,
+    probe: f64,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        path,
+        unit,
+        valid,
+        search,
+        log_scale,
+        probe,
+    }
+}
+
+const DRIVE_SPEED: &[ParamSpec] = &[param(
+    "variation_frac",
+    "drive_speed.mid_rad_s",
+    "–",
+    (-0.9, 2.0),
+    (-0.3, 0.3),
+    false,
+    -0.15,
+)];
+const BACKLASH: &[ParamSpec] = &[param(
+    "clearance_mm",
+    "mechanism.pin_diameter_mm",
+    "mm",
+    (1e-4, 5.0),
+    (0.01, 1.0),
+    true,
+    0.5,
+)];
+const OVERROTATION: &[ParamSpec] = &[param(
+    "mu_kinetic",
+    "dynamics.mu_kinetic",
+    "–",
+    (0.0, 2.0),
+    (0.003, 0.3),
+    true,
+    0.01,
+)];
+const DISC_VIBRATION: &[ParamSpec] = &[
+    param(
+        "amplitude_rad",
+        "dynamics.disc_vibration.components[0].amplitude_rad",
+        "rad",
+        (0.0, 0.1),
+        (1e-5, 1e-2),
+        true,
+        2e-3,
+    ),
+    param(
+        "frequency_hz",
+        "dynamics.disc_vibration.components[0].frequency_hz",
+        "Hz",
+        (0.0, 10000.0),
+        (0.2, 200.0),
+        true,
+        7.0,
+    ),
+];
+const AXIS_RUNOUT: &[ParamSpec] = &[param(
+    "amplitude_m",
+    "dynamics.axis_runout.amplitude_m",
+    "m",
+    (0.0, 0.01),
+    (1e-6, 3e-3),
+    true,
+    5e-4,
+)];
+const CAMERA_VIBRATION: &[ParamSpec] = &[param(
+    "rms_px",
+    "effects.camera_vibration.random.x_rms_px",
+    "px",
+    (0.0, 1e4),
+    (0.01, 10.0),
+    true,
+    1.0,
+)];
+const FRAME_TIMING: &[ParamSpec] = &[
+    param(
+        "jitter_s",
+        "frame_timing.model.jitter_s",
+        "s",
+        (0.0, 0.01),
+        (1e-6, 1e-3),
+        true,
+        5e-4,
+    ),
+    param(
+        "first_interval_s",
+        "frame_timing.model.first_interval_s",
+        "s",
+        (0.0, 10.0),
+        (0.0, 0.2),
+        false,
+        0.055,
+    ),
+    param(
+        "rate_error_ppm",
+        "frame_timing.model.rate_error_ppm",
+        "ppm",
+        (-100_000.0, 100_000.0),
+        (-20_000.0, 20_000.0),
+        false,
+        -4500.0,
+    ),
+    param(
+        "drop_probability",
+        "frame_timing.model.drop_probability",
+        "–",
+        (0.0, 0.5),
+        (0.0, 0.3),
+        false,
+        0.05,
+    ),
+    param(
+        "pair_alternation_s",
+        "frame_timing.model.pair_alternation_s",
+        "s",
+        (0.0, 0.01),
+        (0.0, 3e-3),
+        false,
+        1e-3,
+    ),
+];
+const TIMEBASE: &[ParamSpec] = &[param(
+    "fps_hz",
+    "estimator.timebase.fps_hz",
+    "Hz",
+    (0.1, 100_000.0),
+    (1.0, 1000.0),
+    true,
+    30.0,
+)];
+const PIXEL_NOISE: &[ParamSpec] = &[
+    param(
+        "full_well_e",
+        "effects.pixel_noise.full_well_e",
+        "e⁻",
+        (1.0, 1e7),
+        (50.0, 1e6),
+        true,
+        2000.0,
+    ),
+    param(
+        "read_noise_e",
+        "effects.pixel_noise.read_noise_e",
+        "e⁻",
+        (0.0, 1e4),
+        (0.0, 5000.0),
+        false,
+        185.0,
+    ),
+];
+const OPTICAL_BLUR: &[ParamSpec] = &[param(
+    "sigma_px",
+    "effects.optical_blur.sigma_px",
+    "px",
+    (0.0, 20.0),
+    (0.05, 6.0),
+    true,
+    1.5,
+)];
+const MOTION_BLUR: &[ParamSpec] = &[param(
+    "exposure_s",
+    "effects.motion_blur.exposure_s",
+    "s",
+    (0.0, 1.0),
+    (1e-4, 0.04),
+    true,
+    0.02,
+)];
+const ROLLING_SHUTTER: &[ParamSpec] = &[param(
+    "readout_s",
+    "effects.rolling_shutter.readout_s",
+    "s",
+    (0.0, 1.0),
+    (5e-4, 0.05),
+    true,
+    0.03,
+)];
+const LENS_DISTORTION: &[ParamSpec] = &[param(
+    "k1",
+    "camera.lens_distortion.k1",
+    "–",
+    (-2.0, 2.0),
+    (-0.6, 0.6),
+    false,
+    -0.3,
+)];
+const PERSPECTIVE_TILT: &[ParamSpec] = &[
+    param(
+        "tilt_x_deg",
+        "camera.perspective_tilt.tilt_x_deg",
+        "deg",
+        (-80.0, 80.0),
+        (-40.0, 40.0),
+        false,
+        20.0,
+    ),
+    param(
+        "tilt_y_deg",
+        "camera.perspective_tilt.tilt_y_deg",
+        "deg",
+        (-80.0, 80.0),
+        (-40.0, 40.0),
+        false,
+        0.0,
+    ),
+];
+const COMPRESSION: &[ParamSpec] = &[param(
+    "quality",
+    "effects.compression.quality",
+    "–",
+    (1.0, 100.0),
+    (5.0, 98.0),
+    false,
+    30.0,
+)];
+const LIGHTING: &[ParamSpec] = &[
+    param(
+        "black_level_dn",
+        "effects.lighting.black_level_dn",
+        "DN",
+        (0.0, 255.0),
+        (0.0, 200.0),
+        false,
+        90.0,
+    ),
+    param(
+        "white_level_dn",
+        "effects.lighting.white_level_dn",
+        "DN",
+        (0.0, 255.0),
+        (30.0, 255.0),
+        false,
+        170.0,
+    ),
+    param(
+        "gamma",
+        "effects.lighting.gamma",
+        "–",
+        (0.1, 10.0),
+        (0.3, 3.0),
+        true,
+        1.0,
+    ),
+];
+
+impl Effect {
+    /// Every effect, in the brief's order.
+    pub const ALL: [Effect; 16] = [
+        Effect::DriveSpeed,
+        Effect::Backlash,
+        Effect::Overrotation,
+        Effect::DiscVibration,
+        Effect::AxisRunout,
+        Effect::CameraVibration,
+        Effect::FrameTiming,
+        Effect::Timebase,
+        Effect::PixelNoise,
+        Effect::OpticalBlur,
+        Effect::MotionBlur,
+        Effect::RollingShutter,
+        Effect::LensDistortion,
+        Effect::PerspectiveTilt,
+        Effect::Compression,
+        Effect::Lighting,
+    ];
+
+    /// The vocabulary's name (`pixel_noise`, ...), as used in scenarios, CSV and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::DriveSpeed => "drive_speed",
+            Effect::Backlash => "backlash",
+            Effect::Overrotation => "overrotation",
+            Effect::DiscVibration => "disc_vibration",
+            Effect::AxisRunout => "axis_runout",
+            Effect::CameraVibration => "camera_vibration",
+            Effect::FrameTiming => "frame_timing",
+            Effect::Timebase => "timebase",
+            Effect::PixelNoise => "pixel_noise",
+            Effect::OpticalBlur => "optical_blur",
+            Effect::MotionBlur => "motion_blur",
+            Effect::RollingShutter => "rolling_shutter",
+            Effect::LensDistortion => "lens_distortion",
+            Effect::PerspectiveTilt => "perspective_tilt",
+            Effect::Compression => "compression",
+            Effect::Lighting => "lighting",
+        }
+    }
+
+    /// The effect called `name` (the vocabulary's spelling).
+    pub fn from_name(name: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.name() == name.trim())
+    }
+
+    /// All names, comma separated (for messages).
+    pub fn names() -> String {
+        Effect::ALL.map(Effect::name).join(", ")
+    }
+
+    /// The scenario section that holds the effect's switch and parameters.
+    pub fn section(self) -> &'static str {
+        match self {
+            Effect::DriveSpeed => "drive_speed",
+            Effect::Backlash | Effect::Overrotation => "dynamics",
+            Effect::DiscVibration => "dynamics.disc_vibration",
+            Effect::AxisRunout => "dynamics.axis_runout",
+            Effect::CameraVibration => "effects.camera_vibration",
+            Effect::FrameTiming => "frame_timing.model",
+            Effect::Timebase => "estimator.timebase",
+            Effect::PixelNoise => "effects.pixel_noise",
+            Effect::OpticalBlur => "effects.optical_blur",
+            Effect::MotionBlur => "effects.motion_blur",
+            Effect::RollingShutter => "effects.rolling_shutter",
+            Effect::LensDistortion => "camera.lens_distortion",
+            Effect::PerspectiveTilt => "camera.perspective_tilt",
+            Effect::Compression => "effects.compression",
+            Effect::Lighting => "effects.lighting",
+        }
+    }
+
+    /// One line for reports.
+    pub fn description(self) -> &'static str {
+        match self {
+            Effect::DriveSpeed => "crank speed varying within each engagement (ω1 profile)",
+            Effect::Backlash => "pin–slot clearance: impacts and bouncing at entry and exit",
+            Effect::Overrotation => "low bearing friction: the wheel coasts past the index",
+            Effect::DiscVibration => "rotational oscillation of the wheel",
+            Effect::AxisRunout => "wobble of the wheel centre",
+            Effect::CameraVibration => "shake of the camera (rigid image motion)",
+            Effect::FrameTiming => "variable frame timing (jitter, long first interval, drops)",
+            Effect::Timebase => "analysis assumes a constant frame rate",
+            Effect::PixelNoise => "shot and read noise",
+            Effect::OpticalBlur => "lens/sensor blur (point-spread function)",
+            Effect::MotionBlur => "exposure time integrates the motion",
+            Effect::RollingShutter => "rows read out one after another",
+            Effect::LensDistortion => "radial lens distortion",
+            Effect::PerspectiveTilt => "camera not square to the disc",
+            Effect::Compression => "JPEG/video compression",
+            Effect::Lighting => "ink, paper and background grey levels, gamma",
+        }
+    }
+
+    pub fn kind(self) -> EffectKind {
+        match self {
+            Effect::DriveSpeed
+            | Effect::Backlash
+            | Effect::Overrotation
+            | Effect::DiscVibration
+            | Effect::AxisRunout => EffectKind::Mechanism,
+            Effect::FrameTiming | Effect::Timebase => EffectKind::Timing,
+            Effect::CameraVibration
+            | Effect::RollingShutter
+            | Effect::LensDistortion
+            | Effect::PerspectiveTilt => EffectKind::Geometry,
+            Effect::PixelNoise
+            | Effect::OpticalBlur
+            | Effect::MotionBlur
+            | Effect::Compression
+            | Effect::Lighting => EffectKind::Image,
+        }
+    }
+
+    /// Whether judging the effect needs the frames themselves (its main signature is in the
+    /// pixels); from a corner track alone it can only be seen through detection error.
+    pub fn needs_frames(self) -> bool {
+        self.kind() == EffectKind::Image
+    }
+
+    /// Effects switched by the same scenario fields: switching one off switches off the other.
+    pub fn shares_switch_with(self) -> &'static [Effect] {
+        match self {
+            Effect::Backlash => &[Effect::Overrotation],
+            Effect::Overrotation => &[Effect::Backlash],
+            _ => &[],
+        }
+    }
+
+    /// The fitted parameters.
+    pub fn params(self) -> &'static [ParamSpec] {
+        match self {
+            Effect::DriveSpeed => DRIVE_SPEED,
+            Effect::Backlash => BACKLASH,
+            Effect::Overrotation => OVERROTATION,
+            Effect::DiscVibration => DISC_VIBRATION,
+            Effect::AxisRunout => AXIS_RUNOUT,
+            Effect::CameraVibration => CAMERA_VIBRATION,
+            Effect::FrameTiming => FRAME_TIMING,
+            Effect::Timebase => TIMEBASE,
+            Effect::PixelNoise => PIXEL_NOISE,
+            Effect::OpticalBlur => OPTICAL_BLUR,
+            Effect::MotionBlur => MOTION_BLUR,
+            Effect::RollingShutter => ROLLING_SHUTTER,
+            Effect::LensDistortion => LENS_DISTORTION,
+            Effect::PerspectiveTilt => PERSPECTIVE_TILT,
+            Effect::Compression => COMPRESSION,
+            Effect::Lighting => LIGHTING,
+        }
+    }
+
+    /// Whether the effect is on in `s`.
+    pub fn is_on(self, s: &Scenario) -> bool {
+        let fx = &s.effects;
+        match self {
+            Effect::DriveSpeed => !matches!(s.drive_speed, DriveSpeedConfig::Constant { .. }),
+            Effect::Backlash | Effect::Overrotation => {
+                s.dynamics.enabled && s.mechanism.slot_width_mm > s.mechanism.pin_diameter_mm
+            }
+            Effect::DiscVibration => {
+                s.dynamics.disc_vibration.enabled
+                    && s.dynamics
+                        .disc_vibration
+                        .components
+                        .iter()
+                        .any(|c| c.amplitude_rad != 0.0)
+            }
+            Effect::AxisRunout => {
+                s.dynamics.axis_runout.enabled && s.dynamics.axis_runout.amplitude_m != 0.0
+            }
+            Effect::CameraVibration => fx.camera_vibration.enabled,
+            Effect::FrameTiming => !matches!(s.frame_timing.model, TimingModel::Constant),
+            Effect::Timebase => matches!(s.estimator.timebase, Timebase::ConstantFps { .. }),
+            Effect::PixelNoise => fx.pixel_noise.enabled,
+            Effect::OpticalBlur => fx.optical_blur.enabled && fx.optical_blur.sigma_px > 0.0,
+            Effect::MotionBlur => fx.motion_blur.enabled && fx.motion_blur.exposure_s > 0.0,
+            Effect::RollingShutter => {
+                fx.rolling_shutter.enabled && fx.rolling_shutter.readout_s > 0.0
+            }
+            Effect::LensDistortion => s.camera.lens_distortion.enabled,
+            Effect::PerspectiveTilt => s.camera.perspective_tilt.enabled,
+            Effect::Compression => fx.compression.enabled,
+            Effect::Lighting => fx.lighting.enabled,
+        }
+    }
+
+    /// Switches the effect off in `s` (and the effects it shares a switch with).
+    pub fn switch_off(self, s: &mut Scenario) {
+        let fx = &mut s.effects;
+        match self {
+            Effect::DriveSpeed => {
+                let mean = mean_crank_speed_rad_s(&s.drive_speed);
+                s.drive_speed = DriveSpeedConfig::Constant { omega1_rad_s: mean };
+            }
+            Effect::Backlash | Effect::Overrotation => s.dynamics.enabled = false,
+            Effect::DiscVibration => s.dynamics.disc_vibration.enabled = false,
+            Effect::AxisRunout => s.dynamics.axis_runout.enabled = false,
+            Effect::CameraVibration => fx.camera_vibration.enabled = false,
+            Effect::FrameTiming => s.frame_timing.model = TimingModel::Constant,
+            Effect::Timebase => s.estimator.timebase = Timebase::Timestamps,
+            Effect::PixelNoise => fx.pixel_noise.enabled = false,
+            Effect::OpticalBlur => fx.optical_blur.enabled = false,
+            Effect::MotionBlur => fx.motion_blur.enabled = false,
+            Effect::RollingShutter => fx.rolling_shutter.enabled = false,
+            Effect::LensDistortion => s.camera.lens_distortion.enabled = false,
+            Effect::PerspectiveTilt => s.camera.perspective_tilt.enabled = false,
+            Effect::Compression => fx.compression.enabled = false,
+            Effect::Lighting => fx.lighting.enabled = false,
+        }
+    }
+
+    /// Copies the effect's whole section (switch and every field, not only the fitted
+    /// parameters) from `from` into `to`: "this effect as `from` has it".
+    pub fn copy_section(self, from: &Scenario, to: &mut Scenario) {
+        let (f, t) = (&from.effects, &mut to.effects);
+        match self {
+            Effect::DriveSpeed => to.drive_speed = from.drive_speed.clone(),
+            Effect::Backlash | Effect::Overrotation => {
+                let (vib, runout) = (
+                    to.dynamics.disc_vibration.clone(),
+                    to.dynamics.axis_runout.clone(),
+                );
+                to.dynamics = from.dynamics.clone();
+                to.dynamics.disc_vibration = vib;
+                to.dynamics.axis_runout = runout;
+                to.mechanism.pin_diameter_mm = from.mechanism.pin_diameter_mm;
+                to.mechanism.slot_width_mm = from.mechanism.slot_width_mm;
+            }
+            Effect::DiscVibration => {
+                to.dynamics.disc_vibration = from.dynamics.disc_vibration.clone()
+            }
+            Effect::AxisRunout => to.dynamics.axis_runout = from.dynamics.axis_runout.clone(),
+            Effect::CameraVibration => t.camera_vibration = f.camera_vibration.clone(),
+            Effect::FrameTiming => {
+                to.frame_timing.model = from.frame_timing.model.clone();
+                to.timing_log = from.timing_log.clone();
+            }
+            Effect::Timebase => to.estimator.timebase = from.estimator.timebase,
+            Effect::PixelNoise => t.pixel_noise = f.pixel_noise.clone(),
+            Effect::OpticalBlur => t.optical_blur = f.optical_blur.clone(),
+            Effect::MotionBlur => t.motion_blur = f.motion_blur.clone(),
+            Effect::RollingShutter => t.rolling_shutter = f.rolling_shutter.clone(),
+            Effect::LensDistortion => {
+                to.camera.lens_distortion = from.camera.lens_distortion.clone()
+            }
+            Effect::PerspectiveTilt => {
+                to.camera.perspective_tilt = from.camera.perspective_tilt.clone()
+            }
+            Effect::Compression => t.compression = f.compression.clone(),
+            Effect::Lighting => t.lighting = f.lighting.clone(),
+        }
+    }
+
+    /// The current values of the fitted parameters in `s` (whether or not the effect is on;
+    /// a variant without the field gives the registry's probe value).
+    pub fn values(self, s: &Scenario) -> Vec<f64> {
+        let fx = &s.effects;
+        let probes = || self.params().iter().map(|p| p.probe).collect::<Vec<f64>>();
+        match self {
+            Effect::DriveSpeed => match &s.drive_speed {
+                DriveSpeedConfig::PolynomialPerEngagement {
+                    end_rad_s,
+                    mid_rad_s,
+                } => {
+                    vec![mid_rad_s / end_rad_s - 1.0]
+                }
+                _ => vec![0.0],
+            },
+            Effect::Backlash => {
+                vec![(s.mechanism.slot_width_mm - s.mechanism.pin_diameter_mm).max(0.0)]
+            }
+            Effect::Overrotation => vec![s.dynamics.mu_kinetic],
+            Effect::DiscVibration => match s.dynamics.disc_vibration.components.first() {
+                Some(c) => vec![c.amplitude_rad, c.frequency_hz],
+                None => probes(),
+            },
+            Effect::AxisRunout => vec![s.dynamics.axis_runout.amplitude_m],
+            Effect::CameraVibration => {
+                let r = &fx.camera_vibration.random;
+                vec![(0.5 * (r.x_rms_px * r.x_rms_px + r.y_rms_px * r.y_rms_px)).sqrt()]
+            }
+            Effect::FrameTiming => match &s.frame_timing.model {
+                TimingModel::Vfr(m) => vec![
+                    m.jitter_s,
+                    m.first_interval_s,
+                    m.rate_error_ppm,
+                    m.drop_probability,
+                    m.pair_alternation_s,
+                ],
+                _ => vec![0.0, 0.0, 0.0, 0.0, 0.0],
+            },
+            Effect::Timebase => match s.estimator.timebase {
+                Timebase::ConstantFps { fps_hz } => vec![fps_hz],
+                Timebase::Timestamps => vec![s.frame_timing.fps],
+            },
+            Effect::PixelNoise => vec![fx.pixel_noise.full_well_e, fx.pixel_noise.read_noise_e],
+            Effect::OpticalBlur => vec![fx.optical_blur.sigma_px],
+            Effect::MotionBlur => vec![fx.motion_blur.exposure_s],
+            Effect::RollingShutter => vec![fx.rolling_shutter.readout_s],
+            Effect::LensDistortion => vec![s.camera.lens_distortion.k1],
+            Effect::PerspectiveTilt => vec![
+                s.camera.perspective_tilt.tilt_x_deg,
+                s.camera.perspective_tilt.tilt_y_deg,
+            ],
+            Effect::Compression => vec![fx.compression.quality as f64],
+            Effect::Lighting => vec![
+                fx.lighting.black_level_dn,
+                fx.lighting.white_level_dn,
+                fx.lighting.gamma,
+            ],
+        }
+    }
+
+    /// Switches the effect on in `s` with the fitted parameters `values` (in [`Self::params`]
+    /// order, each clamped into its valid range); fields that are not fitted keep their values.
+    /// Returns false (and leaves `s` unchanged) when `values` has the wrong length or a value is
+    /// not finite.
+    pub fn apply(self, s: &mut Scenario, values: &[f64]) -> bool {
+        let specs = self.params();
+        if values.len() != specs.len() || values.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let v: Vec<f64> = values
+            .iter()
+            .zip(specs)
+            .map(|(x, p)| x.clamp(p.valid.0, p.valid.1))
+            .collect();
+        let fx = &mut s.effects;
+        match self {
+            Effect::DriveSpeed => {
+                let mean = mean_crank_speed_rad_s(&s.drive_speed);
+                // Keep the mean over a crank turn close to the nominal mean: the engagement
+                // part of the turn changes, so only `end` is taken from the mean.
+                s.drive_speed = DriveSpeedConfig::PolynomialPerEngagement {
+                    end_rad_s: mean,
+                    mid_rad_s: mean * (1.0 + v[0]),
+                };
+            }
+            Effect::Backlash => {
+                s.dynamics.enabled = true;
+                s.mechanism.pin_diameter_mm = (s.mechanism.slot_width_mm - v[0]).max(1e-3);
+            }
+            Effect::Overrotation => {
+                s.dynamics.enabled = true;
+                if s.mechanism.pin_diameter_mm >= s.mechanism.slot_width_mm {
+                    // Over-rotation needs room between pin and slot: the seed rig's 0.5 mm.
+                    s.mechanism.pin_diameter_mm = s.mechanism.slot_width_mm - 0.5;
+                }
+                let ratio = if s.dynamics.mu_kinetic > 0.0 {
+                    (s.dynamics.mu_static / s.dynamics.mu_kinetic).max(1.0)
+                } else {
+                    1.0
+                };
+                s.dynamics.mu_kinetic = v[0];
+                s.dynamics.mu_static = (v[0] * ratio).min(2.0);
+            }
+            Effect::DiscVibration => {
+                let vib = &mut s.dynamics.disc_vibration;
+                vib.enabled = true;
+                let phase = vib.components.first().map_or(0.0, |c| c.phase_rad);
+                vib.components = vec![crate::mechanism::VibrationComponent {
+                    amplitude_rad: v[0],
+                    frequency_hz: v[1],
+                    phase_rad: phase,
+                }];
+            }
+            Effect::AxisRunout => {
+                s.dynamics.axis_runout.enabled = true;
+                s.dynamics.axis_runout.amplitude_m = v[0];
+            }
+            Effect::CameraVibration => {
+                let cv = &mut fx.camera_vibration;
+                cv.enabled = true;
+                cv.x_px = Vec::<Sinusoid>::new();
+                cv.y_px = Vec::new();
+                cv.rotation_rad = Vec::new();
+                cv.random.x_rms_px = v[0];
+                cv.random.y_rms_px = v[0];
+            }
+            Effect::FrameTiming => {
+                let mut m = VfrModel {
+                    jitter_s: v[0],
+                    first_interval_s: v[1],
+                    rate_error_ppm: v[2],
+                    drop_probability: v[3],
+                    pair_alternation_s: v[4],
+                };
+                // Keep frames in order (the model's validation rule): shrink the alternation
+                // and jitter together when they would exceed half an interval.
+                let half_interval_s = 0.5 / m.actual_fps(s.frame_timing.fps);
+                let spread_s = m.pair_alternation_s + 8.0 * m.jitter_s;
+                if spread_s > 0.999 * half_interval_s {
+                    let k = 0.999 * half_interval_s / spread_s;
+                    m.pair_alternation_s *= k;
+                    m.jitter_s *= k;
+                }
+                if m.first_interval_s != 0.0 {
+                    m.first_interval_s = m.first_interval_s.max(half_interval_s);
+                }
+                s.frame_timing.model = TimingModel::Vfr(m);
+            }
+            Effect::Timebase => s.estimator.timebase = Timebase::ConstantFps { fps_hz: v[0] },
+            Effect::PixelNoise => {
+                fx.pixel_noise.enabled = true;
+                fx.pixel_noise.full_well_e = v[0];
+                fx.pixel_noise.read_noise_e = v[1];
+            }
+            Effect::OpticalBlur => {
+                fx.optical_blur.enabled = true;
+                fx.optical_blur.sigma_px = v[0];
+            }
+            Effect::MotionBlur => {
+                fx.motion_blur.enabled = true;
+                fx.motion_blur.exposure_s = v[0];
+            }
+            Effect::RollingShutter => {
+                fx.rolling_shutter.enabled = true;
+                fx.rolling_shutter.readout_s = v[0];
+            }
+            Effect::LensDistortion => {
+                s.camera.lens_distortion.enabled = true;
+                s.camera.lens_distortion.k1 = v[0];
+            }
+            Effect::PerspectiveTilt => {
+                s.camera.perspective_tilt.enabled = true;
+                s.camera.perspective_tilt.tilt_x_deg = v[0];
+                s.camera.perspective_tilt.tilt_y_deg = v[1];
+            }
+            Effect::Compression => {
+                fx.compression.enabled = true;
+                fx.compression.quality = v[0].round().clamp(1.0, 100.0) as u8;
+            }
+            Effect::Lighting => {
+                fx.lighting.enabled = true;
+                let black = v[0].min(254.0);
+                fx.lighting.black_level_dn = black;
+                fx.lighting.white_level_dn = v[1].max(black + 1.0);
+                fx.lighting.gamma = v[2];
+            }
+        }
+        true
+    }
+}
+
+/// Mean crank speed of a profile, rad/s (signed): the constant speed, the per-engagement
+/// polynomial's ends (the speed outside engagements), or the table's time average.
+pub fn mean_crank_speed_rad_s(d: &DriveSpeedConfig) -> f64 {
+    match d {
+        DriveSpeedConfig::Constant { omega1_rad_s } => *omega1_rad_s,
+        DriveSpeedConfig::PolynomialPerEngagement { end_rad_s, .. } => *end_rad_s,
+        DriveSpeedConfig::Table {
+            t_s, omega1_rad_s, ..
+        } => {
+            if t_s.len() < 2 {
+                return omega1_rad_s.first().copied().unwrap_or(1.55);
+            }
+            let mut area = 0.0;
+            for k in 1..t_s.len() {
+                area += 0.5 * (omega1_rad_s[k] + omega1_rad_s[k - 1]) * (t_s[k] - t_s[k - 1]);
+            }
+            area / (t_s[t_s.len() - 1] - t_s[0])
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_are_the_vocabulary() {
+        for e in Effect::ALL {
+            assert_eq!(Effect::from_name(e.name()), Some(e));
+        }
+        // The brief's vocabulary, spelled exactly.
+        let brief = "drive_speed, backlash, overrotation, disc_vibration, axis_runout, \
+                     camera_vibration, frame_timing, timebase, pixel_noise, optical_blur, \
+                     motion_blur, rolling_shutter, lens_distortion, perspective_tilt, \
+                     compression, lighting";
+        assert_eq!(Effect::names(), brief);
+        assert_eq!(Effect::from_name("dynamics"), None);
+    }
+
+    #[test]
+    fn apply_switches_on_keeps_the_scenario_valid_and_switch_off_switches_off() {
+        for base in ["fast", "seed-internal-4k", "seed-external-4k"] {
+            let s0 = crate::scenario::load_any(base).unwrap();
+            for e in Effect::ALL {
+                for pick in [0.0, 0.5, 1.0] {
+                    let values: Vec<f64> = e
+                        .params()
+                        .iter()
+                        .map(|p| {
+                            let (lo, hi) = p.search;
+                            if p.log_scale {
+                                (lo.ln() + pick * (hi.ln() - lo.ln())).exp()
+                            } else {
+                                lo + pick * (hi - lo)
+                            }
+                        })
+                        .collect();
+                    let mut s = s0.clone();
+                    assert!(e.apply(&mut s, &values), "{base}: {}", e.name());
+                    assert!(e.is_on(&s), "{base}: {} on after apply", e.name());
+                    let problems = s.validate();
+                    assert!(
+                        problems.is_empty(),
+                        "{base}: {} at {values:?}: {problems:?}",
+                        e.name()
+                    );
+                    // Fitted values read back (compression rounds to an integer quality).
+                    let back = e.values(&s);
+                    for ((b, v), p) in back.iter().zip(&values).zip(e.params()) {
+                        let tol = if p.name == "quality" {
+                            0.5
+                        } else {
+                            1e-9 * v.abs().max(1.0)
+                        };
+                        assert!((b - v).abs() <= tol, "{}: {} {b} vs {v}", e.name(), p.name);
+                    }
+                    e.switch_off(&mut s);
+                    assert!(!e.is_on(&s), "{base}: {} off", e.name());
+                    for other in e.shares_switch_with() {
+                        assert!(!other.is_on(&s), "{} shares its switch", other.name());
+                    }
+                    assert!(s.validate().is_empty());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn apply_touches_only_the_effects_section() {
+        let s0 = crate::scenario::load_any("seed-internal-4k").unwrap();
+        for e in Effect::ALL {
+            let probe: Vec<f64> = e.params().iter().map(|p| p.probe).collect();
+            let mut s = s0.clone();
+            e.apply(&mut s, &probe);
+            for other in Effect::ALL {
+                if other == e || e.shares_switch_with().contains(&other) {
+                    continue;
+                }
+                // An unrelated effect keeps its switch and values.
+                assert_eq!(
+                    other.is_on(&s),
+                    other.is_on(&s0),
+                    "{} moved {}",
+                    e.name(),
+                    other.name()
+                );
+                if !(e == Effect::DriveSpeed && other == Effect::DriveSpeed) {
+                    assert_eq!(
+                        other.values(&s),
+                        other.values(&s0),
+                        "{} moved {}",
+                        e.name(),
+                        other.name()
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn copy_section_makes_the_effect_as_the_source_has_it() {
+        let base = crate::scenario::load_any("seed-internal-4k").unwrap();
+        let mut none = base.clone();
+        for e in Effect::ALL {
+            e.switch_off(&mut none);
+        }
+        for e in Effect::ALL {
+            let mut s = none.clone();
+            e.copy_section(&base, &mut s);
+            assert_eq!(e.is_on(&s), e.is_on(&base), "{}", e.name());
+            assert_eq!(e.values(&s), e.values(&base), "{}", e.name());
+        }
+    }
+
+    #[test]
+    fn bad_values_are_refused_without_change() {
+        let s0 = crate::scenario::load_any("fast").unwrap();
+        let mut s = s0.clone();
+        assert!(!Effect::OpticalBlur.apply(&mut s, &[f64::NAN]));
+        assert!(!Effect::OpticalBlur.apply(&mut s, &[1.0, 2.0]));
+        assert_eq!(s, s0);
+    }
+
+    #[test]
+    fn probe_and_search_ranges_lie_in_the_valid_range() {
+        for e in Effect::ALL {
+            for p in e.params() {
+                assert!(
+                    p.valid.0 <= p.search.0 && p.search.1 <= p.valid.1,
+                    "{}",
+                    p.name
+                );
+                assert!(p.search.0 <= p.probe && p.probe <= p.search.1, "{}", p.name);
+                if p.log_scale {
+                    assert!(p.search.0 > 0.0, "{}", p.name);
+                }
+            }
+        }
+    }
+}
