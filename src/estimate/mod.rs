@@ -22,6 +22,7 @@ pub mod error;
 pub mod kalman;
 mod linalg;
 pub mod marker_centre;
+pub mod measured;
 
 #[cfg(test)]
 mod tests;
@@ -33,6 +34,7 @@ pub use config::{
 };
 pub use differentiate::{Derivatives, Differentiator, NoiseGain};
 pub use error::EstimateError;
+pub use measured::MeasuredSignal;
 
 /// Four marker corners in OpenCV order (TL, TR, BR, BL as printed), pixels.
 pub type Corners = [[f64; 2]; 4];

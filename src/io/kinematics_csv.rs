@@ -3,14 +3,45 @@
 
 use super::csv_out::{num, CsvError, CsvWriter};
 use crate::budget::compare::{SignalErrors, TruthSeries};
+use crate::estimate::MeasuredSignal;
 use std::path::Path;
+
+/// A measured signal's columns: real measurements ([`MeasuredSignal`]) and synthetic ones
+/// judged against a truth ([`SignalErrors`]) are written the same way.
+pub trait SignalColumns {
+    fn name(&self) -> &str;
+    fn theta2_rad(&self) -> &[f64];
+    fn omega2_rad_s(&self) -> &[f64];
+    fn alpha2_rad_s2(&self) -> &[f64];
+}
+
+macro_rules! signal_columns {
+    ($t:ty) => {
+        impl SignalColumns for $t {
+            fn name(&self) -> &str {
+                &self.signal
+            }
+            fn theta2_rad(&self) -> &[f64] {
+                &self.theta2_rad
+            }
+            fn omega2_rad_s(&self) -> &[f64] {
+                &self.omega2_rad_s
+            }
+            fn alpha2_rad_s2(&self) -> &[f64] {
+                &self.alpha2_rad_s2
+            }
+        }
+    };
+}
+signal_columns!(SignalErrors);
+signal_columns!(MeasuredSignal);
 
 /// Writes rows frame-major (all signals of frame 0, then frame 1, ...). `truth`/`ideal` may be
 /// absent (real footage).
-pub fn write_kinematics_csv(
+pub fn write_kinematics_csv<S: SignalColumns>(
     path: &Path,
     frames_t_s: &[f64],
-    signals: &[SignalErrors],
+    signals: &[S],
     truth: Option<(&TruthSeries, &TruthSeries)>,
 ) -> Result<(), CsvError> {
     let mut header = vec![
@@ -38,10 +69,10 @@ pub fn write_kinematics_csv(
             let mut cells = vec![
                 i.to_string(),
                 num(*t),
-                s.signal.clone(),
-                num(s.theta2_rad[i]),
-                num(s.omega2_rad_s[i]),
-                num(s.alpha2_rad_s2[i]),
+                s.name().to_string(),
+                num(s.theta2_rad()[i]),
+                num(s.omega2_rad_s()[i]),
+                num(s.alpha2_rad_s2()[i]),
             ];
             if let Some((actual, ideal)) = truth {
                 cells.extend([

@@ -3,10 +3,10 @@
 //! is found, then in a window around its last position (exact: same corners as full-frame
 //! detection, with fallback), sequentially since each frame predicts the next.
 
-use super::measure::{estimate_track, relative_series};
-use crate::budget::compare::SignalErrors;
+use super::measure::estimate_track;
 use crate::detect::{corners_bbox_px, ArucoDetector, DetectorConfig, GrayView};
-use crate::estimate::{Estimate, EstimatorConfig};
+use crate::estimate::measured::relative_to_first_frame;
+use crate::estimate::{Estimate, EstimatorConfig, MeasuredSignal};
 use crate::io::kinematics_csv::write_kinematics_csv;
 use crate::io::tracks_csv::{read_tracks, Corners, TrackRow, TracksWriter};
 use crate::plot::{stacked_png, Panel, Series, MEASURED, SECOND};
@@ -60,7 +60,7 @@ pub enum AnalyzeError {
 #[derive(Debug, Clone)]
 pub struct AnalyzeOutput {
     pub estimate: Estimate,
-    pub signals: Vec<SignalErrors>,
+    pub signals: Vec<MeasuredSignal>,
     pub tracks: Vec<TrackRow>,
     pub files: Vec<PathBuf>,
 }
@@ -256,7 +256,7 @@ pub fn analyze(
         use_reference.then_some(reference.as_slice()),
     )
     .map_err(|e| AnalyzeError::Estimate(e, tracks.len(), out_dir.join("tracks.csv")))?;
-    let signals = relative_series(&estimate, options.angle_sign);
+    let signals = relative_to_first_frame(&estimate, options.angle_sign);
     let kin = out_dir.join("kinematics.csv");
     write_kinematics_csv(&kin, &t, &signals, None)?;
     let plot = out_dir.join("measured.png");
