@@ -41,8 +41,13 @@ pub struct PerspectiveTiltConfig {
     /// Apply the tilt. Default false.
     pub enabled: bool,
     /// Rotation about the camera x axis (image rows), degrees, in [-80, 80]. Default 0.
+    /// Right-handed about the camera's x (right) axis: positive turns the optical axis towards
+    /// the image top, so the lower half of the image is nearer to the camera.
     pub tilt_x_deg: f64,
     /// Rotation about the camera y axis (image columns), degrees, in [-80, 80]. Default 0.
+    /// Right-handed about the camera's y (down) axis: positive turns the optical axis towards
+    /// the image right, so the left half of the image is nearer. Applied after `tilt_x_deg`
+    /// (camera-to-world R = Rx·Ry).
     pub tilt_y_deg: f64,
 }
 

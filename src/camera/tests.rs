@@ -203,3 +203,61 @@ fn describe_prints_physical_and_image_scale() {
         "{text}"
     );
 }
+
+/// Pins the sign convention of `perspective_tilt` (documented in scenarios/README.md): the
+/// rotations are right-handed about the camera's own x (right) and y (down) axes. A positive
+/// `tilt_x_deg` turns the optical axis towards the image top (world −y); the camera keeps looking
+/// at the rotation centre, so it moves to world +y and the lower half of the image is nearer (and
+/// imaged larger). A positive `tilt_y_deg` turns the axis towards the image right (world +x), so
+/// the left half is nearer. Depths are checked against the geometry written out independently:
+/// for a tilt φ about x, a plane point (0, y) lies at depth d/cos φ − y·sin φ; for a tilt ψ about
+/// y, a point (x, 0) at d/cos ψ + x·sin ψ.
+#[test]
+fn perspective_tilt_sign_convention() {
+    let (d, a) = (0.30, 0.05);
+    let deg = 12.0f64;
+    let tilted = |tx: f64, ty: f64| {
+        Camera::new(&CameraConfig {
+            perspective_tilt: PerspectiveTiltConfig {
+                enabled: true,
+                tilt_x_deg: tx,
+                tilt_y_deg: ty,
+            },
+            ..seed_camera()
+        })
+        .unwrap()
+    };
+    let r = deg.to_radians();
+    let cam = tilted(deg, 0.0);
+    assert!((cam.position_m().y - d * r.tan()).abs() < 1e-12);
+    for y in [-a, a] {
+        let z = cam.to_camera_m(DVec3::new(0.0, y, 0.0)).z;
+        assert!(
+            (z - (d / r.cos() - y * r.sin())).abs() < 1e-12,
+            "y {y}: depth {z}"
+        );
+    }
+    // The lower half is imaged larger: a world +y point lands further below the centre than the
+    // world −y point lands above it.
+    let c = cam.project(DVec3::ZERO);
+    let below = cam.project(DVec3::new(0.0, a, 0.0)).y - c.y;
+    let above = c.y - cam.project(DVec3::new(0.0, -a, 0.0)).y;
+    assert!(
+        below > 0.0 && above > 0.0 && below > 1.05 * above,
+        "{below} vs {above}"
+    );
+
+    let cam = tilted(0.0, deg);
+    assert!((cam.position_m().x + d * r.tan()).abs() < 1e-12);
+    for x in [-a, a] {
+        let z = cam.to_camera_m(DVec3::new(x, 0.0, 0.0)).z;
+        assert!(
+            (z - (d / r.cos() + x * r.sin())).abs() < 1e-12,
+            "x {x}: depth {z}"
+        );
+    }
+    let c = cam.project(DVec3::ZERO);
+    let left = c.x - cam.project(DVec3::new(-a, 0.0, 0.0)).x;
+    let right = cam.project(DVec3::new(a, 0.0, 0.0)).x - c.x;
+    assert!(left > 1.05 * right && right > 0.0, "{left} vs {right}");
+}

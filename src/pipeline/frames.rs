@@ -166,7 +166,7 @@ fn process_frame(
     let marker_bbox = rig.marker_bbox_px(t_s);
     let request = |window| FrameRequest {
         index: frame as u64,
-        t_s,
+        t_s: rig.render_time_s(t_s),
         window,
     };
 
@@ -232,7 +232,7 @@ fn full_frame(
         &rig.settings,
         &FrameRequest {
             index: frame as u64,
-            t_s,
+            t_s: rig.render_time_s(t_s),
             window: rig.frame_rect(),
         },
         &mut worker.buffers,

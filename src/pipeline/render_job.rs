@@ -141,7 +141,7 @@ pub fn render_job(
                     &rig.settings,
                     &FrameRequest {
                         index: i as u64,
-                        t_s,
+                        t_s: rig.render_time_s(t_s),
                         window,
                     },
                     buffers,

@@ -110,19 +110,27 @@ impl Rig {
         self.settings.frame_rect()
     }
 
-    /// The marker's paper bounding box over the frame's exposure and readout (px, OpenCV).
+    /// The renderer's time of a frame with timestamp `t_s`: the centre of its first row's
+    /// exposure (`frame_timing.timestamp_marks` says which instant the timestamp marks).
+    pub fn render_time_s(&self, t_s: f64) -> f64 {
+        let fx = &self.settings.effects;
+        t_s + self
+            .scenario
+            .frame_timing
+            .timestamp_marks
+            .to_first_row_centre_s(
+                fx.motion_blur.exposure_or_zero_s(),
+                fx.rolling_shutter.readout_or_zero_s(),
+            )
+    }
+
+    /// The marker's paper bounding box over the exposure and readout of the frame with
+    /// timestamp `t_s` (px, OpenCV).
     pub fn marker_bbox_px(&self, t_s: f64) -> (f64, f64, f64, f64) {
         let fx = &self.settings.effects;
-        let exposure = if fx.motion_blur.enabled {
-            fx.motion_blur.exposure_s
-        } else {
-            0.0
-        };
-        let readout = if fx.rolling_shutter.enabled {
-            fx.rolling_shutter.readout_s
-        } else {
-            0.0
-        };
+        let exposure = fx.motion_blur.exposure_or_zero_s();
+        let readout = fx.rolling_shutter.readout_or_zero_s();
+        let t_s = self.render_time_s(t_s);
         let mut b = (
             f64::INFINITY,
             f64::INFINITY,
@@ -167,5 +175,73 @@ impl Rig {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::frame::render_linear;
+    use crate::render::shapes::{SceneAt, SceneSnapshot};
+    use crate::render::FrameRequest;
+
+    /// A uniform image that turns from black to white at `on_s`: each row's value is the
+    /// fraction of its exposure after `on_s`, so the image shows when every row was exposed.
+    struct Flash {
+        on_s: f64,
+    }
+
+    impl SceneAt for Flash {
+        fn snapshot(&self, t_s: f64) -> SceneSnapshot {
+            SceneSnapshot {
+                background_radiance: if t_s >= self.on_s { 1.0 } else { 0.0 },
+                layers: vec![],
+            }
+        }
+    }
+
+    /// What `frame_timing.timestamp_marks` means, read off rendered rows: with exposure E and
+    /// readout R, a frame stamped T is exposed from T on in its first row under
+    /// `first_row_exposure_start` (Android's sensor timestamp), around T in its first row under
+    /// `first_row_exposure_centre`, and around T in its middle row under
+    /// `middle_row_exposure_centre`.
+    #[test]
+    fn timestamp_marks_the_documented_instant_of_the_frame() {
+        let (exposure, readout, t) = (0.008, 0.02, 0.5);
+        for (mark, row, exposed_from) in [
+            ("first_row_exposure_start", 0usize, t),
+            ("first_row_exposure_centre", 0, t - exposure / 2.0),
+            ("middle_row_exposure_centre", 360, t - exposure / 2.0),
+        ] {
+            let text = format!(
+                "extend = \"fast\"\n[frame_timing]\ntimestamp_marks = \"{mark}\"\n\
+                 [effects.motion_blur]\nenabled = true\nexposure_s = {exposure}\nsamples = 64\n\
+                 [effects.rolling_shutter]\nenabled = true\nreadout_s = {readout}\n"
+            );
+            let s = crate::scenario::from_str(&text, std::path::Path::new("t.toml")).unwrap();
+            let rig = Rig::new(&s).unwrap();
+            let rect = PixelRect::new(0, row as i64, 4, 1);
+            let value_with_flash_at = |on_s: f64| {
+                let frame = FrameRequest {
+                    index: 0,
+                    t_s: rig.render_time_s(t),
+                    window: rect,
+                };
+                render_linear(&Flash { on_s }, &rig.settings, &frame, &rect).data[0] as f64
+            };
+            // The row is dark for a flash at the end of its exposure, white for one at its start,
+            // half white for one in the middle (64 samples: exact to 1/64).
+            let tol = 1.0 / 64.0 + 1e-6;
+            assert!(
+                value_with_flash_at(exposed_from + exposure + 1e-6) < tol,
+                "{mark}"
+            );
+            assert!(
+                value_with_flash_at(exposed_from - 1e-6) > 1.0 - tol,
+                "{mark}"
+            );
+            let half = value_with_flash_at(exposed_from + exposure / 2.0);
+            assert!((half - 0.5).abs() <= tol, "{mark}: {half}");
+        }
     }
 }

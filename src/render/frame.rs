@@ -2,8 +2,9 @@
 //! applies optical blur, lighting, noise, quantisation and compression to give an 8-bit frame
 //! or any region of interest of it.
 //!
-//! Timing: `FrameRequest::t_s` is the centre of row 0's exposure; with rolling shutter row y is
-//! centred at t_s + readout_s·y/height_px. Motion blur averages K samples at the midpoints of K
+//! Timing: `FrameRequest::t_s` is the centre of row 0's exposure (a frame's timestamp may mark
+//! another instant: `timing::TimestampMark` converts); with rolling shutter row y is centred at
+//! t_s + readout_s·y/height_px. Motion blur averages K samples at the midpoints of K
 //! equal slices of the `exposure_s` window (K from the config, or automatic: the image travel
 //! during the exposure — the largest vertex displacement of the scene, probed at rows 0, H/2 and
 //! H−1 over four sub-intervals, plus the vibration's peak speed × exposure — divided by
@@ -92,7 +93,8 @@ pub struct RenderSettings {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameRequest {
     pub index: u64,
-    /// Centre of row 0's exposure, seconds.
+    /// Centre of row 0's exposure, seconds (not necessarily the frame's timestamp: see
+    /// `timing::TimestampMark`).
     pub t_s: f64,
     /// Absolute pixel window wanted (clipped to the frame).
     pub window: PixelRect,

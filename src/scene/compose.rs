@@ -45,6 +45,7 @@ pub enum SceneError {
 #[derive(Debug, Clone, PartialEq)]
 struct MarkerArt {
     side_cells: usize,
+    border_bits: usize,
     rects: Vec<CellRect>,
     size_m: f64,
     margin_m: f64,
@@ -61,6 +62,7 @@ impl MarkerArt {
         let grid = cells(dict, id, border_bits).map_err(|e| SceneError::Invalid(e.to_string()))?;
         Ok(MarkerArt {
             side_cells: grid.len(),
+            border_bits,
             rects: black_rectangles(&grid),
             size_m: size_mm * 1e-3,
             margin_m: margin_mm * 1e-3,
@@ -296,14 +298,27 @@ impl Scene {
     }
 
     /// White paper then black cells (one layer of disjoint polygons sharing lattice vertices).
+    ///
+    /// The paper's outline must never be anti-aliased in a pixel that the ink covers only in
+    /// part: "over" compositing would let it show through the ink's partial coverage c, adding
+    /// c·(1 − c)·(paper − below) (13–17 DN at the seed's levels, a square ~0.27 px too small).
+    /// With a margin the outline lies outside the black square; without one the paper is only
+    /// visible in the white cells, so its outline is drawn along the middle of the black border
+    /// ring, where the ink covers whole pixels.
     fn marker_layers(&self, art: &MarkerArt, placed: &PlacedMarker) -> [Layer; 2] {
+        let paper_corners = if art.margin_m > 0.0 {
+            placed.paper_corners_m()
+        } else {
+            let e = 0.5 * art.border_bits as f64 / art.side_cells as f64;
+            [
+                placed.at(e, e),
+                placed.at(1.0 - e, e),
+                placed.at(1.0 - e, 1.0 - e),
+                placed.at(e, 1.0 - e),
+            ]
+        };
         let paper = Polygon {
-            vertices_px: projected_quad(
-                &self.camera,
-                &placed.paper_corners_m(),
-                TOLERANCE_PX,
-                self.distorted,
-            ),
+            vertices_px: projected_quad(&self.camera, &paper_corners, TOLERANCE_PX, self.distorted),
         };
         let m = self.lattice_per_cell(art, placed);
         let l = (art.side_cells * m) as f64;

@@ -325,3 +325,72 @@ fn disc_behind_a_steeply_tilted_camera_is_rejected() {
     let disc = &scene.snapshot_at(&pose(0.0)).layers[0].polygons[0].vertices_px;
     assert!(disc.len() > 1000);
 }
+
+/// With no white margin, the pixels along the black square's outer edge hold exactly the area
+/// mix of ink and disc. Before the paper outline moved into the border ring, the paper under the
+/// ink showed through the ink's partial coverage c and made them c·(1 − c)·(paper − disc) too
+/// bright (13–17 DN at the seed's levels).
+#[test]
+fn marker_without_margin_has_exact_edge_coverage_on_a_grey_disc() {
+    use crate::render::frame::render_linear;
+    use crate::render::{EffectsConfig, FrameRequest, PixelRect, RenderSettings};
+    let mut cfg = SceneConfig::default();
+    cfg.marker.white_margin_mm = 0.0;
+    cfg.disc_radiance = 0.55;
+    // Shifted by 0.3 px so that every edge cuts its pixels between 20 % and 80 %.
+    let scene = Scene::new(&cfg, camera_at([1919.5, 1079.8])).unwrap();
+    let c = scene.marker_corners_px_at(&pose(0.0));
+    let (xl, xr, yt, yb) = (c[0][0], c[1][0], c[0][1], c[2][1]);
+    assert!(
+        c[0][1] == c[1][1] && c[0][0] == c[3][0],
+        "upright square {c:?}"
+    );
+    let settings = RenderSettings {
+        width_px: 3840,
+        height_px: 2160,
+        effects: EffectsConfig::none(),
+        seed: 1,
+    };
+    let (x0, y0) = (xl.floor() as i64 - 3, yt.floor() as i64 - 3);
+    let rect = PixelRect::new(x0, y0, (xr - xl) as usize + 8, (yb - yt) as usize + 8);
+    let animated = scene.clone().animate(|_| pose(0.0));
+    let frame = FrameRequest {
+        index: 0,
+        t_s: 0.0,
+        window: rect,
+    };
+    let img = render_linear(&animated, &settings, &frame, &rect);
+    let at = |x: i64, y: i64| img.data[((y - y0) as usize) * rect.width + (x - x0) as usize] as f64;
+    let (disc, ink) = (cfg.disc_radiance, cfg.ink_radiance);
+    let expected = |coverage: f64| disc * (1.0 - coverage) + ink * coverage;
+    // Ink coverage of the pixel holding each edge (pixel i spans [i − 0.5, i + 0.5]).
+    let (il, ir, jt, jb) = (
+        xl.round() as i64,
+        xr.round() as i64,
+        yt.round() as i64,
+        yb.round() as i64,
+    );
+    let cov_l = il as f64 + 0.5 - xl;
+    let cov_r = xr - (ir as f64 - 0.5);
+    let cov_t = jt as f64 + 0.5 - yt;
+    let cov_b = yb - (jb as f64 - 0.5);
+    for cov in [cov_l, cov_r, cov_t, cov_b] {
+        assert!((0.2..=0.8).contains(&cov), "edge coverage {cov}");
+    }
+    let mut worst: f64 = 0.0;
+    for y in jt + 2..=jb - 2 {
+        worst = worst.max((at(il, y) - expected(cov_l)).abs());
+        worst = worst.max((at(ir, y) - expected(cov_r)).abs());
+        // Fully outside and fully inside the square.
+        worst = worst.max((at(il - 1, y) - disc).abs());
+        worst = worst.max((at(il + 1, y) - ink).abs());
+    }
+    for x in il + 2..=ir - 2 {
+        worst = worst.max((at(x, jt) - expected(cov_t)).abs());
+        worst = worst.max((at(x, jb) - expected(cov_b)).abs());
+    }
+    assert!(
+        worst < 1e-5,
+        "largest departure from the exact coverage mix: {worst}"
+    );
+}

@@ -20,6 +20,9 @@ pub struct FrameTimingConfig {
     /// Nominal frame rate, frames per second; also the rate of the analysis timebase
     /// (`k / fps`) when the analysis assumes a constant rate. Range [0.1, 10000]. Default 30.
     pub fps: f64,
+    /// Which instant of the frame its timestamp marks. Default `first_row_exposure_centre`.
+    /// (Before `model`: TOML writes plain values before tables.)
+    pub timestamp_marks: TimestampMark,
     /// How frame times are generated from the nominal rate. Default `constant`.
     pub model: TimingModel,
 }
@@ -28,7 +31,36 @@ impl Default for FrameTimingConfig {
     fn default() -> Self {
         Self {
             fps: 30.0,
+            timestamp_marks: TimestampMark::default(),
             model: TimingModel::Constant,
+        }
+    }
+}
+
+/// The instant of a frame that its timestamp marks. A frame is not an instant: every row is
+/// exposed for the exposure time E, and under a rolling shutter row y starts readout·y/H after
+/// row 0. Without a rolling shutter "first row" and "middle row" are the same instant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimestampMark {
+    /// The centre of the first row's exposure (a global shutter's mid-exposure instant).
+    #[default]
+    FirstRowExposureCentre,
+    /// The start of the first row's exposure: Android's `SENSOR_TIMESTAMP` ("time at start of
+    /// exposure of first row of the image sensor active array").
+    FirstRowExposureStart,
+    /// The centre of the middle row's exposure: the frame's mean instant ("mid-frame").
+    MiddleRowExposureCentre,
+}
+
+impl TimestampMark {
+    /// Seconds from a frame's timestamp to the centre of its first row's exposure, for an
+    /// exposure of `exposure_s` and a rolling-shutter readout of `readout_s` (0 when off).
+    pub fn to_first_row_centre_s(self, exposure_s: f64, readout_s: f64) -> f64 {
+        match self {
+            TimestampMark::FirstRowExposureCentre => 0.0,
+            TimestampMark::FirstRowExposureStart => 0.5 * exposure_s,
+            TimestampMark::MiddleRowExposureCentre => -0.5 * readout_s,
         }
     }
 }

@@ -97,6 +97,7 @@ pub fn fit_vfr(ts: &Timestamps) -> Result<TimingFit, TimingError> {
         config: FrameTimingConfig {
             fps,
             model: TimingModel::Vfr(vfr),
+            ..FrameTimingConfig::default()
         },
         fps,
         fps_stderr: interval_stderr_s / (interval_s * interval_s),

@@ -19,7 +19,7 @@ mod tests_real_logs;
 #[cfg(test)]
 mod tests_schedule;
 
-pub use config::{FrameTimingConfig, LogModel, TimingModel, VfrModel};
+pub use config::{FrameTimingConfig, LogModel, TimestampMark, TimingModel, VfrModel};
 pub use error::TimingError;
 pub use fit::{fit_vfr, TimingFit};
 pub use parse::{

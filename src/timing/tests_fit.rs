@@ -12,6 +12,7 @@ fn check_recovery(fps: f64, v: &VfrModel, seed: u64) -> Result<(), TestCaseError
     let c = FrameTimingConfig {
         fps,
         model: TimingModel::Vfr(v.clone()),
+        ..FrameTimingConfig::default()
     };
     let ts = c.schedule(20.0, seed, None).unwrap();
     let fit = fit_vfr(&ts).unwrap();
@@ -76,6 +77,7 @@ fn fit_recovers_phone_like_parameters() {
         &FrameTimingConfig {
             fps: 30.0,
             model: TimingModel::Vfr(v),
+            ..FrameTimingConfig::default()
         }
         .schedule(20.0, 11, None)
         .unwrap(),

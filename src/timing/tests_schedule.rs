@@ -10,6 +10,7 @@ fn vfr(fps: f64, v: VfrModel) -> FrameTimingConfig {
     FrameTimingConfig {
         fps,
         model: TimingModel::Vfr(v),
+        ..FrameTimingConfig::default()
     }
 }
 
@@ -103,6 +104,7 @@ fn validation_names_fields_and_ranges() {
     let no_file = FrameTimingConfig {
         fps: 30.0,
         model: TimingModel::Log(LogModel::default()),
+        ..FrameTimingConfig::default()
     };
     assert!(problems_of(&no_file)[0].starts_with("frame_timing.model.file"));
     let err = too_jittery.schedule(1.0, 1, None).unwrap_err();
@@ -120,6 +122,7 @@ fn constant_schedule_is_k_over_fps_in_half_open_duration() {
     let c = FrameTimingConfig {
         fps: 30.0,
         model: TimingModel::Constant,
+        ..FrameTimingConfig::default()
     };
     let ts = c.schedule(2.0, 0, None).unwrap();
     assert_eq!(ts.len(), 60);
@@ -206,6 +209,7 @@ fn log_schedule_rebases_offsets_and_truncates() {
     let c = |l: &LogModel| FrameTimingConfig {
         fps: 30.0,
         model: TimingModel::Log(l.clone()),
+        ..FrameTimingConfig::default()
     };
     let ts = c(&l).schedule(0.15, 0, Some(&log)).unwrap();
     let expect = [0.0, 0.05, 0.1];

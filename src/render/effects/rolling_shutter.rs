@@ -1,5 +1,6 @@
-//! Rolling shutter: row y is exposed around t + readout_s · y / height_px (row 0 at the frame
-//! timestamp), each row rendered from the scene at its own time.
+//! Rolling shutter: row y is exposed around t + readout_s · y / height_px, with t the centre of
+//! row 0's exposure (where the frame's timestamp lies relative to it is
+//! `frame_timing.timestamp_marks`), each row rendered from the scene at its own time.
 
 use crate::validation::{join, Problems};
 use serde::{Deserialize, Serialize};
@@ -26,6 +27,15 @@ impl Default for RollingShutterConfig {
 impl RollingShutterConfig {
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         problems.range(join(path, "readout_s"), self.readout_s, 0.0, 1.0);
+    }
+
+    /// Effective readout (0 when disabled: a global shutter), s.
+    pub fn readout_or_zero_s(&self) -> f64 {
+        if self.enabled {
+            self.readout_s
+        } else {
+            0.0
+        }
     }
 
     /// Delay of absolute row `y` after row 0, in seconds.
