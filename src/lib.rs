@@ -11,6 +11,7 @@ pub mod budget;
 pub mod camera;
 pub mod detect;
 pub mod estimate;
+pub mod imagestats;
 pub mod io;
 pub mod marker;
 pub mod mechanism;

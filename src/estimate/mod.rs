@@ -20,7 +20,8 @@ pub mod config;
 pub mod differentiate;
 pub mod error;
 pub mod kalman;
-mod linalg;
+pub(crate) mod linalg;
+pub(crate) mod lm;
 pub mod marker_centre;
 pub mod measured;
 

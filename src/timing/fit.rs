@@ -125,35 +125,12 @@ fn least_squares(rows: &[[f64; 3]], y: &[f64]) -> Option<([f64; 3], [[f64; 3]; 3
             }
         }
     }
-    let inv = invert3(&a)?;
+    let inv = crate::estimate::linalg::invert3(&a)?;
     let mut beta = [0.0; 3];
     for i in 0..3 {
         beta[i] = (0..3).map(|j| inv[i][j] * b[j]).sum();
     }
     Some((beta, inv))
-}
-
-fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let c =
-        |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
-    let cof = [
-        [c(1, 2, 1, 2), -c(1, 2, 0, 2), c(1, 2, 0, 1)],
-        [-c(0, 2, 1, 2), c(0, 2, 0, 2), -c(0, 2, 0, 1)],
-        [c(0, 1, 1, 2), -c(0, 1, 0, 2), c(0, 1, 0, 1)],
-    ];
-    let det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
-    let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
-    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(3) {
-        return None;
-    }
-    // The inverse is the transposed cofactor matrix over the determinant.
-    let mut inv = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            inv[i][j] = cof[j][i] / det;
-        }
-    }
-    Some(inv)
 }
 
 impl fmt::Display for TimingFit {

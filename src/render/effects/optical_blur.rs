@@ -43,6 +43,45 @@ impl OpticalBlurConfig {
     }
 }
 
+/// Standard deviation of the discrete kernel actually applied for `sigma_px` (√Σ w_k k²), px:
+/// the σ of the continuous Gaussian PSF that gives the same edge spread. Equal to `sigma_px`
+/// from about 0.7 px up; below, the kernel sampled at whole pixels blurs less (0.46 px at 0.5,
+/// 0.09 px at 0.3).
+pub fn effective_sigma_px(sigma_px: f64) -> f64 {
+    let c = OpticalBlurConfig {
+        enabled: true,
+        sigma_px,
+    };
+    let r = c.radius_px();
+    if r == 0 {
+        return 0.0;
+    }
+    let w = kernel(sigma_px, r);
+    w.iter()
+        .enumerate()
+        .map(|(i, &v)| v as f64 * (i as f64 - r as f64).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The `sigma_px` whose kernel has effective σ `effective_px` ([`effective_sigma_px`] inverted
+/// by bisection on [0, 20]); for a measured continuous PSF σ this is the scenario's value.
+pub fn sigma_for_effective_px(effective_px: f64) -> f64 {
+    if effective_px.is_nan() || effective_px <= 0.0 {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (0.0, 20.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if effective_sigma_px(mid) < effective_px {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// Normalised Gaussian weights for offsets −r..=r.
 pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
     let r = radius_px as i64;
@@ -136,6 +175,19 @@ mod tests {
         for i in 0..k.len() {
             assert_eq!(k[i], k[k.len() - 1 - i]);
         }
+    }
+
+    #[test]
+    fn effective_sigma_follows_the_parameter_above_0_7_px_and_inverts() {
+        assert!((effective_sigma_px(0.5) - 0.46).abs() < 0.01);
+        assert!(effective_sigma_px(0.3) < 0.1);
+        for s in [0.7, 1.0, 2.5] {
+            assert!((effective_sigma_px(s) / s - 1.0).abs() < 0.01, "{s}");
+        }
+        for s in [0.3, 0.45, 0.8, 1.7] {
+            assert!((sigma_for_effective_px(effective_sigma_px(s)) - s).abs() < 1e-6);
+        }
+        assert_eq!(sigma_for_effective_px(0.0), 0.0);
     }
 
     #[test]

@@ -1,0 +1,201 @@
+//! A small Levenberg–Marquardt least-squares minimiser with a forward-difference Jacobian, for
+//! fits of a handful of parameters (edge profiles, motion models). Also returns the Jacobian's
+//! normal matrix at the solution, so callers get the usual covariance s²·(JᵀJ)⁻¹.
+
+use super::linalg;
+
+/// The minimum found and what is needed for its uncertainty.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LmFit {
+    pub params: Vec<f64>,
+    /// Residuals at `params`.
+    pub residuals: Vec<f64>,
+    /// Σ residual².
+    pub cost: f64,
+    /// JᵀJ at `params`.
+    pub jtj: Vec<Vec<f64>>,
+    pub iterations: usize,
+}
+
+impl LmFit {
+    /// Covariance s²·(JᵀJ)⁻¹ with s² = cost / (n − p); `None` when JᵀJ is singular or there are
+    /// no degrees of freedom.
+    pub fn covariance(&self) -> Option<Vec<Vec<f64>>> {
+        let (n, p) = (self.residuals.len(), self.params.len());
+        if n <= p {
+            return None;
+        }
+        let s2 = self.cost / (n - p) as f64;
+        let inv = linalg::invert(&self.jtj)?;
+        Some(
+            inv.into_iter()
+                .map(|r| r.into_iter().map(|v| v * s2).collect())
+                .collect(),
+        )
+    }
+
+    /// 1-σ standard errors (infinite where the covariance is unavailable).
+    pub fn std_errors(&self) -> Vec<f64> {
+        match self.covariance() {
+            Some(c) => (0..self.params.len())
+                .map(|i| c[i][i].max(0.0).sqrt())
+                .collect(),
+            None => vec![f64::INFINITY; self.params.len()],
+        }
+    }
+}
+
+/// Minimises Σ r(p)² from `start`. `residuals(p, out)` fills `out` (always the same length) and
+/// returns false where `p` is not admissible. `steps[i]` is the forward-difference step of
+/// parameter i. `None` when the start is not admissible or no finite cost is found.
+pub fn minimise(
+    residuals: &dyn Fn(&[f64], &mut Vec<f64>) -> bool,
+    start: &[f64],
+    steps: &[f64],
+    max_iterations: usize,
+) -> Option<LmFit> {
+    let p = start.len();
+    let mut x = start.to_vec();
+    let mut r = Vec::new();
+    if !residuals(&x, &mut r) {
+        return None;
+    }
+    let mut cost = sum_sq(&r);
+    if !cost.is_finite() {
+        return None;
+    }
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut jac = jacobian(residuals, &x, &r, steps)?;
+    let mut trial = Vec::with_capacity(r.len());
+    while iterations < max_iterations {
+        iterations += 1;
+        let (jtj, jtr) = normal(&jac, &r, p);
+        let mut improved = false;
+        while lambda < 1e12 {
+            let mut damped = jtj.clone();
+            for (i, row) in damped.iter_mut().enumerate() {
+                row[i] += lambda * jtj[i][i].max(1e-12);
+            }
+            let neg: Vec<f64> = jtr.iter().map(|v| -v).collect();
+            let Some(step) = linalg::solve(&damped, &neg) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let x_new: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
+            if residuals(&x_new, &mut trial) {
+                let c = sum_sq(&trial);
+                if c.is_finite() && c <= cost {
+                    let small = step
+                        .iter()
+                        .zip(steps)
+                        .all(|(s, h)| s.abs() < 1e-3 * h.abs().max(1e-15));
+                    let gain = cost - c;
+                    x = x_new;
+                    std::mem::swap(&mut r, &mut trial);
+                    cost = c;
+                    lambda = (lambda / 10.0).max(1e-12);
+                    improved = !(small || gain <= 1e-12 * cost.max(1e-300));
+                    break;
+                }
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+        jac = jacobian(residuals, &x, &r, steps)?;
+    }
+    let jac = jacobian(residuals, &x, &r, steps)?;
+    let (jtj, _) = normal(&jac, &r, p);
+    Some(LmFit {
+        params: x,
+        residuals: r,
+        cost,
+        jtj,
+        iterations,
+    })
+}
+
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+/// Column-major forward-difference Jacobian (`jac[i]` = ∂r/∂p_i).
+fn jacobian(
+    residuals: &dyn Fn(&[f64], &mut Vec<f64>) -> bool,
+    x: &[f64],
+    r: &[f64],
+    steps: &[f64],
+) -> Option<Vec<Vec<f64>>> {
+    let mut out = Vec::with_capacity(x.len());
+    let mut buf = Vec::with_capacity(r.len());
+    for i in 0..x.len() {
+        let mut xp = x.to_vec();
+        let mut h = steps[i];
+        xp[i] += h;
+        if !residuals(&xp, &mut buf) {
+            // At a bound: difference backwards.
+            h = -h;
+            xp[i] = x[i] + h;
+            if !residuals(&xp, &mut buf) {
+                return None;
+            }
+        }
+        out.push(buf.iter().zip(r).map(|(a, b)| (a - b) / h).collect());
+    }
+    Some(out)
+}
+
+fn normal(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let mut jtj = vec![vec![0.0; p]; p];
+    let mut jtr = vec![0.0; p];
+    for i in 0..p {
+        jtr[i] = jac[i].iter().zip(r).map(|(a, b)| a * b).sum();
+        for j in i..p {
+            let v: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
+            jtj[i][j] = v;
+            jtj[j][i] = v;
+        }
+    }
+    (jtj, jtr)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fits_an_exponential_and_reports_sensible_errors() {
+        let ts: Vec<f64> = (0..40).map(|k| k as f64 * 0.1).collect();
+        // Deterministic ±0.01 "noise".
+        let ys: Vec<f64> = ts
+            .iter()
+            .enumerate()
+            .map(|(k, t)| 2.0 * (-0.7 * t).exp() + if k % 2 == 0 { 0.01 } else { -0.01 })
+            .collect();
+        let f = |p: &[f64], out: &mut Vec<f64>| {
+            out.clear();
+            out.extend(
+                ts.iter()
+                    .zip(&ys)
+                    .map(|(t, y)| p[0] * (-p[1] * t).exp() - y),
+            );
+            true
+        };
+        let fit = minimise(&f, &[1.0, 0.2], &[1e-6, 1e-6], 100).unwrap();
+        assert!((fit.params[0] - 2.0).abs() < 0.01, "{:?}", fit.params);
+        assert!((fit.params[1] - 0.7).abs() < 0.01, "{:?}", fit.params);
+        let se = fit.std_errors();
+        assert!(
+            se.iter().all(|s| s.is_finite() && *s > 0.0 && *s < 0.01),
+            "{se:?}"
+        );
+    }
+
+    #[test]
+    fn inadmissible_start_is_refused() {
+        let f = |_: &[f64], _: &mut Vec<f64>| false;
+        assert!(minimise(&f, &[0.0], &[1e-6], 10).is_none());
+    }
+}

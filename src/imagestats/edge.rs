@@ -1,0 +1,799 @@
+//! Edge-profile fits on the marker's grid lines: blur σ, edge position and material levels.
+//!
+//! A fit takes every pixel within a band across one straight grid line of the marker (an outer
+//! side of the black square or a boundary between inner cells), away from the places along the
+//! line where the pattern across it changes (cell corners), and fits the blurred, pixel-integrated
+//! profile of the *known* pattern across the line: all material changes within reach (the inner
+//! cells behind a border, the end of the white margin) are part of the model, so a band wider
+//! than one cell is not a problem. Free parameters: the edge line's offset and tilt relative to
+//! the line through the given corners, σ, and one level per material present (linear, solved at
+//! every step: variable projection). Uncertainties come from the Jacobian at the solution.
+
+use super::grid::{Homography, MarkerLayout, Material};
+use super::{check_view, pixel, view_bounds, StatsError};
+use crate::detect::GrayView;
+use crate::estimate::lm;
+
+/// Sampling and guard settings of an edge fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdgeOptions {
+    /// The largest blur σ expected, px: sets the band width and the guard kept from cell
+    /// corners along the edge. Default 2.5.
+    pub sigma_hint_px: f64,
+    /// Half-width of the sampled band across the edge, px. Default `4·sigma_hint_px + 2`.
+    pub half_width_px: Option<f64>,
+    /// At most this many pixels per edge (evenly thinned beyond). Default 6000.
+    pub max_samples: usize,
+    /// Fewer usable pixels than this is an error. Default 40.
+    pub min_samples: usize,
+}
+
+impl Default for EdgeOptions {
+    fn default() -> Self {
+        Self {
+            sigma_hint_px: 2.5,
+            half_width_px: None,
+            max_samples: 6000,
+            min_samples: 40,
+        }
+    }
+}
+
+/// A straight segment of a grid line of the marker (grid units: cells, black square [0, N]²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridEdge {
+    /// `true`: on the line gy = `line`, running along gx; `false`: on gx = `line`.
+    pub horizontal: bool,
+    pub line: f64,
+    /// Extent along the line, cells (`from` < `to`).
+    pub from: f64,
+    pub to: f64,
+}
+
+impl GridEdge {
+    /// Outer side `side` (0..4) of an N-cell marker: side k runs from corner k to corner k+1
+    /// (0: top, 1: right, 2: bottom, 3: left as printed).
+    pub fn outer_side(side: usize, n: usize) -> GridEdge {
+        let n = n as f64;
+        let (horizontal, line) = match side % 4 {
+            0 => (true, 0.0),
+            1 => (false, n),
+            2 => (true, n),
+            _ => (false, 0.0),
+        };
+        GridEdge {
+            horizontal,
+            line,
+            from: 0.0,
+            to: n,
+        }
+    }
+
+    fn grid_point(&self, t: f64, n: f64) -> (f64, f64) {
+        if self.horizontal {
+            (t, n)
+        } else {
+            (n, t)
+        }
+    }
+
+    fn split(&self, g: [f64; 2]) -> (f64, f64) {
+        if self.horizontal {
+            (g[0], g[1])
+        } else {
+            (g[1], g[0])
+        }
+    }
+}
+
+/// One fitted edge.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdgeProfile {
+    pub edge: GridEdge,
+    /// Unit normal of the edge in the image, pointing from its ink side to the other side
+    /// (outer sides: outwards).
+    pub normal: [f64; 2],
+    /// The fitted edge line: a point at the middle of the segment, absolute px…
+    pub point_px: [f64; 2],
+    /// …and its unit direction (from the segment's `from` end to its `to` end).
+    pub direction: [f64; 2],
+    /// Gaussian blur σ, px, and its standard error.
+    pub sigma_px: f64,
+    pub sigma_stderr_px: f64,
+    /// Offset of the fitted line from the line through the given corners, along `normal`, at
+    /// the middle of the segment, px, and its standard error.
+    pub offset_px: f64,
+    pub offset_stderr_px: f64,
+    /// Fitted levels (DN) of the materials the band contains.
+    pub ink_dn: Option<f64>,
+    pub paper_dn: Option<f64>,
+    pub surround_dn: Option<f64>,
+    /// RMS of the fit residuals, DN.
+    pub rms_residual_dn: f64,
+    /// Pixels used.
+    pub samples: usize,
+    /// Length of the segment in the image, px.
+    pub length_px: f64,
+}
+
+/// Standard normal CDF Φ, from erfc (Numerical Recipes' Chebyshev fit, fractional error
+/// < 1.2·10⁻⁷ everywhere).
+pub fn normal_cdf(z: f64) -> f64 {
+    0.5 * erfc(-z * std::f64::consts::FRAC_1_SQRT_2)
+}
+
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.265_512_23
+            + t * (1.000_023_68
+                + t * (0.374_091_96
+                    + t * (0.096_784_18
+                        + t * (-0.186_288_06
+                            + t * (0.278_868_07
+                                + t * (-1.135_203_98
+                                    + t * (1.488_515_87
+                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+#[inline]
+fn normal_pdf(z: f64) -> f64 {
+    (-0.5 * z * z).exp() * 0.398_942_280_401_432_7
+}
+
+/// Response of a pixel centred at signed distance `x` (px) from an ideal 0 → 1 step, for a
+/// Gaussian PSF of `sigma` and a pixel box whose projections on the edge normal are `a` ≥ `b`
+/// wide (|cos θ|, |sin θ|): E[Φ((x + a·U₁ + b·U₂)/σ)], U uniform on (−½, ½).
+pub(crate) fn step_response(x: f64, sigma: f64, a: f64, b: f64) -> f64 {
+    if x > 0.0 {
+        return 1.0 - step_response(-x, sigma, a, b);
+    }
+    if x < -(0.5 * (a + b) + 8.5 * sigma) {
+        return 0.0;
+    }
+    if b < 0.1 {
+        // The narrow box only adds its variance b²/12 (exact to second order).
+        let s = (sigma * sigma + b * b / 12.0).sqrt();
+        let g = |u: f64| u * normal_cdf(u / s) + s * normal_pdf(u / s);
+        return (g(x + 0.5 * a) - g(x - 0.5 * a)) / a;
+    }
+    // H = ∫∫Φ: H(u) = (u² + σ²)/2·Φ(u/σ) + uσ/2·φ(u/σ).
+    let h = |u: f64| {
+        let z = u / sigma;
+        0.5 * (u * u + sigma * sigma) * normal_cdf(z) + 0.5 * u * sigma * normal_pdf(z)
+    };
+    let (p, q) = (0.5 * (a + b), 0.5 * (a - b));
+    (h(x + p) - h(x + q) - h(x - q) + h(x - p)) / (a * b)
+}
+
+/// One material interval across the edge, in px along the normal from the reference line.
+#[derive(Debug, Clone, Copy)]
+struct Interval {
+    lo: f64,
+    hi: f64,
+    material: usize,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    value: f64,
+    /// Signed distance from the reference line along the normal, px.
+    d: f64,
+    /// Position along the segment, normalised to [−½, ½].
+    tau: f64,
+    first: usize,
+    count: usize,
+}
+
+/// Materials across the line at position `t` along it, over grid-normal coordinates
+/// [n_lo, n_hi]: `(start, end, material)` with equal neighbours merged (ends unbounded).
+fn normal_profile(
+    layout: &MarkerLayout,
+    edge: &GridEdge,
+    breaks: &[f64],
+    t: f64,
+    n_lo: f64,
+    n_hi: f64,
+) -> Vec<(f64, f64, Material)> {
+    let mut cuts: Vec<f64> = breaks
+        .iter()
+        .copied()
+        .filter(|b| *b > n_lo && *b < n_hi)
+        .collect();
+    cuts.insert(0, f64::NEG_INFINITY);
+    cuts.push(f64::INFINITY);
+    let mut out: Vec<(f64, f64, Material)> = Vec::new();
+    for w in cuts.windows(2) {
+        let mid = match (w[0].is_finite(), w[1].is_finite()) {
+            (true, true) => 0.5 * (w[0] + w[1]),
+            (false, true) => w[1].min(n_hi) - 1e-3,
+            (true, false) => w[0].max(n_lo) + 1e-3,
+            (false, false) => 0.5 * (n_lo + n_hi),
+        };
+        let (gx, gy) = edge.grid_point(t, mid);
+        let m = layout.material(gx, gy);
+        match out.last_mut() {
+            Some(last) if last.2 == m => last.1 = w[1],
+            _ => out.push((w[0], w[1], m)),
+        }
+    }
+    out
+}
+
+/// Stretches of the normal coordinate where two profiles differ in material.
+fn differing(p: &[(f64, f64, Material)], q: &[(f64, f64, Material)]) -> Vec<(f64, f64)> {
+    let at = |prof: &[(f64, f64, Material)], n: f64| {
+        prof.iter().find(|iv| n >= iv.0 && n < iv.1).map(|iv| iv.2)
+    };
+    let mut cuts: Vec<f64> = p
+        .iter()
+        .chain(q)
+        .flat_map(|iv| [iv.0, iv.1])
+        .filter(|v| v.is_finite())
+        .collect();
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    if cuts.is_empty() {
+        return if at(p, 0.0) != at(q, 0.0) {
+            vec![(f64::NEG_INFINITY, f64::INFINITY)]
+        } else {
+            Vec::new()
+        };
+    }
+    let mut bounds = vec![f64::NEG_INFINITY];
+    bounds.extend(cuts);
+    bounds.push(f64::INFINITY);
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for w in bounds.windows(2) {
+        let mid = match (w[0].is_finite(), w[1].is_finite()) {
+            (true, true) => 0.5 * (w[0] + w[1]),
+            (false, _) => w[1] - 1.0,
+            (_, false) => w[0] + 1.0,
+        };
+        if at(p, mid) != at(q, mid) {
+            match out.last_mut() {
+                Some(last) if last.1 == w[0] => last.1 = w[1],
+                _ => out.push((w[0], w[1])),
+            }
+        }
+    }
+    out
+}
+
+/// Fits the edge on grid segment `edge` of the marker with corners `corners_px`.
+pub fn fit_grid_edge(
+    view: &GrayView<'_>,
+    corners_px: &[[f64; 2]; 4],
+    layout: &MarkerLayout,
+    edge: &GridEdge,
+    options: &EdgeOptions,
+) -> Result<EdgeProfile, StatsError> {
+    check_view(view)?;
+    let what = || {
+        format!(
+            "edge on grid line {} = {} ({}..{})",
+            if edge.horizontal { "y" } else { "x" },
+            edge.line,
+            edge.from,
+            edge.to
+        )
+    };
+    if edge.from.partial_cmp(&edge.to) != Some(std::cmp::Ordering::Less) || !edge.line.is_finite() {
+        return Err(StatsError::Invalid(format!("{}: empty segment", what())));
+    }
+    let hint = options.sigma_hint_px.max(0.1);
+    let n_cells = layout.side_cells();
+    let h = Homography::from_corners(corners_px, n_cells)?;
+    let map = |t: f64, n: f64| {
+        let (gx, gy) = edge.grid_point(t, n);
+        h.map(gx, gy)
+    };
+    let a_px = map(edge.from, edge.line);
+    let b_px = map(edge.to, edge.line);
+    let length_px = (b_px[0] - a_px[0]).hypot(b_px[1] - a_px[1]);
+    if length_px.is_nan() || length_px < 3.0 {
+        return Err(StatsError::TooFew {
+            what: format!("{}: segment length in px", what()),
+            got: length_px.max(0.0) as usize,
+            need: 3,
+        });
+    }
+    let dir = [
+        (b_px[0] - a_px[0]) / length_px,
+        (b_px[1] - a_px[1]) / length_px,
+    ];
+    let mid_t = 0.5 * (edge.from + edge.to);
+    let mut normal = [-dir[1], dir[0]];
+    let probe = map(mid_t, edge.line + 0.01);
+    let probe0 = map(mid_t, edge.line);
+    if normal[0] * (probe[0] - probe0[0]) + normal[1] * (probe[1] - probe0[1]) < 0.0 {
+        normal = [-normal[0], -normal[1]];
+    }
+    let lo = map(mid_t, edge.line - 0.5);
+    let hi = map(mid_t, edge.line + 0.5);
+    let cell_n_px = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+    let cell_t_px = length_px / (edge.to - edge.from);
+    let band_px = options.half_width_px.unwrap_or(4.0 * hint + 2.0);
+    let reach_cells = (band_px + 8.5 * hint + 2.0) / cell_n_px;
+    let band_cells = band_px / cell_n_px;
+    let breaks = layout.breaks();
+    let limit = layout.margin_cells().unwrap_or(0.0) + 0.5;
+    let nf = n_cells as f64;
+
+    // Where along the line the pattern across it changes: guard those places.
+    let profile_at = |t: f64| {
+        normal_profile(
+            layout,
+            edge,
+            &breaks,
+            t,
+            edge.line - reach_cells,
+            edge.line + reach_cells,
+        )
+    };
+    let mut t_cuts: Vec<f64> = breaks
+        .iter()
+        .copied()
+        .filter(|b| *b > edge.from && *b < edge.to)
+        .collect();
+    t_cuts.insert(0, edge.from);
+    t_cuts.push(edge.to);
+    let segments: Vec<(f64, f64)> = t_cuts.windows(2).map(|w| (w[0], w[1])).collect();
+    let profiles: Vec<Vec<(f64, f64, Material)>> = segments
+        .iter()
+        .map(|(a, b)| profile_at(0.5 * (a + b)))
+        .collect();
+    // Near a cut the pattern across the line changes over some stretch of the normal: keep
+    // samples a guard away from that stretch (the boundary running across the line there).
+    let guard_px = 3.0 * hint + 1.0;
+    let guard_n = guard_px / cell_n_px;
+    let mut zones: Vec<(f64, f64, f64)> = Vec::new();
+    for (j, &c) in t_cuts.iter().enumerate() {
+        let left = if j == 0 {
+            profile_at(c - 1e-3)
+        } else {
+            profiles[j - 1].clone()
+        };
+        let right = if j + 1 == t_cuts.len() {
+            profile_at(c + 1e-3)
+        } else {
+            profiles[j].clone()
+        };
+        for (na, nb) in differing(&left, &right) {
+            zones.push((c, na - guard_n, nb + guard_n));
+        }
+    }
+    let usable: Vec<(f64, f64, usize)> = segments
+        .iter()
+        .enumerate()
+        .map(|(k, &(a, b))| (a, b, k))
+        .collect();
+    // Report the normal from the ink side.
+    if let Some(&(a, b, _)) = usable
+        .iter()
+        .max_by(|x, y| (x.1 - x.0).total_cmp(&(y.1 - y.0)))
+    {
+        let t = 0.5 * (a + b);
+        let (gx, gy) = edge.grid_point(t, edge.line + 0.25);
+        let (hx, hy) = edge.grid_point(t, edge.line - 0.25);
+        if layout.material(gx, gy) == Material::Ink && layout.material(hx, hy) != Material::Ink {
+            normal = [-normal[0], -normal[1]];
+        }
+    }
+    let flipped = {
+        let q = [probe[0] - probe0[0], probe[1] - probe0[1]];
+        normal[0] * q[0] + normal[1] * q[1] < 0.0
+    };
+
+    // Pixels of the band.
+    let mut xs = Vec::new();
+    let mut ys = Vec::new();
+    for t in [edge.from, edge.to] {
+        for nn in [edge.line - 1.3 * band_cells, edge.line + 1.3 * band_cells] {
+            let p = map(t, nn);
+            xs.push(p[0]);
+            ys.push(p[1]);
+        }
+    }
+    let fold = |v: &[f64], f: fn(f64, f64) -> f64, init: f64| v.iter().copied().fold(init, f);
+    let x0 = fold(&xs, f64::min, f64::INFINITY).floor() as i64;
+    let x1 = fold(&xs, f64::max, f64::NEG_INFINITY).ceil() as i64;
+    let y0 = fold(&ys, f64::min, f64::INFINITY).floor() as i64;
+    let y1 = fold(&ys, f64::max, f64::NEG_INFINITY).ceil() as i64;
+    let (vx0, vy0, vx1, vy1) = view_bounds(view);
+    if x0 < vx0 || y0 < vy0 || x1 > vx1 || y1 > vy1 {
+        return Err(StatsError::OutsideView {
+            what: what(),
+            x0,
+            y0,
+            x1,
+            y1,
+        });
+    }
+    let mut samples: Vec<Sample> = Vec::new();
+    let mut intervals: Vec<Interval> = Vec::new();
+    let mut present = [false; 3];
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (xf, yf) = (x as f64, y as f64);
+            let d = normal[0] * (xf - a_px[0]) + normal[1] * (yf - a_px[1]);
+            if d.abs() > band_px {
+                continue;
+            }
+            let g = h.unmap(xf, yf);
+            if !(g[0] >= -limit && g[0] <= nf + limit && g[1] >= -limit && g[1] <= nf + limit) {
+                continue;
+            }
+            let (t, nn) = edge.split(g);
+            let Some(&(_, _, seg)) = usable.iter().find(|u| t >= u.0 && t <= u.1) else {
+                continue;
+            };
+            if zones
+                .iter()
+                .any(|z| (t - z.0).abs() * cell_t_px < guard_px && nn >= z.1 && nn <= z.2)
+            {
+                continue;
+            }
+            let Some(value) = pixel(view, x, y) else {
+                continue;
+            };
+            let first = intervals.len();
+            let prof = &profiles[seg];
+            // Offsets along the (final) normal; grid order runs against it when flipped.
+            let offset = |nn: f64| {
+                if nn.is_finite() {
+                    let p = map(t, nn);
+                    normal[0] * (p[0] - a_px[0]) + normal[1] * (p[1] - a_px[1])
+                } else if flipped {
+                    -nn
+                } else {
+                    nn
+                }
+            };
+            for &(s, e, m) in prof {
+                let (lo, hi) = if flipped {
+                    (offset(e), offset(s))
+                } else {
+                    (offset(s), offset(e))
+                };
+                present[m.index()] = true;
+                intervals.push(Interval {
+                    lo,
+                    hi,
+                    material: m.index(),
+                });
+            }
+            let along = dir[0] * (xf - a_px[0]) + dir[1] * (yf - a_px[1]);
+            samples.push(Sample {
+                value: value as f64,
+                d,
+                tau: along / length_px - 0.5,
+                first,
+                count: intervals.len() - first,
+            });
+        }
+    }
+    if samples.len() > options.max_samples.max(1) {
+        let keep = options.max_samples.max(1);
+        let n = samples.len();
+        samples = (0..keep).map(|k| samples[k * n / keep]).collect();
+    }
+    if samples.len() < options.min_samples.max(8) {
+        return Err(StatsError::TooFew {
+            what: what(),
+            got: samples.len(),
+            need: options.min_samples.max(8),
+        });
+    }
+    let materials: Vec<usize> = (0..3).filter(|&m| present[m]).collect();
+    let (wa, wb) = {
+        let (c, s) = (normal[0].abs(), normal[1].abs());
+        (c.max(s), c.min(s))
+    };
+    let model = EdgeModel {
+        samples: &samples,
+        intervals: &intervals,
+        materials: &materials,
+        box_a: wa,
+        box_b: wb,
+        max_sigma: 3.0 * hint + 5.0,
+        max_offset: 0.5 * band_px,
+    };
+    let residuals = |p: &[f64], out: &mut Vec<f64>| model.residuals(p, out).is_some();
+    // Coarse start: the edge position over a small grid at a middling σ.
+    let mut best = (f64::INFINITY, 0.0);
+    let mut buf = Vec::new();
+    for k in -8..=8 {
+        let e0 = k as f64 * 0.25;
+        if model.residuals(&[e0, 0.0, 1.0], &mut buf).is_some() {
+            let c: f64 = buf.iter().map(|r| r * r).sum();
+            if c < best.0 {
+                best = (c, e0);
+            }
+        }
+    }
+    let fit = lm::minimise(&residuals, &[best.1, 0.0, 1.0], &[1e-4, 1e-4, 1e-4], 60).ok_or_else(
+        || StatsError::NoFit {
+            what: what(),
+            reason: "no admissible start".into(),
+        },
+    )?;
+    let mut out = Vec::new();
+    let levels = model
+        .residuals(&fit.params, &mut out)
+        .ok_or_else(|| StatsError::NoFit {
+            what: what(),
+            reason: "levels not determined".into(),
+        })?;
+    let se = fit.std_errors();
+    let (e0, e1, sigma) = (fit.params[0], fit.params[1], fit.params[2]);
+    if !se[2].is_finite() {
+        return Err(StatsError::NoFit {
+            what: what(),
+            reason: "σ not determined by the data".into(),
+        });
+    }
+    let level = |m: Material| {
+        materials
+            .iter()
+            .position(|&k| k == m.index())
+            .map(|i| levels[i])
+            .filter(|v| v.is_finite())
+    };
+    let mid = [
+        a_px[0] + dir[0] * 0.5 * length_px,
+        a_px[1] + dir[1] * 0.5 * length_px,
+    ];
+    let fdir = [
+        dir[0] + normal[0] * e1 / length_px,
+        dir[1] + normal[1] * e1 / length_px,
+    ];
+    let fl = fdir[0].hypot(fdir[1]);
+    Ok(EdgeProfile {
+        edge: *edge,
+        normal,
+        point_px: [mid[0] + normal[0] * e0, mid[1] + normal[1] * e0],
+        direction: [fdir[0] / fl, fdir[1] / fl],
+        sigma_px: sigma,
+        sigma_stderr_px: se[2],
+        offset_px: e0,
+        offset_stderr_px: se[0],
+        ink_dn: level(Material::Ink),
+        paper_dn: level(Material::Paper),
+        surround_dn: level(Material::Surround),
+        rms_residual_dn: (fit.cost / samples.len() as f64).sqrt(),
+        samples: samples.len(),
+        length_px,
+    })
+}
+
+/// The profile model over the collected samples; parameters (offset, tilt, σ).
+struct EdgeModel<'a> {
+    samples: &'a [Sample],
+    intervals: &'a [Interval],
+    materials: &'a [usize],
+    box_a: f64,
+    box_b: f64,
+    max_sigma: f64,
+    max_offset: f64,
+}
+
+impl EdgeModel<'_> {
+    /// Fills the residuals for (e0, e1, σ) and returns the fitted levels, `None` where the
+    /// parameters are outside their range or the levels are not determined.
+    fn residuals(&self, p: &[f64], out: &mut Vec<f64>) -> Option<Vec<f64>> {
+        let (e0, e1, sigma) = (p[0], p[1], p[2]);
+        let admissible = (0.05..=self.max_sigma).contains(&sigma)
+            && e0.abs() <= self.max_offset
+            && e1.abs() <= self.max_offset;
+        if !admissible {
+            return None;
+        }
+        let k = self.materials.len();
+        let mut slot = [usize::MAX; 3];
+        for (i, &m) in self.materials.iter().enumerate() {
+            slot[m] = i;
+        }
+        let mut weights = vec![0.0; self.samples.len() * k];
+        let mut ata = vec![vec![0.0; k]; k];
+        let mut atb = vec![0.0; k];
+        for (s, w) in self.samples.iter().zip(weights.chunks_exact_mut(k)) {
+            let x = s.d - (e0 + e1 * s.tau);
+            for iv in &self.intervals[s.first..s.first + s.count] {
+                let upper = if iv.lo.is_finite() {
+                    step_response(x - iv.lo, sigma, self.box_a, self.box_b)
+                } else {
+                    1.0
+                };
+                let lower = if iv.hi.is_finite() {
+                    step_response(x - iv.hi, sigma, self.box_a, self.box_b)
+                } else {
+                    0.0
+                };
+                w[slot[iv.material]] += upper - lower;
+            }
+            for i in 0..k {
+                atb[i] += w[i] * s.value;
+                for j in 0..k {
+                    ata[i][j] += w[i] * w[j];
+                }
+            }
+        }
+        // Materials within reach of the model but not of the sampled band carry no weight:
+        // leave them out of the solve (their level is NaN, reported as absent).
+        let active: Vec<usize> = (0..k).filter(|&i| ata[i][i] > 1e-6).collect();
+        if active.is_empty() {
+            return None;
+        }
+        let sub_a: Vec<Vec<f64>> = active
+            .iter()
+            .map(|&i| active.iter().map(|&j| ata[i][j]).collect())
+            .collect();
+        let sub_b: Vec<f64> = active.iter().map(|&i| atb[i]).collect();
+        let sol = crate::estimate::linalg::solve(&sub_a, &sub_b)?;
+        let mut levels = vec![f64::NAN; k];
+        for (&i, v) in active.iter().zip(sol) {
+            levels[i] = v;
+        }
+        out.clear();
+        out.extend(
+            self.samples
+                .iter()
+                .zip(weights.chunks_exact(k))
+                .map(|(s, w)| {
+                    w.iter()
+                        .zip(&levels)
+                        .filter(|(_, l)| l.is_finite())
+                        .map(|(a, b)| a * b)
+                        .sum::<f64>()
+                        - s.value
+                }),
+        );
+        Some(levels)
+    }
+}
+
+/// Fits the four outer sides of the black square (side k from corner k to corner k+1).
+pub fn outer_edge_profiles(
+    view: &GrayView<'_>,
+    corners_px: &[[f64; 2]; 4],
+    layout: &MarkerLayout,
+    options: &EdgeOptions,
+) -> [Result<EdgeProfile, StatsError>; 4] {
+    let n = layout.side_cells();
+    std::array::from_fn(|side| {
+        fit_grid_edge(
+            view,
+            corners_px,
+            layout,
+            &GridEdge::outer_side(side, n),
+            options,
+        )
+    })
+}
+
+/// Fits every straight run of boundaries between inner cells of different colour that is at
+/// least `min_run_cells` long (the fits that succeed; runs too small for the blur give errors and
+/// are left out).
+pub fn inner_edge_profiles(
+    view: &GrayView<'_>,
+    corners_px: &[[f64; 2]; 4],
+    layout: &MarkerLayout,
+    options: &EdgeOptions,
+    min_run_cells: usize,
+) -> Vec<EdgeProfile> {
+    let n = layout.side_cells();
+    let c = &layout.cells;
+    let mut edges = Vec::new();
+    for horizontal in [true, false] {
+        for line in 1..n {
+            let differs = |k: usize| {
+                if horizontal {
+                    c[line - 1][k] != c[line][k]
+                } else {
+                    c[k][line - 1] != c[k][line]
+                }
+            };
+            let mut k = 0;
+            while k < n {
+                if !differs(k) {
+                    k += 1;
+                    continue;
+                }
+                let start = k;
+                while k < n && differs(k) {
+                    k += 1;
+                }
+                if k - start >= min_run_cells.max(1) {
+                    edges.push(GridEdge {
+                        horizontal,
+                        line: line as f64,
+                        from: start as f64,
+                        to: k as f64,
+                    });
+                }
+            }
+        }
+    }
+    edges
+        .iter()
+        .filter_map(|e| fit_grid_edge(view, corners_px, layout, e, options).ok())
+        .collect()
+}
+
+/// Corners from the four fitted outer sides (side k from corner k to corner k+1): corner k is
+/// the intersection of sides k−1 and k. `None` unless all four outer sides are given and the
+/// lines intersect.
+pub fn refined_corners(profiles: &[EdgeProfile], side_cells: usize) -> Option<[[f64; 2]; 4]> {
+    let side = |k: usize| {
+        let want = GridEdge::outer_side(k, side_cells);
+        profiles
+            .iter()
+            .find(|p| p.edge.horizontal == want.horizontal && p.edge.line == want.line)
+    };
+    let sides: Vec<&EdgeProfile> = (0..4).map(side).collect::<Option<_>>()?;
+    let mut out = [[0.0; 2]; 4];
+    for (k, o) in out.iter_mut().enumerate() {
+        let (p, q) = (sides[(k + 3) % 4], sides[k]);
+        let det = p.direction[0] * q.direction[1] - p.direction[1] * q.direction[0];
+        if det.abs() < 1e-9 {
+            return None;
+        }
+        let w = [q.point_px[0] - p.point_px[0], q.point_px[1] - p.point_px[1]];
+        let s = (w[0] * q.direction[1] - w[1] * q.direction[0]) / det;
+        *o = [
+            p.point_px[0] + s * p.direction[0],
+            p.point_px[1] + s * p.direction[1],
+        ];
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reference: E[Φ((x + aU₁ + bU₂)/σ)] by a fine midpoint rule.
+    fn brute(x: f64, sigma: f64, a: f64, b: f64) -> f64 {
+        let m = 400;
+        let mut s = 0.0;
+        for i in 0..m {
+            for j in 0..m {
+                let u1 = (i as f64 + 0.5) / m as f64 - 0.5;
+                let u2 = (j as f64 + 0.5) / m as f64 - 0.5;
+                s += normal_cdf((x + a * u1 + b * u2) / sigma);
+            }
+        }
+        s / (m * m) as f64
+    }
+
+    #[test]
+    fn step_response_matches_numerical_integration() {
+        for &(sigma, theta) in &[
+            (0.3, 0.0),
+            (0.5, 0.3),
+            (1.2, 0.785),
+            (2.5, 0.05),
+            (0.1, 0.6),
+        ] {
+            let (a, b) = (f64::cos(theta).abs(), f64::sin(theta).abs());
+            let (a, b) = (a.max(b), a.min(b));
+            for &x in &[-3.0, -1.0, -0.4, 0.0, 0.2, 0.7, 2.0] {
+                let got = step_response(x, sigma, a, b);
+                let want = brute(x, sigma, a, b);
+                assert!(
+                    (got - want).abs() < 2e-4,
+                    "σ {sigma} θ {theta} x {x}: {got} vs {want}"
+                );
+            }
+        }
+        assert!((normal_cdf(1.959963984540054) - 0.975).abs() < 1e-7);
+    }
+}
