@@ -62,10 +62,13 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     bar.finish_and_clear();
     let e = &out.estimate;
     let c = &e.rotation_centre;
-    println!(
-        "{} frames, {} with the marker, {} missing (never interpolated)",
-        e.frames, e.detected, e.missing
-    );
+    for line in input_summary(&out.input, e.detected) {
+        if line.starts_with("warning:") {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    }
     println!(
         "rotation centre ({:.2}, {:.2}) px ± ({:.2}, {:.2}) px [{:?}], rms residual {:.3} px",
         c.centre_px[0],
@@ -79,4 +82,65 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         println!("wrote {}", f.display());
     }
     Ok(())
+}
+
+/// The frame accounting of an analysis, one statement per line: what the input spans, what was
+/// detected, and every frame that is missing for a reason other than a failed detection.
+fn input_summary(
+    input: &geneva_vision::pipeline::analyze::InputReport,
+    detected: usize,
+) -> Vec<String> {
+    let span = input.last_frame - input.first_frame + 1;
+    let unreadable = input.unreadable.len();
+    let absent = input.absent();
+    let undetected = input
+        .frames_present
+        .saturating_sub(unreadable)
+        .saturating_sub(detected);
+    let mut lines = vec![format!(
+        "{span} frames ({}–{}): {detected} with the marker, {undetected} without (never \
+         interpolated), {unreadable} unreadable, {absent} absent from the input",
+        input.first_frame, input.last_frame
+    )];
+    if !input.gaps.is_empty() {
+        let shown: Vec<String> = input
+            .gaps
+            .iter()
+            .take(5)
+            .map(|g| format!("{}–{}", g.start(), g.end()))
+            .collect();
+        let more = input.gaps.len().saturating_sub(shown.len());
+        lines.push(format!(
+            "warning: the track skips {absent} frame numbers in {} gap(s): {}{}",
+            input.gaps.len(),
+            shown.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        ));
+    }
+    for f in input.unreadable.iter().take(5) {
+        lines.push(format!(
+            "warning: frame {} ({}) unreadable: {}",
+            f.frame,
+            f.file.display(),
+            f.reason
+        ));
+    }
+    if unreadable > 5 {
+        lines.push(format!(
+            "warning: and {} more unreadable frames (all listed in unreadable_frames.csv)",
+            unreadable - 5
+        ));
+    }
+    if let Some(t) = &input.truncation {
+        let lost = input
+            .lost_to_truncation()
+            .map(|n| format!(" ({n} frames lost)"))
+            .unwrap_or_default();
+        lines.push(format!("warning: truncated video: {t}{lost}"));
+    }
+    lines
 }

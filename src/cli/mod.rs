@@ -148,6 +148,25 @@ pub fn main() -> Result<()> {
     }
 }
 
+/// The error and its causes joined with ": ", leaving out a cause whose text is already in the
+/// message: library errors state their source inside their own message (so they read whole on
+/// their own) and also expose it as `source()`, which anyhow's `{:#}` would print a second time
+/// ("Not a directory (os error 20): Not a directory (os error 20)").
+pub fn error_text(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let c = cause.to_string();
+        if c.is_empty() || text.contains(&c) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&c);
+    }
+    text
+}
+
 /// The main job on the embedded default scenario: the truth trajectory and its plots, then the
 /// whole synthetic measurement (render → detect → estimate → budget) in the same folder.
 fn demo(out: &std::path::Path) -> Result<()> {
@@ -155,4 +174,49 @@ fn demo(out: &std::path::Path) -> Result<()> {
     println!();
     run_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out, false)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_text;
+    use anyhow::Context;
+    use geneva_vision::scenario;
+
+    /// Segments (split at ": ") longer than a few characters that occur twice.
+    fn repeated(text: &str) -> Vec<&str> {
+        let parts: Vec<&str> = text.split(": ").collect();
+        parts
+            .iter()
+            .enumerate()
+            .filter(|(k, p)| p.len() > 6 && parts[..*k].contains(p))
+            .map(|(_, p)| *p)
+            .collect()
+    }
+
+    #[test]
+    fn causes_already_in_the_message_are_not_repeated() {
+        // Issue #14: "Is a directory (os error 21): Is a directory (os error 21)".
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("nope.toml");
+        let e = anyhow::Error::from(scenario::load(&missing).unwrap_err());
+        let text = error_text(&e);
+        assert!(repeated(&text).is_empty(), "{text}");
+        assert!(text.contains("nope.toml"), "{text}");
+        // The same through a context layer, and through a wrapper whose message embeds its
+        // source (thiserror `#[from]` with "{0}" in the message).
+        let wrapped = Err::<(), _>(e).context("scenario x").unwrap_err();
+        let text = error_text(&wrapped);
+        assert!(
+            repeated(&text).is_empty() && text.starts_with("scenario x: "),
+            "{text}"
+        );
+        let rig = geneva_vision::pipeline::rig::RigError::Timing(
+            geneva_vision::timing::TimingError::MissingLog,
+        );
+        let text = error_text(&anyhow::Error::from(rig));
+        assert!(repeated(&text).is_empty(), "{text}");
+        // Distinct causes are all kept.
+        let chain = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_text(&chain), "outer: inner");
+    }
 }

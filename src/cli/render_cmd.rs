@@ -5,19 +5,32 @@ use geneva_vision::pipeline::render_job::{render_job, RenderJob};
 use geneva_vision::scenario;
 use std::path::{Path, PathBuf};
 
+/// `A..B` (end exclusive), `A..=B` (end inclusive) or `A` (one frame); never empty.
 fn parse_range(text: &str) -> Result<std::ops::Range<usize>> {
-    let Some((a, b)) = text.split_once("..") else {
-        bail!("--frames `{text}`: expected A..B (end exclusive)")
+    let number = |s: &str, what: &str| -> Result<usize> {
+        s.trim().parse().with_context(|| {
+            format!(
+                "--frames `{text}`: {what} `{}` is not a frame number",
+                s.trim()
+            )
+        })
     };
-    let a: usize = a
-        .trim()
-        .parse()
-        .with_context(|| format!("--frames `{text}`: start"))?;
-    let b: usize = b
-        .trim()
-        .parse()
-        .with_context(|| format!("--frames `{text}`: end"))?;
-    Ok(a..b)
+    let range = if let Some((a, b)) = text.split_once("..=") {
+        number(a, "start")?..number(b, "end")?.saturating_add(1)
+    } else if let Some((a, b)) = text.split_once("..") {
+        number(a, "start")?..number(b, "end")?
+    } else {
+        let a = number(text, "frame")?;
+        a..a.saturating_add(1)
+    };
+    if range.start >= range.end {
+        bail!(
+            "--frames `{text}` holds no frame (A..B excludes B: `{0}..{1}` or `{0}` renders frame {0})",
+            range.start,
+            range.start + 1
+        );
+    }
+    Ok(range)
 }
 
 pub fn run(
@@ -51,4 +64,24 @@ pub fn run(
         println!("wrote {}", f.display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_range;
+
+    #[test]
+    fn frame_ranges_exclusive_inclusive_and_single() {
+        assert_eq!(parse_range("5..8").unwrap(), 5..8);
+        assert_eq!(parse_range("5..=8").unwrap(), 5..9);
+        assert_eq!(parse_range("5").unwrap(), 5..6);
+        // Issue #14: `--frames 5..5` was reported as "outside the scenario's 60 frames".
+        let e = parse_range("5..5").unwrap_err().to_string();
+        assert!(e.contains("holds no frame") && e.contains("5..6"), "{e}");
+        assert!(parse_range("7..3").is_err());
+        assert!(parse_range("a..3")
+            .unwrap_err()
+            .to_string()
+            .contains("start"));
+    }
 }

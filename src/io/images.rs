@@ -1,5 +1,10 @@
 //! Still-image frame input: PNG/JPEG files decoded to 8-bit grey the way OpenCV's `cvtColor`
-//! would, and directory listings in natural name order (frame2 before frame10).
+//! would, their headers (size and pixel format, read without decoding, so a sequence can be
+//! checked for consistency first), and directory listings in natural name order (frame2 before
+//! frame10).
+//!
+//! Bounded work: an image larger than [`MAX_IMAGE_PIXELS`] is refused from its header, before
+//! any pixel buffer is allocated.
 
 use std::cmp::Ordering;
 use std::fs::File;
@@ -25,6 +30,64 @@ pub enum ImageError {
     Decode { path: PathBuf, message: String },
     #[error("{path}: unsupported image: {what}")]
     Unsupported { path: PathBuf, what: String },
+    #[error("{path}: empty file (0 bytes)")]
+    Empty { path: PathBuf },
+    #[error("{path}: image of {width}x{height} px exceeds the limit of {MAX_IMAGE_PIXELS} pixels")]
+    TooLarge {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+    },
+}
+
+/// Largest image accepted (2^28 px, e.g. 16384x16384): far above any camera frame, small enough
+/// that decoding one never allocates more than about 2 GB (16-bit RGBA).
+pub const MAX_IMAGE_PIXELS: usize = 1 << 28;
+
+/// Container and sample layout of an image file, as its header states them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PixelFormat {
+    pub jpeg: bool,
+    /// Samples per pixel after palette expansion (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA).
+    pub channels: u8,
+    pub bits: u8,
+}
+
+impl std::fmt::Display for PixelFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let layout = match self.channels {
+            1 => "grey",
+            2 => "grey+alpha",
+            3 => "RGB",
+            4 => "RGBA",
+            _ => "CMYK",
+        };
+        let kind = if self.jpeg { "JPEG" } else { "PNG" };
+        write!(f, "{}-bit {layout} {kind}", self.bits)
+    }
+}
+
+/// Size and pixel format of an image file, from its header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ImageHeader {
+    pub width: usize,
+    pub height: usize,
+    pub format: PixelFormat,
+}
+
+impl ImageError {
+    /// The message without the file name (for lists that name the file already).
+    pub fn reason(&self) -> String {
+        match self {
+            ImageError::Io { source, .. } => source.to_string(),
+            ImageError::Decode { message, .. } => format!("cannot decode image: {message}"),
+            ImageError::Unsupported { what, .. } => format!("unsupported image: {what}"),
+            ImageError::Empty { .. } => "empty file (0 bytes)".into(),
+            ImageError::TooLarge { width, height, .. } => format!(
+                "image of {width}x{height} px exceeds the limit of {MAX_IMAGE_PIXELS} pixels"
+            ),
+        }
+    }
 }
 
 /// OpenCV's fixed-point RGB→grey (`cvtColor`, 8-bit): weights 0.299/0.587/0.114 scaled by 2^14
@@ -60,24 +123,112 @@ fn samples_to_gray(samples: &[u16], channels: usize, path: &Path) -> Result<Vec<
 /// 16-bit samples are rounded to 8 bits before the colour conversion; alpha is ignored, as
 /// `cvtColor(..., COLOR_RGBA2GRAY)` does.
 pub fn read_gray(path: &Path) -> Result<GrayImage, ImageError> {
+    if sniff(path)? {
+        read_jpeg(path)
+    } else {
+        read_png(path)
+    }
+}
+
+/// Size and pixel format from the header only (no pixel is decoded).
+pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
+    let header = if sniff(path)? {
+        let mut decoder = jpeg_decoder::Decoder::new(BufReader::new(open(path)?));
+        decoder.read_info().map_err(|e| ImageError::Decode {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+        let info = decoder.info().ok_or_else(|| ImageError::Decode {
+            path: path.into(),
+            message: "no header".into(),
+        })?;
+        let (channels, bits) = match info.pixel_format {
+            jpeg_decoder::PixelFormat::L8 => (1, 8),
+            jpeg_decoder::PixelFormat::L16 => (1, 16),
+            jpeg_decoder::PixelFormat::RGB24 => (3, 8),
+            jpeg_decoder::PixelFormat::CMYK32 => (5, 8),
+        };
+        ImageHeader {
+            width: usize::from(info.width),
+            height: usize::from(info.height),
+            format: PixelFormat {
+                jpeg: true,
+                channels,
+                bits,
+            },
+        }
+    } else {
+        let mut decoder = png::Decoder::new(BufReader::new(open(path)?));
+        decoder.set_transformations(png::Transformations::EXPAND);
+        let reader = decoder.read_info().map_err(|e| ImageError::Decode {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+        let (color, depth) = reader.output_color_type();
+        ImageHeader {
+            width: reader.info().width as usize,
+            height: reader.info().height as usize,
+            format: PixelFormat {
+                jpeg: false,
+                channels: color.samples() as u8,
+                bits: if depth == png::BitDepth::Sixteen {
+                    16
+                } else {
+                    8
+                },
+            },
+        }
+    };
+    check_size(path, header.width, header.height)?;
+    Ok(header)
+}
+
+fn open(path: &Path) -> Result<File, ImageError> {
+    File::open(path).map_err(|source| ImageError::Io {
+        path: path.into(),
+        source,
+    })
+}
+
+/// Reads the magic bytes: `Ok(true)` for JPEG, `Ok(false)` for PNG, else an error naming why.
+fn sniff(path: &Path) -> Result<bool, ImageError> {
     let io = |source| ImageError::Io {
         path: path.into(),
         source,
     };
     let mut magic = [0u8; 8];
-    let n = File::open(path)
-        .and_then(|mut f| f.read(&mut magic))
-        .map_err(io)?;
-    if n >= 8 && magic == *b"\x89PNG\r\n\x1a\n" {
-        read_png(path)
+    let mut file = open(path)?;
+    let mut n = 0;
+    // `read` may return fewer bytes than asked; fill the magic from a short file as far as it goes.
+    while n < magic.len() {
+        match file.read(&mut magic[n..]).map_err(io)? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    if n == 0 {
+        Err(ImageError::Empty { path: path.into() })
+    } else if n >= 8 && magic == *b"\x89PNG\r\n\x1a\n" {
+        Ok(false)
     } else if n >= 2 && magic[..2] == [0xFF, 0xD8] {
-        read_jpeg(path)
+        Ok(true)
     } else {
         Err(ImageError::Unsupported {
             path: path.into(),
             what: "not a PNG or JPEG file".into(),
         })
     }
+}
+
+fn check_size(path: &Path, width: usize, height: usize) -> Result<(), ImageError> {
+    if width.saturating_mul(height) > MAX_IMAGE_PIXELS {
+        return Err(ImageError::TooLarge {
+            path: path.into(),
+            width,
+            height,
+        });
+    }
+    Ok(())
 }
 
 fn read_png(path: &Path) -> Result<GrayImage, ImageError> {
@@ -93,6 +244,11 @@ fn read_png(path: &Path) -> Result<GrayImage, ImageError> {
     // EXPAND: palettes → RGB, 1/2/4-bit → 8-bit, tRNS → alpha; 16-bit stays 16-bit.
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(decode)?;
+    check_size(
+        path,
+        reader.info().width as usize,
+        reader.info().height as usize,
+    )?;
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(decode)?;
     let bytes = &buf[..info.buffer_size()];
@@ -119,6 +275,13 @@ fn read_jpeg(path: &Path) -> Result<GrayImage, ImageError> {
         source,
     })?;
     let mut decoder = jpeg_decoder::Decoder::new(BufReader::new(file));
+    decoder.read_info().map_err(|e| ImageError::Decode {
+        path: path.into(),
+        message: e.to_string(),
+    })?;
+    if let Some(info) = decoder.info() {
+        check_size(path, usize::from(info.width), usize::from(info.height))?;
+    }
     let pixels = decoder.decode().map_err(|e| ImageError::Decode {
         path: path.into(),
         message: e.to_string(),
@@ -374,6 +537,57 @@ mod tests {
             read_gray(&dir.path().join("missing.png")),
             Err(ImageError::Io { .. })
         ));
+    }
+
+    #[test]
+    fn headers_give_size_and_pixel_format_without_decoding() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("g.png");
+        write_png(
+            &p,
+            3,
+            2,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            &[0; 6],
+        );
+        let h = read_header(&p).unwrap();
+        assert_eq!((h.width, h.height), (3, 2));
+        assert_eq!(h.format.to_string(), "8-bit grey PNG");
+        let p = dir.path().join("p.png");
+        // A 1-bit palette image expands to 8-bit RGB, as the decoder delivers it.
+        let file = File::create(&p).unwrap();
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 8, 1);
+        enc.set_color(png::ColorType::Indexed);
+        enc.set_depth(png::BitDepth::One);
+        enc.set_palette(vec![0, 0, 0, 255, 255, 255]);
+        enc.write_header()
+            .unwrap()
+            .write_image_data(&[0b1010_1010])
+            .unwrap();
+        assert_eq!(read_header(&p).unwrap().format.to_string(), "8-bit RGB PNG");
+        let p = dir.path().join("a.jpg");
+        jpeg_encoder::Encoder::new_file(&p, 90)
+            .unwrap()
+            .encode(&[0u8; 8 * 8 * 3], 8, 8, jpeg_encoder::ColorType::Rgb)
+            .unwrap();
+        let h = read_header(&p).unwrap();
+        assert_eq!((h.width, h.height, h.format.jpeg), (8, 8, true));
+        assert_eq!(h.format.to_string(), "8-bit RGB JPEG");
+    }
+
+    #[test]
+    fn empty_and_oversized_images_are_refused_before_decoding() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("zero.png");
+        std::fs::write(&p, b"").unwrap();
+        let e = read_gray(&p).unwrap_err();
+        assert!(matches!(e, ImageError::Empty { .. }), "{e}");
+        assert_eq!(e.reason(), "empty file (0 bytes)");
+        assert!(matches!(read_header(&p), Err(ImageError::Empty { .. })));
+        assert!(check_size(&p, 16384, 16384).is_ok());
+        let e = check_size(&p, 100_000, 100_000).unwrap_err().to_string();
+        assert!(e.contains("zero.png") && e.contains("100000x100000"), "{e}");
     }
 
     #[test]

@@ -37,12 +37,15 @@ signal_columns!(SignalErrors);
 signal_columns!(MeasuredSignal);
 
 /// Writes rows frame-major (all signals of frame 0, then frame 1, ...). `truth`/`ideal` may be
-/// absent (real footage).
+/// absent (real footage). `frame_numbers` (one per entry of `frames_t_s`) gives each row the
+/// input's frame number, `None` leaving that entry out (a placeholder for an absent frame);
+/// without it, entries are numbered from 0.
 pub fn write_kinematics_csv<S: SignalColumns>(
     path: &Path,
     frames_t_s: &[f64],
     signals: &[S],
     truth: Option<(&TruthSeries, &TruthSeries)>,
+    frame_numbers: Option<&[Option<usize>]>,
 ) -> Result<(), CsvError> {
     let mut header = vec![
         "frame",
@@ -65,9 +68,16 @@ pub fn write_kinematics_csv<S: SignalColumns>(
     }
     let mut w = CsvWriter::create(path, &header)?;
     for (i, t) in frames_t_s.iter().enumerate() {
+        let frame = match frame_numbers {
+            Some(numbers) => match numbers.get(i).copied().flatten() {
+                Some(f) => f,
+                None => continue,
+            },
+            None => i,
+        };
         for s in signals {
             let mut cells = vec![
-                i.to_string(),
+                frame.to_string(),
                 num(*t),
                 s.name().to_string(),
                 num(s.theta2_rad()[i]),

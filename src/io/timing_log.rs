@@ -43,6 +43,15 @@ pub fn read_timing_log(
     path: &Path,
     format: Option<LogFormat>,
 ) -> Result<Timestamps, TimingLogError> {
+    read_frame_timestamps(path, format).map(|(_, ts)| ts)
+}
+
+/// Reads the timestamps of a frame sequence and the number of its first frame: a `frame,t_s`
+/// CSV may start at any frame (a part of a recording); every other log starts at frame 0.
+pub fn read_frame_timestamps(
+    path: &Path,
+    format: Option<LogFormat>,
+) -> Result<(usize, Timestamps), TimingLogError> {
     let file = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| TimingLogError::Read {
         file: file.clone(),
@@ -52,7 +61,13 @@ pub fn read_timing_log(
     // matter for frame lines, so decode lossily.
     let text = String::from_utf8_lossy(&bytes);
     let format = format.unwrap_or_else(|| guess_format(path, &text));
-    load_from_text(format, &text).map_err(|source| TimingLogError::Parse { file, source })
+    let parsed = match format {
+        LogFormat::FramesCsv => {
+            crate::timing::parse_frames_csv_numbered(&text).map(|(first, ts)| (first as usize, ts))
+        }
+        other => load_from_text(other, &text).map(|ts| (0, ts)),
+    };
+    parsed.map_err(|source| TimingLogError::Parse { file, source })
 }
 
 #[cfg(test)]

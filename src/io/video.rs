@@ -1,6 +1,10 @@
 //! Video frame input through the ffmpeg command-line tools: `ffprobe` for size, display
 //! rotation and per-frame timestamps; `ffmpeg` decoding to raw 8-bit grey, streamed one frame at
 //! a time so a 4K video never sits in memory.
+//!
+//! Integrity: the probe compares what the container promises (frame count, duration) with the
+//! frames that decode, so a truncated file is reported with its last good frame, and lists every
+//! frame whose size or pixel format differs from the stream's (ffmpeg would silently rescale it).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -19,6 +23,13 @@ pub enum VideoError {
         tool: &'static str,
         source: std::io::Error,
     },
+    #[error("{path}: cannot open: {source}")]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: is a directory, not a video")]
+    NotAFile { path: PathBuf },
     #[error("{path}: ffprobe failed (corrupt or not a video?): {stderr}")]
     Probe { path: PathBuf, stderr: String },
     #[error("{path}: unexpected ffprobe output: {message}")]
@@ -68,11 +79,83 @@ pub struct VideoInfo {
     pub rotation_deg: i32,
     /// Per-frame presentation time, s (pts_time, falling back to best_effort_timestamp_time).
     pub timestamps_s: Vec<f64>,
+    /// The stream's pixel format (`yuv420p`, ...), when ffprobe names it.
+    pub pix_fmt: Option<String>,
+    /// Frame count the container's index promises (`nb_frames`), when it states one.
+    pub container_frames: Option<usize>,
+    /// Duration the container states for the video stream (else for the file), s.
+    pub container_duration_s: Option<f64>,
+    /// Frames whose coded size or pixel format differs from the stream's, with the difference.
+    pub odd_frames: Vec<(usize, String)>,
+    /// What ffprobe printed on stderr while succeeding (e.g. "partial file").
+    pub probe_warnings: String,
+}
+
+/// A video whose container promises more than decodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Truncation {
+    /// Frames that decode.
+    pub decoded: usize,
+    /// Frames the container lists (`nb_frames`), when it states a count.
+    pub container_frames: Option<usize>,
+    /// The container's duration and where the decodable frames end, s.
+    pub container_duration_s: Option<f64>,
+    /// The last frame that decodes and its time, if any does.
+    pub last_good: Option<(usize, f64)>,
+}
+
+impl std::fmt::Display for Truncation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.container_frames, self.container_duration_s) {
+            (Some(n), _) if n > self.decoded => write!(
+                f,
+                "the container lists {n} frames but only {} decode",
+                self.decoded
+            )?,
+            (_, Some(d)) => write!(
+                f,
+                "the container lasts {d:.3} s but the {} decodable frames end earlier",
+                self.decoded
+            )?,
+            _ => write!(f, "{} frames decode", self.decoded)?,
+        }
+        match self.last_good {
+            Some((k, t)) => write!(f, "; last good frame {k} at t = {t:.3} s"),
+            None => write!(f, "; no frame decodes"),
+        }
+    }
 }
 
 impl VideoInfo {
     pub fn frame_count(&self) -> usize {
         self.timestamps_s.len()
+    }
+
+    /// Truncation: fewer decodable frames than the container lists, or (without a count) the
+    /// frames end more than three median intervals (at least 0.25 s) before its duration.
+    pub fn truncation(&self) -> Option<Truncation> {
+        let decoded = self.frame_count();
+        let last_good = self.timestamps_s.last().map(|&t| (decoded - 1, t));
+        let short_by_count = self.container_frames.is_some_and(|n| n > decoded);
+        let short_by_time = self.container_frames.is_none()
+            && match (self.container_duration_s, self.timestamps_s.first()) {
+                (Some(d), Some(&t0)) => {
+                    let mut intervals: Vec<f64> =
+                        self.timestamps_s.windows(2).map(|w| w[1] - w[0]).collect();
+                    intervals.sort_by(f64::total_cmp);
+                    let typical = intervals.get(intervals.len() / 2).copied().unwrap_or(0.0);
+                    let end = last_good.map_or(t0, |(_, t)| t);
+                    t0 + d - end > (3.0 * typical).max(0.25)
+                }
+                (Some(d), None) => d > 0.0,
+                _ => false,
+            };
+        (short_by_count || short_by_time).then_some(Truncation {
+            decoded,
+            container_frames: self.container_frames,
+            container_duration_s: self.container_duration_s,
+            last_good,
+        })
     }
 }
 
@@ -98,21 +181,37 @@ pub fn probe(path: &Path) -> Result<VideoInfo, VideoError> {
 
 /// [`probe`] with an explicit ffprobe executable (tests use a missing one).
 pub fn probe_with(path: &Path, ffprobe: &str) -> Result<VideoInfo, VideoError> {
+    let meta = std::fs::metadata(path).map_err(|source| VideoError::Open {
+        path: path.into(),
+        source,
+    })?;
+    if meta.is_dir() {
+        return Err(VideoError::NotAFile { path: path.into() });
+    }
     let out = Command::new(ffprobe)
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
-        .arg("stream=width,height:stream_tags=rotate:stream_side_data=rotation:frame=pts_time,best_effort_timestamp_time")
+        .arg(
+            "stream=width,height,pix_fmt,nb_frames,duration:stream_tags=rotate:stream_side_data=rotation\
+             :format=duration:frame=pts_time,best_effort_timestamp_time,width,height,pix_fmt",
+        )
         .args(["-of", "json"])
         .arg(path)
         .stdin(Stdio::null())
         .output()
         .map_err(|e| spawn_error(path, "ffprobe", e))?;
     if !out.status.success() {
+        // ffprobe starts its message with the file name, which ours states already.
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = stderr.trim();
+        let named = format!("{}: ", path.display());
         return Err(VideoError::Probe {
             path: path.into(),
-            stderr: String::from_utf8_lossy(&out.stderr).trim().into(),
+            stderr: stderr.strip_prefix(&named).unwrap_or(stderr).into(),
         });
     }
-    parse_probe_json(path, &String::from_utf8_lossy(&out.stdout))
+    let mut info = parse_probe_json(path, &String::from_utf8_lossy(&out.stdout))?;
+    info.probe_warnings = String::from_utf8_lossy(&out.stderr).trim().to_string();
+    Ok(info)
 }
 
 /// Parses ffprobe's JSON (split out so it is testable without ffprobe).
@@ -150,28 +249,28 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
     } else {
         (coded_w, coded_h)
     };
-    let frames = v["frames"].as_array().cloned().unwrap_or_default();
+    let pix_fmt = stream["pix_fmt"].as_str().map(str::to_string);
+    let number = |x: &serde_json::Value| -> Option<f64> {
+        x.as_str()
+            .and_then(|s| s.trim().parse::<f64>().ok())
+            .or_else(|| x.as_f64())
+            .filter(|v| v.is_finite() && *v >= 0.0)
+    };
+    let container_frames = number(&stream["nb_frames"])
+        .filter(|&n| n >= 1.0 && n.fract() == 0.0 && n < 1e12)
+        .map(|n| n as usize);
+    let container_duration_s = number(&stream["duration"])
+        .or_else(|| number(&v["format"]["duration"]))
+        .filter(|&d| d > 0.0);
+    let empty = Vec::new();
+    let frames = v["frames"].as_array().unwrap_or(&empty);
     let mut timestamps_s = Vec::with_capacity(frames.len());
+    let mut odd_frames = Vec::new();
     for (i, f) in frames.iter().enumerate() {
-        let t = ["pts_time", "best_effort_timestamp_time"]
-            .iter()
-            .find_map(|k| f[*k].as_str().and_then(|s| s.parse::<f64>().ok()))
-            .filter(|t| t.is_finite())
-            .ok_or(VideoError::MissingTimestamp {
-                path: path.into(),
-                frame: i,
-            })?;
-        if let Some(&prev) = timestamps_s.last() {
-            if t <= prev {
-                return Err(VideoError::TimestampsNotIncreasing {
-                    path: path.into(),
-                    frame: i,
-                    t_s: t,
-                    previous_s: prev,
-                });
-            }
+        if let Some(reason) = odd_frame(f, (coded_w, coded_h), pix_fmt.as_deref()) {
+            odd_frames.push((i, reason));
         }
-        timestamps_s.push(t);
+        push_timestamp(&mut timestamps_s, f, path, i)?;
     }
     Ok(VideoInfo {
         width_px,
@@ -180,7 +279,62 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
         coded_height_px: coded_h,
         rotation_deg,
         timestamps_s,
+        pix_fmt,
+        container_frames,
+        container_duration_s,
+        odd_frames,
+        probe_warnings: String::new(),
     })
+}
+
+/// Why a probed frame differs from its stream (size or pixel format), if it does.
+fn odd_frame(
+    f: &serde_json::Value,
+    (coded_w, coded_h): (usize, usize),
+    stream_fmt: Option<&str>,
+) -> Option<String> {
+    if let (Some(w), Some(h)) = (f["width"].as_u64(), f["height"].as_u64()) {
+        if (w, h) != (coded_w as u64, coded_h as u64) {
+            return Some(format!(
+                "decodes as {w}x{h} px, the stream is {coded_w}x{coded_h} px"
+            ));
+        }
+    }
+    match (f["pix_fmt"].as_str(), stream_fmt) {
+        (Some(fmt), Some(stream)) if fmt != stream => {
+            Some(format!("pixel format {fmt}, the stream's is {stream}"))
+        }
+        _ => None,
+    }
+}
+
+/// Appends frame `i`'s timestamp, which must be finite and after the previous one.
+fn push_timestamp(
+    timestamps_s: &mut Vec<f64>,
+    f: &serde_json::Value,
+    path: &Path,
+    i: usize,
+) -> Result<(), VideoError> {
+    let t = ["pts_time", "best_effort_timestamp_time"]
+        .iter()
+        .find_map(|k| f[*k].as_str().and_then(|s| s.parse::<f64>().ok()))
+        .filter(|t| t.is_finite())
+        .ok_or(VideoError::MissingTimestamp {
+            path: path.into(),
+            frame: i,
+        })?;
+    if let Some(&prev) = timestamps_s.last() {
+        if t <= prev {
+            return Err(VideoError::TimestampsNotIncreasing {
+                path: path.into(),
+                frame: i,
+                t_s: t,
+                previous_s: prev,
+            });
+        }
+    }
+    timestamps_s.push(t);
+    Ok(())
 }
 
 /// One decoded frame: index from 0, timestamp from ffprobe, 8-bit grey pixels (row-major).
@@ -459,9 +613,55 @@ mod tests {
 
     #[test]
     fn missing_tool_names_the_package() {
-        let e = probe_with(Path::new("x.mp4"), "ffprobe-definitely-missing").unwrap_err();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.mp4");
+        std::fs::write(&p, b"x").unwrap();
+        let e = probe_with(&p, "ffprobe-definitely-missing").unwrap_err();
         assert!(matches!(e, VideoError::ToolMissing { .. }));
         assert!(e.to_string().contains("apt-get install ffmpeg"));
+    }
+
+    #[test]
+    fn missing_files_and_directories_are_errors_before_ffprobe_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = probe(&dir.path().join("none.mp4")).unwrap_err();
+        assert!(matches!(e, VideoError::Open { .. }), "{e}");
+        let e = probe(dir.path()).unwrap_err();
+        assert!(matches!(e, VideoError::NotAFile { .. }), "{e}");
+    }
+
+    #[test]
+    fn frames_of_another_size_or_format_and_short_containers_are_listed() {
+        let json = r#"{"streams":[{"width":8,"height":4,"pix_fmt":"yuv420p","nb_frames":"5"}],
+            "frames":[{"pts_time":"0.0","width":8,"height":4,"pix_fmt":"yuv420p"},
+                      {"pts_time":"0.1","width":4,"height":2,"pix_fmt":"yuv420p"},
+                      {"pts_time":"0.2","width":8,"height":4,"pix_fmt":"gray"}]}"#;
+        let info = parse_probe_json(Path::new("v.mp4"), json).unwrap();
+        assert_eq!(info.odd_frames.len(), 2);
+        assert_eq!(info.odd_frames[0].0, 1);
+        assert!(
+            info.odd_frames[0].1.contains("4x2"),
+            "{:?}",
+            info.odd_frames
+        );
+        assert_eq!(info.odd_frames[1].0, 2);
+        assert!(
+            info.odd_frames[1].1.contains("gray"),
+            "{:?}",
+            info.odd_frames
+        );
+        let t = info.truncation().expect("5 listed, 3 decode");
+        assert_eq!((t.decoded, t.last_good), (3, Some((2, 0.2))));
+        // Without a count, the stated duration decides: 2 s promised, frames end at 0.2 s.
+        let json = r#"{"streams":[{"width":8,"height":4}],"format":{"duration":"2.0"},
+            "frames":[{"pts_time":"0.0"},{"pts_time":"0.1"},{"pts_time":"0.2"}]}"#;
+        let info = parse_probe_json(Path::new("v.mkv"), json).unwrap();
+        assert!(info.truncation().is_some());
+        // A duration one frame past the last timestamp is a complete file.
+        let json = r#"{"streams":[{"width":8,"height":4}],"format":{"duration":"0.3"},
+            "frames":[{"pts_time":"0.0"},{"pts_time":"0.1"},{"pts_time":"0.2"}]}"#;
+        let info = parse_probe_json(Path::new("v.mkv"), json).unwrap();
+        assert!(info.truncation().is_none());
     }
 
     #[test]
@@ -552,6 +752,9 @@ mod tests {
             Ok(mut v) => {
                 let listed = v.info().frame_count();
                 assert!(listed < 20);
+                // The container's duration (2 s) outlasts the decodable frames.
+                let t = v.info().truncation().expect("truncation reported");
+                assert_eq!(t.decoded, listed);
                 let mut n = 0;
                 loop {
                     match v.next_frame() {

@@ -2,13 +2,24 @@
 //! with timestamps, or an existing corner track. Detection runs on whole frames until the marker
 //! is found, then in a window around its last position (exact: same corners as full-frame
 //! detection, with fallback), sequentially since each frame predicts the next.
+//!
+//! Input integrity: frames keep the numbers the input gives them; a frame that cannot be used
+//! (unreadable file, another size or pixel format than the sequence, a video frame ffmpeg would
+//! rescale) is recorded as missing and listed with its reason, never searched; frame numbers
+//! absent from a track and a video cut short are counted and reported (`InputReport`).
 
 use super::measure::estimate_track;
-use crate::detect::{corners_bbox_px, ArucoDetector, DetectorConfig, GrayView};
+use crate::detect::{corners_bbox_px, ArucoDetector, DetectError, DetectorConfig, GrayView};
 use crate::estimate::measured::relative_to_first_frame;
 use crate::estimate::{Estimate, EstimatorConfig, MeasuredSignal};
+use crate::io::csv_out::CsvWriter;
+use crate::io::images::{read_gray, read_header, ImageError, ImageHeader};
 use crate::io::kinematics_csv::write_kinematics_csv;
-use crate::io::tracks_csv::{read_tracks, Corners, TrackRow, TracksWriter};
+use crate::io::timing_log::{read_frame_timestamps, TimingLogError};
+use crate::io::tracks_csv::{
+    frame_gaps, read_tracks, Corners, TrackRow, TracksReadError, TracksWriter,
+};
+use crate::io::video::{Truncation, VideoError};
 use crate::plot::{stacked_png, Panel, Series, MEASURED, SECOND};
 use std::path::{Path, PathBuf};
 
@@ -41,20 +52,101 @@ impl Default for AnalyzeOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum AnalyzeError {
-    #[error("{0}")]
-    Input(String),
-    #[error("{file}: frame {frame}: {message}")]
-    Frame {
+    #[error("{dir}: cannot create output directory: {source}")]
+    OutDir {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    #[error(transparent)]
+    Timestamps(#[from] TimingLogError),
+    #[error(transparent)]
+    Tracks(#[from] TracksReadError),
+    #[error(transparent)]
+    Video(#[from] VideoError),
+    #[error("{dir}: no PNG or JPEG files")]
+    NoFrames { dir: PathBuf },
+    #[error("{dir} holds {files} image files but {timestamps} has {times} timestamps")]
+    FrameCount {
+        dir: PathBuf,
+        files: usize,
+        timestamps: PathBuf,
+        times: usize,
+    },
+    #[error("detector: {0}")]
+    Detector(DetectError),
+    #[error("{file}: frame {frame}: detection failed: {source}")]
+    Detect {
         file: PathBuf,
         frame: usize,
-        message: String,
+        source: DetectError,
     },
-    #[error("estimation: {0} ({1} frames read, tracks written to {2})")]
-    Estimate(crate::estimate::EstimateError, usize, PathBuf),
+    #[error("{source} (the {frames} frames read so far are in {tracks})")]
+    Interrupted {
+        source: VideoError,
+        frames: usize,
+        tracks: PathBuf,
+    },
+    #[error("{file}: {absent} frame numbers are absent between its {rows} rows (largest gap {gap_start}–{gap_end}); at most {limit} may be")]
+    TooManyAbsent {
+        file: PathBuf,
+        absent: usize,
+        rows: usize,
+        gap_start: usize,
+        gap_end: usize,
+        limit: usize,
+    },
+    #[error("estimation: {source} ({frames} frames read, tracks in {tracks})")]
+    Estimate {
+        source: crate::estimate::EstimateError,
+        frames: usize,
+        tracks: PathBuf,
+    },
     #[error(transparent)]
     Csv(#[from] crate::io::csv_out::CsvError),
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
+}
+
+/// A frame that exists in the input but was not searched: it is recorded as missing (empty
+/// corners in `tracks.csv`) and listed in `unreadable_frames.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnreadableFrame {
+    pub frame: usize,
+    /// The file (image, or the video) it comes from.
+    pub file: PathBuf,
+    pub reason: String,
+}
+
+/// What the input held besides the frames that were analysed: frames present but unusable,
+/// frame numbers absent from a track, a video cut short.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct InputReport {
+    /// Frame numbers of the first and last frame of the input.
+    pub first_frame: usize,
+    pub last_frame: usize,
+    /// Frames the input holds (track rows, image files, decoded video frames).
+    pub frames_present: usize,
+    pub unreadable: Vec<UnreadableFrame>,
+    /// Runs of frame numbers absent from a track.
+    pub gaps: Vec<std::ops::RangeInclusive<usize>>,
+    /// Set when a video's container promises more than decodes.
+    pub truncation: Option<Truncation>,
+}
+
+impl InputReport {
+    /// Frame numbers absent from a track, summed over its gaps.
+    pub fn absent(&self) -> usize {
+        self.gaps.iter().map(|g| g.end() - g.start() + 1).sum()
+    }
+
+    /// Frames a truncated video's container lists beyond the decodable ones (when it states a
+    /// count).
+    pub fn lost_to_truncation(&self) -> Option<usize> {
+        let t = self.truncation.as_ref()?;
+        t.container_frames.map(|n| n.saturating_sub(t.decoded))
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -62,6 +154,7 @@ pub struct AnalyzeOutput {
     pub estimate: Estimate,
     pub signals: Vec<MeasuredSignal>,
     pub tracks: Vec<TrackRow>,
+    pub input: InputReport,
     pub files: Vec<PathBuf>,
 }
 
@@ -80,22 +173,18 @@ impl Tracker {
         data: &[u8],
         w: usize,
         h: usize,
-    ) -> Result<(Option<Corners>, Option<Corners>), String> {
+    ) -> Result<(Option<Corners>, Option<Corners>), DetectError> {
         let view = GrayView::full(data, w, h);
-        let m = self
-            .detector
-            .detect_marker(
-                view,
-                self.marker_id,
-                self.last.as_ref().map(corners_bbox_px),
-            )
-            .map_err(|e| e.to_string())?;
+        let m = self.detector.detect_marker(
+            view,
+            self.marker_id,
+            self.last.as_ref().map(corners_bbox_px),
+        )?;
         let corners = m.detection.map(|d| d.corners_px);
         let reference = match self.reference_id {
             Some(id) => self
                 .detector
-                .detect_marker(view, id, self.last_reference.as_ref().map(corners_bbox_px))
-                .map_err(|e| e.to_string())?
+                .detect_marker(view, id, self.last_reference.as_ref().map(corners_bbox_px))?
                 .detection
                 .map(|d| d.corners_px),
             None => None,
@@ -111,11 +200,44 @@ impl Tracker {
     }
 }
 
-/// Reads `frame, t_s` timestamps for a frame folder.
-fn read_frame_timestamps(path: &Path) -> Result<Vec<f64>, AnalyzeError> {
-    crate::io::timing_log::read_timing_log(path, None)
-        .map(|t| t.into_vec())
-        .map_err(|e| AnalyzeError::Input(e.to_string()))
+/// A track may miss at most this many frame numbers per row it holds, plus a constant: the
+/// analysis fills absent frames with placeholders, so the bound keeps memory proportional to
+/// the file.
+const ABSENT_PER_ROW: usize = 10;
+const ABSENT_EXTRA: usize = 10_000;
+
+/// The header most frames share (most frequent; ties go to the earliest frame).
+fn sequence_header(headers: &[Result<ImageHeader, ImageError>]) -> Option<ImageHeader> {
+    let mut counts: Vec<(ImageHeader, usize)> = Vec::new();
+    for h in headers.iter().flatten() {
+        match counts.iter_mut().find(|(x, _)| x == h) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((*h, 1)),
+        }
+    }
+    // `max_by_key` keeps the last maximum; reversed, that is the earliest header seen.
+    counts
+        .into_iter()
+        .rev()
+        .max_by_key(|(_, n)| *n)
+        .map(|(h, _)| h)
+}
+
+/// Why `header` cannot be used in a sequence of `expected` frames, if it cannot.
+fn header_mismatch(header: &ImageHeader, expected: &ImageHeader) -> Option<String> {
+    if (header.width, header.height) != (expected.width, expected.height) {
+        Some(format!(
+            "{}x{} px, the sequence's frames are {}x{} px",
+            header.width, header.height, expected.width, expected.height
+        ))
+    } else if header.format != expected.format {
+        Some(format!(
+            "{}, the sequence's frames are {}",
+            header.format, expected.format
+        ))
+    } else {
+        None
+    }
 }
 
 /// Detects the marker in every frame of `source` (or reads the track) and writes tracks.csv.
@@ -124,12 +246,37 @@ fn track(
     options: &AnalyzeOptions,
     out_dir: &Path,
     progress: &dyn Fn(usize, usize),
-) -> Result<Vec<TrackRow>, AnalyzeError> {
+) -> Result<(Vec<TrackRow>, InputReport), AnalyzeError> {
     if let Source::Tracks(path) = source {
-        return read_tracks(path).map_err(|e| AnalyzeError::Input(e.to_string()));
+        let rows = read_tracks(path, Some(options.detector.marker_id))?;
+        let gaps = frame_gaps(&rows);
+        let report = InputReport {
+            first_frame: rows.first().map_or(0, |r| r.frame),
+            last_frame: rows.last().map_or(0, |r| r.frame),
+            frames_present: rows.len(),
+            gaps,
+            ..InputReport::default()
+        };
+        let limit = ABSENT_PER_ROW * rows.len() + ABSENT_EXTRA;
+        if report.absent() > limit {
+            let widest = report
+                .gaps
+                .iter()
+                .max_by_key(|g| g.end() - g.start())
+                .cloned()
+                .unwrap_or(0..=0);
+            return Err(AnalyzeError::TooManyAbsent {
+                file: path.clone(),
+                absent: report.absent(),
+                rows: rows.len(),
+                gap_start: *widest.start(),
+                gap_end: *widest.end(),
+                limit,
+            });
+        }
+        return Ok((rows, report));
     }
-    let detector = ArucoDetector::new(&options.detector)
-        .map_err(|e| AnalyzeError::Input(format!("detector: {e}")))?;
+    let detector = ArucoDetector::new(&options.detector).map_err(AnalyzeError::Detector)?;
     let mut tracker = Tracker {
         detector,
         marker_id: options.detector.marker_id,
@@ -141,6 +288,7 @@ fn track(
     let mut writer =
         TracksWriter::create(&tracks_path, options.detector.reference_marker_id.is_some())?;
     let mut rows = Vec::new();
+    let mut report = InputReport::default();
     let mut push = |rows: &mut Vec<TrackRow>,
                     frame: usize,
                     t_s: f64,
@@ -160,66 +308,102 @@ fn track(
     };
     match source {
         Source::Frames { dir, timestamps } => {
-            let files = crate::io::images::list_image_files(dir)
-                .map_err(|e| AnalyzeError::Input(e.to_string()))?;
-            let times = read_frame_timestamps(timestamps)?;
-            if files.len() != times.len() {
-                return Err(AnalyzeError::Input(format!(
-                    "{} holds {} image files but {} has {} timestamps",
-                    dir.display(),
-                    files.len(),
-                    timestamps.display(),
-                    times.len()
-                )));
+            let files = crate::io::images::list_image_files(dir)?;
+            if files.is_empty() {
+                return Err(AnalyzeError::NoFrames { dir: dir.clone() });
             }
-            for (i, (file, t)) in files.iter().zip(&times).enumerate() {
-                let img = crate::io::images::read_gray(file).map_err(|e| AnalyzeError::Frame {
-                    file: file.clone(),
-                    frame: i,
-                    message: e.to_string(),
-                })?;
-                let (c, r) = tracker
-                    .observe(&img.data, img.width, img.height)
-                    .map_err(|m| AnalyzeError::Frame {
-                        file: file.clone(),
-                        frame: i,
-                        message: m,
-                    })?;
-                push(&mut rows, i, *t, c, r)?;
+            let (first_frame, times) = read_frame_timestamps(timestamps, None)?;
+            if files.len() != times.len() {
+                return Err(AnalyzeError::FrameCount {
+                    dir: dir.clone(),
+                    files: files.len(),
+                    timestamps: timestamps.clone(),
+                    times: times.len(),
+                });
+            }
+            // Headers first (cheap): the sequence's size and pixel format are those most frames
+            // share, so one foreign frame anywhere is recognised as such.
+            let headers: Vec<Result<ImageHeader, ImageError>> =
+                files.iter().map(|f| read_header(f)).collect();
+            let expected = sequence_header(&headers);
+            for (i, ((file, t), header)) in
+                files.iter().zip(times.as_slice()).zip(&headers).enumerate()
+            {
+                let frame = first_frame + i;
+                let image = match (header, &expected) {
+                    (Err(e), _) => Err(e.reason()),
+                    (Ok(h), Some(x)) => match header_mismatch(h, x) {
+                        Some(why) => Err(why),
+                        None => read_gray(file).map_err(|e| e.reason()),
+                    },
+                    (Ok(_), None) => read_gray(file).map_err(|e| e.reason()),
+                };
+                match image {
+                    Ok(img) => {
+                        let (c, r) = tracker.observe(&img.data, img.width, img.height).map_err(
+                            |source| AnalyzeError::Detect {
+                                file: file.clone(),
+                                frame,
+                                source,
+                            },
+                        )?;
+                        push(&mut rows, frame, *t, c, r)?;
+                    }
+                    Err(reason) => {
+                        report.unreadable.push(UnreadableFrame {
+                            frame,
+                            file: file.clone(),
+                            reason,
+                        });
+                        push(&mut rows, frame, *t, None, None)?;
+                    }
+                }
                 progress(i + 1, files.len());
             }
         }
         Source::Video(path) => {
-            let mut frames = crate::io::video::VideoFrames::open(path)
-                .map_err(|e| AnalyzeError::Input(e.to_string()))?;
+            let mut frames = crate::io::video::VideoFrames::open(path)?;
             let (w, h, total) = (
                 frames.info().width_px,
                 frames.info().height_px,
                 frames.info().frame_count(),
             );
+            report.truncation = frames.info().truncation();
+            let odd = frames.info().odd_frames.clone();
             loop {
                 match frames.next_frame() {
                     Ok(Some(f)) => {
-                        let (c, r) =
-                            tracker
-                                .observe(&f.data, w, h)
-                                .map_err(|m| AnalyzeError::Frame {
-                                    file: path.clone(),
+                        match odd.iter().find(|(k, _)| *k == f.index) {
+                            Some((_, why)) => {
+                                report.unreadable.push(UnreadableFrame {
                                     frame: f.index,
-                                    message: m,
+                                    file: path.clone(),
+                                    reason: why.clone(),
+                                });
+                                push(&mut rows, f.index, f.t_s, None, None)?;
+                            }
+                            None => {
+                                let (c, r) = tracker.observe(&f.data, w, h).map_err(|source| {
+                                    AnalyzeError::Detect {
+                                        file: path.clone(),
+                                        frame: f.index,
+                                        source,
+                                    }
                                 })?;
-                        push(&mut rows, f.index, f.t_s, c, r)?;
+                                push(&mut rows, f.index, f.t_s, c, r)?;
+                            }
+                        }
                         progress(f.index + 1, total);
                     }
                     Ok(None) => break,
                     // Keep what was read: write the tracks so far, then report the error.
-                    Err(e) => {
+                    Err(source) => {
                         writer.finish()?;
-                        return Err(AnalyzeError::Input(format!(
-                            "{e} (the {} frames read so far are in {})",
-                            rows.len(),
-                            tracks_path.display()
-                        )));
+                        return Err(AnalyzeError::Interrupted {
+                            source,
+                            frames: rows.len(),
+                            tracks: tracks_path,
+                        });
                     }
                 }
             }
@@ -227,7 +411,35 @@ fn track(
         Source::Tracks(_) => unreachable!("handled above"),
     }
     writer.finish()?;
-    Ok(rows)
+    report.first_frame = rows.first().map_or(0, |r| r.frame);
+    report.last_frame = rows.last().map_or(0, |r| r.frame);
+    report.frames_present = rows.len();
+    Ok((rows, report))
+}
+
+/// The rows with placeholders (no corners, time interpolated between its neighbours) for the
+/// frame numbers absent from a track, so that the estimator counts them as missing and a
+/// constant-rate timebase numbers frames as the input does. The flag is true for real rows.
+fn with_placeholders(rows: &[TrackRow]) -> Vec<(TrackRow, bool)> {
+    let mut out = Vec::with_capacity(rows.len());
+    for (k, row) in rows.iter().enumerate() {
+        if let Some(prev) = k.checked_sub(1).map(|j| &rows[j]) {
+            let span = (row.frame - prev.frame) as f64;
+            for frame in prev.frame + 1..row.frame {
+                let u = (frame - prev.frame) as f64 / span;
+                let placeholder = TrackRow {
+                    frame,
+                    t_s: prev.t_s + u * (row.t_s - prev.t_s),
+                    marker_id: row.marker_id,
+                    corners_px: None,
+                    reference_px: None,
+                };
+                out.push((placeholder, false));
+            }
+        }
+        out.push((row.clone(), true));
+    }
+    out
 }
 
 pub fn analyze(
@@ -236,16 +448,19 @@ pub fn analyze(
     out_dir: &Path,
     progress: &dyn Fn(usize, usize),
 ) -> Result<AnalyzeOutput, AnalyzeError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| {
-        AnalyzeError::Input(format!(
-            "{}: cannot create output directory: {e}",
-            out_dir.display()
-        ))
+    std::fs::create_dir_all(out_dir).map_err(|source| AnalyzeError::OutDir {
+        dir: out_dir.into(),
+        source,
     })?;
-    let tracks = track(source, options, out_dir, progress)?;
-    let t: Vec<f64> = tracks.iter().map(|r| r.t_s).collect();
-    let corners: Vec<Option<Corners>> = tracks.iter().map(|r| r.corners_px).collect();
-    let reference: Vec<Option<Corners>> = tracks.iter().map(|r| r.reference_px).collect();
+    let (tracks, input) = track(source, options, out_dir, progress)?;
+    let tracks_file = match source {
+        Source::Tracks(path) => path.clone(),
+        _ => out_dir.join("tracks.csv"),
+    };
+    let filled = with_placeholders(&tracks);
+    let t: Vec<f64> = filled.iter().map(|(r, _)| r.t_s).collect();
+    let corners: Vec<Option<Corners>> = filled.iter().map(|(r, _)| r.corners_px).collect();
+    let reference: Vec<Option<Corners>> = filled.iter().map(|(r, _)| r.reference_px).collect();
     let use_reference = reference.iter().any(Option::is_some)
         && options.estimator.reference_compensation
             != crate::estimate::config::ReferenceCompensation::Off;
@@ -255,10 +470,18 @@ pub fn analyze(
         &corners,
         use_reference.then_some(reference.as_slice()),
     )
-    .map_err(|e| AnalyzeError::Estimate(e, tracks.len(), out_dir.join("tracks.csv")))?;
+    .map_err(|source| AnalyzeError::Estimate {
+        source,
+        frames: tracks.len(),
+        tracks: tracks_file,
+    })?;
     let signals = relative_to_first_frame(&estimate, options.angle_sign);
     let kin = out_dir.join("kinematics.csv");
-    write_kinematics_csv(&kin, &t, &signals, None)?;
+    let numbers: Vec<Option<usize>> = filled
+        .iter()
+        .map(|(r, real)| real.then_some(r.frame))
+        .collect();
+    write_kinematics_csv(&kin, &t, &signals, None, Some(&numbers))?;
     let plot = out_dir.join("measured.png");
     let pts = |v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
     let mut w = Vec::new();
@@ -292,10 +515,31 @@ pub fn analyze(
     if !matches!(source, Source::Tracks(_)) {
         files.insert(0, out_dir.join("tracks.csv"));
     }
+    if !input.unreadable.is_empty() {
+        let path = out_dir.join("unreadable_frames.csv");
+        write_unreadable(&path, &input.unreadable)?;
+        files.push(path);
+    }
     Ok(AnalyzeOutput {
         estimate,
         signals,
         tracks,
+        input,
         files,
     })
+}
+
+/// `unreadable_frames.csv`: frame, file, reason (quoted: reasons hold commas).
+fn write_unreadable(path: &Path, frames: &[UnreadableFrame]) -> Result<(), AnalyzeError> {
+    let quote = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
+    let mut w = CsvWriter::create(path, &["frame", "file", "reason"])?;
+    for f in frames {
+        w.row(&[
+            f.frame.to_string(),
+            quote(&f.file.display().to_string()),
+            quote(&f.reason),
+        ])?;
+    }
+    w.finish()?;
+    Ok(())
 }

@@ -45,6 +45,18 @@ pub struct FrameError {
     pub source: DetectError,
 }
 
+/// Why the frame loop stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum FramesError {
+    #[error("detector: {0}")]
+    Detector(DetectError),
+    #[error(transparent)]
+    Frame(#[from] FrameError),
+    /// The sink could not store a chunk (e.g. `tracks.csv` could not be written).
+    #[error(transparent)]
+    Output(#[from] crate::io::csv_out::CsvError),
+}
+
 /// Options of the frame loop.
 #[derive(Debug, Clone, Copy)]
 pub struct FrameLoopOptions {
@@ -258,10 +270,10 @@ pub fn detect_frames(
     rig: &Rig,
     frames: std::ops::Range<usize>,
     options: FrameLoopOptions,
-    mut sink: impl FnMut(&[FrameDetection]) -> Result<(), Box<dyn std::error::Error + Send + Sync>>,
+    mut sink: impl FnMut(&[FrameDetection]) -> Result<(), crate::io::csv_out::CsvError>,
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-    let detector = ArucoDetector::new(&rig.scenario.detector)?;
+) -> Result<(), FramesError> {
+    let detector = ArucoDetector::new(&rig.scenario.detector).map_err(FramesError::Detector)?;
     let scene = rig.animated();
     let canvas_len = rig.settings.width_px * rig.settings.height_px;
     let chunk = options.chunk_frames.max(1);

@@ -19,7 +19,7 @@ pub enum RenderJobError {
         dir: PathBuf,
         source: std::io::Error,
     },
-    #[error("frames {start}..{end}: outside the scenario's {count} frames")]
+    #[error("frames {start}..{end}: {}", range_problem(*start, *end, *count))]
     Range {
         start: usize,
         end: usize,
@@ -50,6 +50,20 @@ pub struct RenderJob {
 pub struct RenderSummary {
     pub frames: usize,
     pub files: Vec<PathBuf>,
+}
+
+fn range_problem(start: usize, end: usize, count: usize) -> String {
+    if start >= end {
+        format!(
+            "holds no frame (the end is exclusive: {start}..{} is frame {start})",
+            start + 1
+        )
+    } else {
+        format!(
+            "reaches past the last frame {} (the scenario has {count} frames, 0..{count})",
+            count.saturating_sub(1)
+        )
+    }
 }
 
 pub fn frame_file_name(frame: usize) -> String {
@@ -173,4 +187,30 @@ pub fn render_job(
         frames: range.end - range.start,
         files,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_errors_say_what_is_wrong() {
+        let e = RenderJobError::Range {
+            start: 5,
+            end: 5,
+            count: 60,
+        }
+        .to_string();
+        assert!(
+            e.contains("holds no frame") && !e.contains("outside"),
+            "{e}"
+        );
+        let e = RenderJobError::Range {
+            start: 50,
+            end: 61,
+            count: 60,
+        }
+        .to_string();
+        assert!(e.contains("last frame 59") && e.contains("0..60"), "{e}");
+    }
 }

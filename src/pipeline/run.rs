@@ -29,8 +29,8 @@ pub enum RunError {
         dir: PathBuf,
         source: std::io::Error,
     },
-    #[error("{0}")]
-    Frames(String),
+    #[error(transparent)]
+    Frames(#[from] super::frames::FramesError),
     #[error("estimation: {0} (the tracks are in {1})")]
     Estimate(crate::estimate::EstimateError, PathBuf),
     #[error(transparent)]
@@ -143,8 +143,7 @@ pub fn run(
             Ok(())
         },
         &|done| progress(done, n),
-    )
-    .map_err(|e| RunError::Frames(e.to_string()))?;
+    )?;
     if let Some(w) = writer {
         w.finish()?;
     }
@@ -183,7 +182,7 @@ fn judge(
     let mut files = Vec::new();
     if options.write_files {
         let kin = out_dir.join("kinematics.csv");
-        write_kinematics_csv(&kin, &t, &signals, Some((&truth, &ideal)))?;
+        write_kinematics_csv(&kin, &t, &signals, Some((&truth, &ideal)), None)?;
         let json_path = out_dir.join("budget.json");
         let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json {
             file: json_path.clone(),

@@ -10,6 +10,10 @@ pub enum ScenarioError {
         file: PathBuf,
         source: std::io::Error,
     },
+    #[error("{file}: is a directory, not a scenario file")]
+    NotAFile { file: PathBuf },
+    #[error("builtin:{name}: no such built-in scenario (built-ins: {known})")]
+    UnknownBuiltin { name: String, known: String },
     #[error("{file}: not valid TOML: {message}")]
     Syntax { file: PathBuf, message: String },
     #[error("{file}: field `{field}`: {message}")]

@@ -129,10 +129,15 @@ pub fn load_builtin(name: &str) -> Result<Scenario, ScenarioError> {
     finish(value, &pseudo)
 }
 
-/// Loads `spec` as a file when it exists, else as a built-in name.
+/// Loads `spec`: `builtin:NAME` is always the built-in; otherwise an existing *file* of that
+/// name, then a built-in of that name, else the path (whose error names it). A directory named
+/// like a built-in (an output folder `fast/`) is not a scenario file and never shadows it.
 pub fn load_any(spec: &str) -> Result<Scenario, ScenarioError> {
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        return load_builtin(name);
+    }
     let path = Path::new(spec);
-    if path.exists() || builtin_text(spec).is_none() {
+    if path.is_file() || builtin_text(spec).is_none() {
         load(path)
     } else {
         load_builtin(spec)
@@ -247,6 +252,11 @@ fn parse_toml(text: &str, file: &Path) -> Result<Value, ScenarioError> {
 }
 
 fn resolve_file(path: &Path, chain: &mut Vec<PathBuf>) -> Result<Value, ScenarioError> {
+    if path.is_dir() {
+        return Err(ScenarioError::NotAFile {
+            file: path.to_path_buf(),
+        });
+    }
     let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
         file: path.to_path_buf(),
         source,
@@ -263,13 +273,9 @@ fn resolve_builtin(
     pseudo: &Path,
     chain: &mut Vec<PathBuf>,
 ) -> Result<Value, ScenarioError> {
-    let text = builtin_text(name).ok_or_else(|| ScenarioError::Extend {
-        file: pseudo.to_path_buf(),
-        target: name.to_string(),
-        message: format!(
-            "no such built-in scenario (built-ins: {})",
-            builtin_names().join(", ")
-        ),
+    let text = builtin_text(name).ok_or_else(|| ScenarioError::UnknownBuiltin {
+        name: name.to_string(),
+        known: builtin_names().join(", "),
     })?;
     let value = parse_toml(text, pseudo)?;
     chain.push(pseudo.to_path_buf());
@@ -315,7 +321,8 @@ fn apply_extend(
             other => other,
         })?
     } else {
-        let name = target.trim_end_matches(".toml");
+        let name = target.strip_prefix("builtin:").unwrap_or(&target);
+        let name = name.trim_end_matches(".toml");
         let name = name.rsplit('/').next().unwrap_or(name);
         if builtin_text(name).is_none() {
             return Err(extend_err(format!(

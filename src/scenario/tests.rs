@@ -194,3 +194,25 @@ fn overrides_replace_fields_and_are_validated() {
     let unknown = vec![("camera.nonsense".to_string(), toml::Value::Integer(1))];
     assert!(with_overrides(&base, &unknown, Path::new("sweep.toml")).is_err());
 }
+
+#[test]
+fn builtin_prefix_and_directories_never_shadow_builtins() {
+    // Issue #14: `geneva run fast --out fast` failed the second time: the output folder `fast/`
+    // was taken for the scenario file.
+    assert_eq!(load_any("builtin:fast").unwrap().name, "fast");
+    let e = load_any("builtin:nope").unwrap_err().to_string();
+    assert!(e.contains("builtin:nope") && e.contains("fast"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let sub = dir.path().join("fast");
+    fs::create_dir(&sub).unwrap();
+    let e = load_any(sub.to_str().unwrap()).unwrap_err();
+    assert!(matches!(e, ScenarioError::NotAFile { .. }), "{e}");
+    assert!(e.to_string().contains("is a directory"), "{e}");
+    // `extend` takes the prefix too.
+    let f = write(
+        dir.path(),
+        "e.toml",
+        "extend = \"builtin:fast\"\nseed = 3\n",
+    );
+    assert_eq!(load(&f).unwrap().seed, 3);
+}

@@ -23,8 +23,8 @@ pub use config::{FrameTimingConfig, LogModel, TimestampMark, TimingModel, VfrMod
 pub use error::TimingError;
 pub use fit::{fit_vfr, TimingFit};
 pub use parse::{
-    load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv, parse_showinfo,
-    parse_showinfo_pts, to_frames_csv, LogFormat,
+    load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv,
+    parse_frames_csv_numbered, parse_showinfo, parse_showinfo_pts, to_frames_csv, LogFormat,
 };
 pub use schedule::JITTER_TRUNCATION_SIGMA;
 pub use stats::{TimingStats, DROP_THRESHOLD};

@@ -279,8 +279,14 @@ pub fn parse_ffprobe_json(text: &str) -> Result<Timestamps, TimingError> {
 
 const FRAMES_CSV: &str = "frames_csv";
 
-/// Our CSV: header `frame,t_s` (required), rows `index,seconds`, indices 0, 1, 2, ... in order.
+/// Our CSV: header `frame,t_s` (required), rows `index,seconds`, consecutive indices in order.
 pub fn parse_frames_csv(text: &str) -> Result<Timestamps, TimingError> {
+    parse_frames_csv_numbered(text).map(|(_, ts)| ts)
+}
+
+/// [`parse_frames_csv`] that also returns the first frame's number: a part of a recording
+/// (`geneva render --frames 5..10`) is numbered from where it starts, consecutively.
+pub fn parse_frames_csv_numbered(text: &str) -> Result<(u64, Timestamps), TimingError> {
     let mut rows = records(text).filter(|(_, r)| !r.trim().is_empty());
     let parse_err = |line: usize, message: String| TimingError::Parse {
         format: FRAMES_CSV,
@@ -299,6 +305,7 @@ pub fn parse_frames_csv(text: &str) -> Result<Timestamps, TimingError> {
         ));
     }
     let mut frames = Vec::new();
+    let mut first_frame: Option<u64> = None;
     for (line, row) in rows {
         let fields: Vec<&str> = row.split(',').map(str::trim).collect();
         if fields.len() != 2 {
@@ -316,21 +323,23 @@ pub fn parse_frames_csv(text: &str) -> Result<Timestamps, TimingError> {
                 format!("frame {n}: t_s `{}` is not a number", fields[1]),
             )
         })?;
-        if n != frames.len() as u64 {
+        let first = *first_frame.get_or_insert(n);
+        let expected = first + frames.len() as u64;
+        if n != expected {
             return Err(parse_err(
                 line,
-                format!("frame index {n} out of order, expected {}", frames.len()),
+                format!("frame index {n} out of order, expected {expected}"),
             ));
         }
         frames.push(t);
     }
-    if frames.is_empty() {
-        return Err(TimingError::Content {
+    match first_frame {
+        Some(first) => Ok((first, Timestamps::new(frames)?)),
+        None => Err(TimingError::Content {
             format: FRAMES_CSV,
             message: "no frame rows".into(),
-        });
+        }),
     }
-    Timestamps::new(frames)
 }
 
 /// Writes timestamps in our `frame,t_s` format (round-trips through [`parse_frames_csv`]).
