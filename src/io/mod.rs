@@ -6,6 +6,7 @@
 pub mod csv_out;
 pub mod images;
 pub mod kinematics_csv;
+pub mod output_dir;
 pub mod png_out;
 pub mod timing_log;
 pub mod tracks_csv;
