@@ -21,6 +21,7 @@ pub mod render;
 pub mod rng;
 pub mod scenario;
 pub mod scene;
+pub mod shard;
 pub mod sweep;
 pub mod timing;
 pub mod validation;
