@@ -10,6 +10,7 @@ mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
 mod scenario_cmd;
+mod slurm_cmd;
 mod sweep_cmd;
 mod timing_cmd;
 
@@ -66,13 +67,9 @@ enum Command {
     },
     /// Measure real data (video, frames + timestamps, or a corner track) with the same pipeline.
     Analyze(analyze_cmd::AnalyzeArgs),
-    /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable).
-    Sweep {
-        /// Sweep file (see scenarios/sweeps/README.md).
-        sweep: PathBuf,
-        #[arg(long, default_value = "out/sweep")]
-        out: PathBuf,
-    },
+    /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable,
+    /// shardable: --shard I/N, then `sweep merge DIR`).
+    Sweep(sweep_cmd::SweepArgs),
     /// Error budget over N seeds (Monte Carlo) with 95 % confidence intervals: budget.json,
     /// per_seed.csv, error histograms, and the first seed's full run in seed0/.
     Montecarlo {
@@ -106,6 +103,9 @@ enum Command {
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
     Timing(timing_cmd::TimingCmd),
+    /// Cluster runs: sbatch array scripts for a sweep (one shard per task) and its merge.
+    #[command(subcommand)]
+    Slurm(slurm_cmd::SlurmCmd),
 }
 
 pub fn main() -> Result<()> {
@@ -114,6 +114,7 @@ pub fn main() -> Result<()> {
         Command::Demo { out } => demo(&out),
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
+        Command::Slurm(cmd) => slurm_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
         Command::Analyze(args) => analyze_cmd::run(args),
         Command::Montecarlo {
@@ -132,7 +133,7 @@ pub fn main() -> Result<()> {
             seeds,
             fast_only,
         } => budget_cmd::write_reports(&out, seeds, fast_only),
-        Command::Sweep { sweep, out } => sweep_cmd::run(&sweep, &out),
+        Command::Sweep(args) => sweep_cmd::run(args),
         Command::Render {
             scenario,
             out,

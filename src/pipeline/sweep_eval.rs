@@ -1,6 +1,6 @@
 //! The sweep evaluator backed by the real pipeline: one `run` per (point, seed), no files.
 
-use super::run::{run, RunOptions};
+use super::run::{run, RunError, RunOptions};
 use crate::scenario::Scenario;
 use crate::sweep::{Evaluator, PointMetrics};
 
@@ -8,15 +8,16 @@ use crate::sweep::{Evaluator, PointMetrics};
 pub struct PipelineEvaluator;
 
 impl Evaluator for PipelineEvaluator {
-    fn evaluate(&self, scenario: &Scenario, _seed: u64) -> Result<PointMetrics, String> {
+    type Error = RunError;
+
+    fn evaluate(&self, scenario: &Scenario, _seed: u64) -> Result<PointMetrics, RunError> {
         // The engine has already written the run seed into `scenario.seed`.
         let options = RunOptions {
             plots: false,
             write_files: false,
             ..RunOptions::default()
         };
-        let out = run(scenario, std::path::Path::new("."), &options, &|_, _| {})
-            .map_err(|e| e.to_string())?;
+        let out = run(scenario, std::path::Path::new("."), &options, &|_, _| {})?;
         let b = &out.budget;
         let t = &out.truth.t_s;
         let mean_interval = if t.len() > 1 {

@@ -19,6 +19,9 @@ pub struct Manifest {
     pub fingerprint: String,
     /// Named inputs (human names: they appear in messages).
     pub inputs: BTreeMap<String, Value>,
+    /// Where the inputs were read from (e.g. the sweep file), for `merge`; not fingerprinted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<String>,
 }
 
 /// 64-bit FNV-1a: stable across platforms and versions (unlike `std`'s hasher).
@@ -36,6 +39,7 @@ impl Manifest {
             units,
             fingerprint: format!("fnv1a64:{:016x}", fnv1a64(canonical.as_bytes())),
             inputs,
+            origin: None,
         }
     }
 

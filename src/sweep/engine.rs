@@ -1,196 +1,321 @@
-//! The sweep engine: runs every (point, seed) job not yet in results.csv in parallel (rayon),
-//! appends each row as soon as its job finishes, then summarises, recommends and writes the
-//! outputs. Resumable: rerunning after an interruption does only the missing jobs.
+//! The sweep engine: a sweep is a study of `points × seeds` work units (`shard`), unit
+//! `point · seeds + seed_index`, each unit one results.csv row. Units run in parallel (rayon) and
+//! are logged as they finish, so an interrupted sweep resumes without repeating a run; when
+//! every unit is done, the rows — in (point, seed) order, whatever order they finished in — are
+//! summarised and the output folder is committed all at once. The same study runs as shards
+//! (`--shard I/N`) and merges into the same bytes.
 
 use super::error::SweepError;
 use super::grid::{load_base, point_scenario, points, run_seed, Point};
 use super::recommend::{markdown, recommend, Recommendation};
-use super::results::{read, Appender, ResultRow, Status};
+use super::results::{self, header_line, row_line, ResultRow, Status};
 use super::spec::SweepSpec;
 use super::summary::{summarise, write_csv, PointSummary};
 use super::Evaluator;
-use crate::scenario::Scenario;
-use rayon::prelude::*;
-use std::collections::HashSet;
-use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use crate::scenario::{Scenario, ScenarioError};
+use crate::shard::{self, Manifest, Shard, ShardError, Study, UnitDirs};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
-/// Hooks into a running sweep.
-pub struct Control<'a> {
-    /// Called after each job with (jobs done, jobs in this sweep), including resumed ones.
-    pub progress: &'a (dyn Fn(usize, usize) + Sync),
-    /// Asked before each job starts; `true` stops the sweep cleanly (jobs already running
-    /// finish and are written; the rest are left for the next run).
-    pub stop: &'a (dyn Fn() -> bool + Sync),
+pub use crate::shard::Control;
+
+/// How to run a sweep.
+#[derive(Clone, Copy)]
+pub struct SweepRun<'a> {
+    /// Only this shard's units, into `DIR/shards/I/` (None: the whole sweep into `DIR`).
+    pub shard: Option<Shard>,
+    /// Discard rows computed from other inputs instead of refusing them.
+    pub restart: bool,
+    pub control: &'a Control<'a>,
 }
 
-/// What a call of [`run_sweep_with`] did.
+/// What a call of [`run_sweep_with`] or [`merge_sweep`] did.
 #[derive(Debug, Clone)]
 pub struct SweepOutcome {
-    /// (point, seed) jobs in the whole sweep.
+    /// (point, seed) jobs of this call: the whole sweep, or the shard's share.
     pub jobs_total: usize,
-    /// Jobs already in results.csv at start (skipped).
+    /// Jobs already done at start (skipped).
     pub jobs_resumed: usize,
     /// Jobs done by this call.
     pub jobs_run: usize,
-    /// Every job has a row: summary.csv, recommendation.md and the heatmaps were written.
+    /// The sweep's outputs exist: summary.csv, recommendation.md and the heatmaps (for a shard:
+    /// the shard is complete; the outputs come with `merge`).
     pub complete: bool,
-    /// Per point, grid order (only when complete).
+    /// Per point, grid order (only when the sweep's outputs exist).
     pub summary: Vec<PointSummary>,
-    /// Only when complete.
+    /// Only when the outputs exist.
     pub recommendation: Option<Recommendation>,
-    /// recommendation.md text (only when complete).
+    /// recommendation.md text (only when the outputs exist).
     pub recommendation_md: String,
+    /// Final files written by this call.
+    pub files: Vec<PathBuf>,
 }
 
-/// Runs the sweep with no stop hook; see [`run_sweep_with`].
-pub fn run_sweep(
+/// The sweep as a study of work units.
+struct SweepStudy<'a, E> {
+    spec: &'a SweepSpec,
+    spec_path: &'a Path,
+    grid: Vec<Point>,
+    scenarios: Vec<Result<Scenario, ScenarioError>>,
+    base_seed: u64,
+    axis_names: Vec<String>,
+    evaluator: &'a E,
+    manifest: Manifest,
+}
+
+/// An evaluator for merges, which never evaluate.
+struct NoEvaluator;
+
+impl Evaluator for NoEvaluator {
+    type Error = ShardError;
+    fn evaluate(&self, _: &Scenario, _: u64) -> Result<super::PointMetrics, ShardError> {
+        Err(ShardError::Mixed {
+            dir: PathBuf::new(),
+            message: "a merge does not evaluate".into(),
+        })
+    }
+}
+
+impl<'a, E: Evaluator> SweepStudy<'a, E> {
+    fn new(spec: &'a SweepSpec, spec_path: &'a Path, evaluator: &'a E) -> Result<Self, SweepError> {
+        let base = load_base(spec, spec_path)?;
+        let grid = points(spec);
+        let scenarios: Vec<Result<Scenario, ScenarioError>> = grid
+            .iter()
+            .map(|p| point_scenario(&base, p, spec_path))
+            .collect();
+        // Out-of-range values are a result (an `invalid` row); unknown fields, wrong types and
+        // unreadable files are mistakes in the sweep file: refused before any run.
+        let mistake = scenarios
+            .iter()
+            .position(|s| matches!(s, Err(e) if !matches!(e, ScenarioError::Invalid { .. })));
+        if let Some(i) = mistake {
+            if let Some(Err(source)) = scenarios.into_iter().nth(i) {
+                return Err(SweepError::Point {
+                    file: spec_path.to_path_buf(),
+                    point: grid[i].key.clone(),
+                    source: Box::new(source),
+                });
+            }
+            unreachable!("position found an error");
+        }
+        let json = |v: Result<serde_json::Value, serde_json::Error>| v.unwrap_or_default();
+        let mut inputs = BTreeMap::new();
+        inputs.insert(
+            "base scenario".to_string(),
+            json(serde_json::to_value(&base)),
+        );
+        inputs.insert("axes".to_string(), json(serde_json::to_value(&spec.axes)));
+        inputs.insert("seeds".to_string(), serde_json::Value::from(spec.seeds));
+        let mut manifest = Manifest::new("sweep", grid.len() * spec.seeds, inputs);
+        manifest.origin = std::path::absolute(spec_path)
+            .ok()
+            .map(|p| p.to_string_lossy().into_owned());
+        Ok(Self {
+            spec,
+            spec_path,
+            base_seed: base.seed,
+            axis_names: spec.axes.iter().map(|a| a.name.clone()).collect(),
+            grid,
+            scenarios,
+            evaluator,
+            manifest,
+        })
+    }
+
+    fn unit(&self, unit: usize) -> (usize, usize) {
+        (unit / self.spec.seeds, unit % self.spec.seeds)
+    }
+
+    /// One (point, seed) run: invalid settings give an `invalid` row without calling the evaluator.
+    fn run_job(&self, point: usize, seed_index: usize) -> ResultRow {
+        let p = &self.grid[point];
+        let seed = run_seed(self.base_seed, seed_index);
+        let mut row = ResultRow {
+            point: p.index,
+            key: p.key.clone(),
+            labels: p.labels.clone(),
+            seed_index,
+            seed,
+            metrics: None,
+            status: Status::Invalid,
+            error: String::new(),
+        };
+        match &self.scenarios[point] {
+            Err(e) => row.error = one_line(&e.to_string()),
+            Ok(sc) => {
+                // The run's scenario carries the run's seed, so seed-driven streams follow it.
+                let mut sc = sc.clone();
+                sc.seed = seed;
+                match self.evaluator.evaluate(&sc, seed) {
+                    Ok(m) => {
+                        row.metrics = Some(m);
+                        row.status = Status::Ok;
+                    }
+                    Err(e) => {
+                        row.status = Status::Failed;
+                        row.error = one_line(&e.to_string());
+                    }
+                }
+            }
+        }
+        row
+    }
+
+    /// Summary and recommendation of a finished results.csv.
+    fn outcome(
+        &self,
+        dir: &Path,
+    ) -> Result<(Vec<PointSummary>, Recommendation, String), SweepError> {
+        let rows = results::read(&dir.join("results.csv"), &self.axis_names)?;
+        let summary = summarise(self.spec, &self.grid, &self.scenarios, &rows);
+        let rec = recommend(self.spec, &summary);
+        let md = markdown(self.spec, &summary, &rec);
+        Ok((summary, rec, md))
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.replace('\n', " ")
+}
+
+impl<E: Evaluator> Study for SweepStudy<'_, E> {
+    type Error = SweepError;
+
+    fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    fn run_unit(&self, unit: usize, _work_dir: &Path) -> Result<String, SweepError> {
+        let (point, seed_index) = self.unit(unit);
+        let row = self.run_job(point, seed_index);
+        row_line(&row).map_err(|e| SweepError::io(self.spec_path, e))
+    }
+
+    fn finalize(&self, records: &[String], _: UnitDirs, out_dir: &Path) -> Result<(), SweepError> {
+        let results_path = out_dir.join("results.csv");
+        let mut text =
+            header_line(&self.axis_names).map_err(|e| SweepError::io(&results_path, e))?;
+        text.push('\n');
+        for r in records {
+            text.push_str(r);
+            text.push('\n');
+        }
+        std::fs::write(&results_path, &text).map_err(|e| SweepError::io(&results_path, e))?;
+        let rows = results::parse(&text, &results_path, &self.axis_names)?;
+        let summary = summarise(self.spec, &self.grid, &self.scenarios, &rows);
+        write_csv(&out_dir.join("summary.csv"), &self.axis_names, &summary)?;
+        let rec = recommend(self.spec, &summary);
+        let md_path = out_dir.join("recommendation.md");
+        std::fs::write(&md_path, markdown(self.spec, &summary, &rec))
+            .map_err(|e| SweepError::io(&md_path, e))?;
+        super::heatmaps::write_heatmaps(self.spec, &self.grid, &summary, &rec, out_dir)?;
+        Ok(())
+    }
+
+    fn unit_name(&self, unit: usize) -> String {
+        let (point, seed) = self.unit(unit);
+        format!("point {point} ({}) seed {seed}", self.grid[point].key)
+    }
+}
+
+/// Runs the whole sweep with no stop hook; see [`run_sweep_with`].
+pub fn run_sweep<E: Evaluator>(
     spec: &SweepSpec,
     spec_path: &Path,
     out_dir: &Path,
-    evaluator: &dyn Evaluator,
+    evaluator: &E,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<SweepOutcome, SweepError> {
+    let control = Control {
+        progress,
+        stop: &|| false,
+    };
     run_sweep_with(
         spec,
         spec_path,
         out_dir,
         evaluator,
-        &Control {
-            progress,
-            stop: &|| false,
+        &SweepRun {
+            shard: None,
+            restart: false,
+            control: &control,
         },
     )
 }
 
-/// Runs every missing (point, seed) job of `spec` into `out_dir/results.csv`; when all are
-/// present, writes `summary.csv` and `recommendation.md`. Runs in the current rayon pool.
-pub fn run_sweep_with(
+/// Runs every missing (point, seed) job of `spec` (or of one shard of it), resuming from what an
+/// interrupted run left; when the whole sweep is done, commits `results.csv`, `summary.csv`,
+/// `recommendation.md` and the heatmaps into `out_dir` at once. Runs in the current rayon pool.
+pub fn run_sweep_with<E: Evaluator>(
     spec: &SweepSpec,
     spec_path: &Path,
     out_dir: &Path,
-    evaluator: &dyn Evaluator,
-    control: &Control,
+    evaluator: &E,
+    run: &SweepRun,
 ) -> Result<SweepOutcome, SweepError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| SweepError::io(out_dir, e))?;
-    let base = load_base(spec, spec_path)?;
-    let grid = points(spec);
-    let scenarios: Vec<Result<Scenario, String>> = grid
-        .iter()
-        .map(|p| point_scenario(&base, p, spec_path))
-        .collect();
-    let axis_names: Vec<String> = spec.axes.iter().map(|a| a.name.clone()).collect();
-    let results_path = out_dir.join("results.csv");
-    let existing = read(&results_path, &axis_names)?;
-    let keys: HashSet<&str> = grid.iter().map(|p| p.key.as_str()).collect();
-    if let Some(stray) = existing
-        .iter()
-        .find(|r| !keys.contains(r.key.as_str()) || r.seed_index >= spec.seeds)
-    {
-        return Err(SweepError::HeaderMismatch {
-            file: results_path.clone(),
-            expected: format!("points of this sweep with seed_index < {}", spec.seeds),
-            found: format!("row for `{}` seed_index {}", stray.key, stray.seed_index),
-        });
-    }
-    let done: HashSet<(String, usize)> = existing
-        .iter()
-        .map(|r| (r.key.clone(), r.seed_index))
-        .collect();
-    let jobs: Vec<(usize, usize)> = grid
-        .iter()
-        .flat_map(|p| (0..spec.seeds).map(move |s| (p.index, s)))
-        .filter(|(p, s)| !done.contains(&(grid[*p].key.clone(), *s)))
-        .collect();
-    let jobs_total = grid.len() * spec.seeds;
-    let jobs_resumed = jobs_total - jobs.len();
-
-    let appender = Mutex::new(Appender::open(&results_path, &axis_names)?);
-    let counter = AtomicUsize::new(jobs_resumed);
-    let ran = AtomicUsize::new(0);
-    jobs.par_iter()
-        .try_for_each(|&(p, s)| -> Result<(), SweepError> {
-            if (control.stop)() {
-                return Ok(());
-            }
-            let row = run_job(&grid[p], &scenarios[p], s, base.seed, evaluator);
-            // A poisoned lock means another job panicked mid-write; its error surfaces anyway.
-            let mut w = appender
-                .lock()
-                .map_err(|_| SweepError::io(&results_path, "writer lock poisoned"))?;
-            w.append(&row)?;
-            drop(w);
-            ran.fetch_add(1, Ordering::SeqCst);
-            let n = counter.fetch_add(1, Ordering::SeqCst) + 1;
-            (control.progress)(n, jobs_total);
-            Ok(())
-        })?;
-    let jobs_run = ran.load(Ordering::SeqCst);
-
+    let study = SweepStudy::new(spec, spec_path, evaluator)?;
+    let report = match run.shard {
+        Some(s) => shard::run_shard(&study, out_dir, s, run.restart, run.control)?,
+        None => shard::run_whole(&study, out_dir, run.restart, run.control)?,
+    };
     let mut outcome = SweepOutcome {
-        jobs_total,
-        jobs_resumed,
-        jobs_run,
-        complete: false,
+        jobs_total: report.units_total,
+        jobs_resumed: report.units_resumed,
+        jobs_run: report.units_run,
+        complete: report.complete,
         summary: Vec::new(),
         recommendation: None,
         recommendation_md: String::new(),
+        files: report.files,
     };
-    if jobs_resumed + jobs_run < jobs_total {
-        return Ok(outcome);
+    if report.complete && run.shard.is_none() {
+        let (summary, rec, md) = study.outcome(out_dir)?;
+        outcome.summary = summary;
+        outcome.recommendation = Some(rec);
+        outcome.recommendation_md = md;
     }
-    let rows = read(&results_path, &axis_names)?;
-    let summary = summarise(spec, &grid, &scenarios, &rows);
-    write_csv(&out_dir.join("summary.csv"), &axis_names, &summary)?;
-    let rec = recommend(spec, &summary);
-    let md = markdown(spec, &summary, &rec);
-    let md_path = out_dir.join("recommendation.md");
-    std::fs::write(&md_path, &md).map_err(|e| SweepError::io(&md_path, e))?;
-    super::heatmaps::write_heatmaps(spec, &grid, &summary, &rec, out_dir)?;
-    outcome.complete = true;
-    outcome.summary = summary;
-    outcome.recommendation = Some(rec);
-    outcome.recommendation_md = md;
     Ok(outcome)
 }
 
-/// One (point, seed) run: invalid settings give an `invalid` row without calling the evaluator.
-fn run_job(
-    point: &Point,
-    scenario: &Result<Scenario, String>,
-    seed_index: usize,
-    base_seed: u64,
-    evaluator: &dyn Evaluator,
-) -> ResultRow {
-    let seed = run_seed(base_seed, seed_index);
-    let mut row = ResultRow {
-        point: point.index,
-        key: point.key.clone(),
-        labels: point.labels.clone(),
-        seed_index,
-        seed,
-        metrics: None,
-        status: Status::Invalid,
-        error: String::new(),
-    };
-    match scenario {
-        Err(msg) => row.error = msg.clone(),
-        Ok(sc) => {
-            // The run's scenario carries the run's seed, so seed-driven streams follow it.
-            let mut sc = sc.clone();
-            sc.seed = seed;
-            match evaluator.evaluate(&sc, seed) {
-                Ok(m) => {
-                    row.metrics = Some(m);
-                    row.status = Status::Ok;
-                }
-                Err(e) => {
-                    row.status = Status::Failed;
-                    row.error = e.replace('\n', " ");
-                }
-            }
+/// Merges the shards in `out_dir/shards/` into the sweep's outputs, byte-identical to a
+/// one-machine run (idempotent). A missing unit is named and nothing is written.
+pub fn merge_sweep(
+    spec: &SweepSpec,
+    spec_path: &Path,
+    out_dir: &Path,
+) -> Result<SweepOutcome, SweepError> {
+    let study = SweepStudy::new(spec, spec_path, &NoEvaluator)?;
+    let report = shard::merge(&study, out_dir)?;
+    let (summary, rec, md) = study.outcome(out_dir)?;
+    Ok(SweepOutcome {
+        jobs_total: report.units_total,
+        jobs_resumed: report.units_resumed,
+        jobs_run: 0,
+        complete: true,
+        summary,
+        recommendation: Some(rec),
+        recommendation_md: md,
+        files: report.files,
+    })
+}
+
+/// The sweep file the shards of `out_dir` were run from (recorded in their manifests).
+pub fn sweep_file_of(out_dir: &Path) -> Result<PathBuf, SweepError> {
+    let shards = out_dir.join(shard::SHARDS);
+    let entries = std::fs::read_dir(&shards).map_err(|e| SweepError::Io {
+        file: shards.clone(),
+        message: format!(
+            "no shards to merge ({e}); run `geneva sweep SWEEP --out DIR --shard I/N` first"
+        ),
+    })?;
+    for e in entries.filter_map(Result::ok) {
+        if let Some(origin) = Manifest::read(&e.path())?.and_then(|m| m.origin) {
+            return Ok(PathBuf::from(origin));
         }
     }
-    row
+    Err(SweepError::Io {
+        file: shards,
+        message: "no shard records its sweep file; give it with --sweep".into(),
+    })
 }

@@ -34,6 +34,14 @@ pub enum SweepError {
         expected: String,
         found: String,
     },
+    #[error("{file}: point `{point}`: {source} (a mistake in the sweep file: nothing was run)")]
+    Point {
+        file: PathBuf,
+        point: String,
+        source: Box<crate::scenario::ScenarioError>,
+    },
+    #[error(transparent)]
+    Shard(#[from] crate::shard::ShardError),
     #[error("{file}: line {line}: {message}")]
     Row {
         file: PathBuf,

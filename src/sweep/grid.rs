@@ -94,14 +94,13 @@ pub fn load_base(spec: &SweepSpec, spec_path: &Path) -> Result<Scenario, SweepEr
     })
 }
 
-/// The point's scenario, or the validation message (one line) when the settings are invalid.
+/// The point's scenario, or why its settings do not make one.
 pub fn point_scenario(
     base: &Scenario,
     point: &Point,
     spec_path: &Path,
-) -> Result<Scenario, String> {
+) -> Result<Scenario, scenario::ScenarioError> {
     scenario::with_overrides(base, &point.overrides, spec_path)
-        .map_err(|e| e.to_string().replace('\n', " "))
 }
 
 /// Seed of run `seed_index`. The same for every point (common random numbers): differences

@@ -5,7 +5,8 @@
 //! meets an accuracy target and can see an impact is recommended.
 //!
 //! Files: `spec` (the sweep file), `grid` (points, keys, overrides, seeds), `results`
-//! (results.csv rows, append + resume), `engine` (parallel runs), `summary` (per-point Monte
+//! (results.csv rows), `engine` (the sweep as a study of work units: parallel, resumable,
+//! shardable, committed all at once; see `shard`), `summary` (per-point Monte
 //! Carlo means, detectability), `recommend` (the choice and recommendation.md), `heatmaps`.
 
 pub mod engine;
@@ -20,7 +21,9 @@ pub mod summary;
 #[cfg(test)]
 mod tests;
 
-pub use engine::{run_sweep, run_sweep_with, Control, SweepOutcome};
+pub use engine::{
+    merge_sweep, run_sweep, run_sweep_with, sweep_file_of, Control, SweepOutcome, SweepRun,
+};
 pub use error::SweepError;
 pub use grid::{load_base, point_scenario, points, run_seed, Point};
 pub use recommend::{recommend, Recommendation};
@@ -55,5 +58,7 @@ pub struct PointMetrics {
 
 /// Evaluates one scenario with one seed (the scenario's `seed` is already set to it).
 pub trait Evaluator: Sync {
-    fn evaluate(&self, scenario: &Scenario, seed: u64) -> Result<PointMetrics, String>;
+    /// Why a run failed; its text goes into the row's `error` column.
+    type Error: std::error::Error;
+    fn evaluate(&self, scenario: &Scenario, seed: u64) -> Result<PointMetrics, Self::Error>;
 }

@@ -1,12 +1,10 @@
-//! results.csv: one tidy row per (point, seed), appended as each run finishes and read back to
-//! resume a sweep and to summarise it. Columns: point, key, one per axis, seed_index, seed, the
+//! results.csv: one tidy row per (point, seed), in (point, seed) order; each row is the record
+//! of one work unit (see `shard`), so the file is the same whoever computed the rows. Columns: point, key, one per axis, seed_index, seed, the
 //! metrics, status (`ok`, `invalid`, `failed`), error.
 
 use super::error::SweepError;
 use super::PointMetrics;
-use std::fs::{File, OpenOptions};
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Metric column names, in [`PointMetrics::to_cells`] order.
 pub const METRICS: [&str; 9] = [
@@ -120,31 +118,32 @@ fn cells(row: &ResultRow) -> Vec<String> {
     c
 }
 
-/// Reads the rows of an existing results.csv (none if it does not exist). A last line cut off
-/// by an interruption (no trailing newline) is dropped from the file: that run is redone.
+/// One row as a results.csv line (no line end): the record of one work unit.
+pub fn row_line(row: &ResultRow) -> Result<String, csv::Error> {
+    to_line(&cells(row))
+}
+
+/// The header line of results.csv (no line end).
+pub fn header_line(axis_names: &[String]) -> Result<String, csv::Error> {
+    to_line(&header(axis_names))
+}
+
+/// Reads the rows of a finished results.csv.
 pub fn read(path: &Path, axis_names: &[String]) -> Result<Vec<ResultRow>, SweepError> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(source) => {
-            return Err(SweepError::Read {
-                file: path.to_path_buf(),
-                source,
-            })
-        }
-    };
-    let complete = match text.rfind('\n') {
-        Some(i) => &text[..=i],
-        None => "",
-    };
-    if complete.len() != text.len() {
-        std::fs::write(path, complete).map_err(|e| SweepError::io(path, e))?;
-    }
-    if complete.trim().is_empty() {
+    let text = std::fs::read_to_string(path).map_err(|source| SweepError::Read {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    parse(&text, path, axis_names)
+}
+
+/// Parses results.csv text that claims to come from `path`, checking its header.
+pub fn parse(text: &str, path: &Path, axis_names: &[String]) -> Result<Vec<ResultRow>, SweepError> {
+    if text.trim().is_empty() {
         return Ok(Vec::new());
     }
     let expected = header(axis_names);
-    let mut reader = csv::ReaderBuilder::new().from_reader(complete.as_bytes());
+    let mut reader = csv::ReaderBuilder::new().from_reader(text.as_bytes());
     let found: Vec<String> = reader
         .headers()
         .map_err(|e| SweepError::io(path, e))?
@@ -212,45 +211,15 @@ pub fn read(path: &Path, axis_names: &[String]) -> Result<Vec<ResultRow>, SweepE
     Ok(rows)
 }
 
-/// Appends rows to results.csv, one flushed line per row, so an interruption loses at most the
-/// line being written.
-pub struct Appender {
-    path: PathBuf,
-    file: File,
-}
-
-impl Appender {
-    /// Opens `path` for appending, writing the header first when the file is new or empty.
-    pub fn open(path: &Path, axis_names: &[String]) -> Result<Self, SweepError> {
-        let mut file = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(path)
-            .map_err(|e| SweepError::io(path, format!("cannot open for appending: {e}")))?;
-        let empty = file.metadata().map(|m| m.len() == 0).unwrap_or(true);
-        if empty {
-            let line = to_line(&header(axis_names)).map_err(|e| SweepError::io(path, e))?;
-            file.write_all(&line).map_err(|e| SweepError::io(path, e))?;
-        }
-        Ok(Self {
-            path: path.to_path_buf(),
-            file,
-        })
-    }
-
-    /// Writes one row as a single `write` of a complete line.
-    pub fn append(&mut self, row: &ResultRow) -> Result<(), SweepError> {
-        let line = to_line(&cells(row)).map_err(|e| SweepError::io(&self.path, e))?;
-        self.file
-            .write_all(&line)
-            .and_then(|_| self.file.flush())
-            .map_err(|e| SweepError::io(&self.path, e))
-    }
-}
-
-fn to_line(cells: &[String]) -> Result<Vec<u8>, csv::Error> {
-    let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
+fn to_line(cells: &[String]) -> Result<String, csv::Error> {
+    let mut w = csv::WriterBuilder::new()
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_writer(Vec::new());
     w.write_record(cells)?;
-    w.into_inner()
-        .map_err(|e| csv::Error::from(std::io::Error::other(e.to_string())))
+    let bytes = w
+        .into_inner()
+        .map_err(|e| csv::Error::from(std::io::Error::other(e.to_string())))?;
+    let mut line = String::from_utf8_lossy(&bytes).into_owned();
+    line.pop(); // the terminator
+    Ok(line)
 }

@@ -8,7 +8,7 @@ use super::results::{ResultRow, Status, METRICS};
 use super::spec::{SweepSpec, COST_FPS, COST_PIXELS};
 use crate::budget::detectability::{detectability, Detectability};
 use crate::budget::MeanCi;
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ScenarioError};
 use std::path::Path;
 
 /// Summary of one point.
@@ -51,7 +51,7 @@ impl PointSummary {
 pub fn summarise(
     spec: &SweepSpec,
     points: &[Point],
-    scenarios: &[Result<Scenario, String>],
+    scenarios: &[Result<Scenario, ScenarioError>],
     rows: &[ResultRow],
 ) -> Vec<PointSummary> {
     points
@@ -71,7 +71,12 @@ pub fn summarise(
                 .iter()
                 .find(|r| r.status != Status::Ok)
                 .map(|r| r.error.clone())
-                .or_else(|| scenario.as_ref().err().cloned())
+                .or_else(|| {
+                    scenario
+                        .as_ref()
+                        .err()
+                        .map(|e| e.to_string().replace('\n', " "))
+                })
                 .unwrap_or_default();
             let status = if scenario.is_err() || mine.iter().any(|r| r.status == Status::Invalid) {
                 "invalid"

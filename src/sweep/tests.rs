@@ -1,6 +1,7 @@
 //! Tests of the sweep: spec parsing and validation, grid and overrides, the engine (complete,
 //! deterministic across thread counts, resumable), and the recommendation.
 
+use super::engine::{merge_sweep, sweep_file_of};
 use super::*;
 use crate::estimate::Differentiator;
 use std::collections::HashSet;
@@ -32,8 +33,18 @@ impl Fake {
     }
 }
 
+/// A run failure of the fakes.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct FakeFailure(&'static str);
+
 impl Evaluator for Fake {
-    fn evaluate(&self, sc: &crate::scenario::Scenario, seed: u64) -> Result<PointMetrics, String> {
+    type Error = FakeFailure;
+    fn evaluate(
+        &self,
+        sc: &crate::scenario::Scenario,
+        seed: u64,
+    ) -> Result<PointMetrics, FakeFailure> {
         self.calls.fetch_add(1, Ordering::SeqCst);
         assert_eq!(sc.seed, seed, "the run's scenario carries the run's seed");
         let fps = sc.frame_timing.fps;
@@ -59,8 +70,9 @@ impl Evaluator for Fake {
 
 struct AlwaysFails;
 impl Evaluator for AlwaysFails {
-    fn evaluate(&self, _: &crate::scenario::Scenario, _: u64) -> Result<PointMetrics, String> {
-        Err("detector lost the marker\nat frame 3".into())
+    type Error = FakeFailure;
+    fn evaluate(&self, _: &crate::scenario::Scenario, _: u64) -> Result<PointMetrics, FakeFailure> {
+        Err(FakeFailure("detector lost the marker\nat frame 3"))
     }
 }
 
@@ -205,11 +217,52 @@ fn overrides_reach_the_point_scenarios() {
     assert_eq!(sc0.estimator.differentiator, Differentiator::Central3);
 }
 
+/// Records the seed each run received.
+struct SeedRecorder {
+    seen: std::sync::Mutex<Vec<u64>>,
+}
+
+impl Evaluator for SeedRecorder {
+    type Error = FakeFailure;
+    fn evaluate(
+        &self,
+        sc: &crate::scenario::Scenario,
+        seed: u64,
+    ) -> Result<PointMetrics, FakeFailure> {
+        self.seen.lock().unwrap().push(seed);
+        Fake::new().evaluate(sc, seed)
+    }
+}
+
 #[test]
-fn run_seeds_are_deterministic_distinct_and_shared_by_points() {
-    assert_eq!(run_seed(7, 0), run_seed(7, 0));
-    assert_ne!(run_seed(7, 0), run_seed(7, 1));
-    assert_ne!(run_seed(7, 0), run_seed(8, 0));
+fn run_seeds_are_shared_by_points_distinct_per_index_and_follow_the_base_seed() {
+    // Through the engine: every point's k-th run gets the same seed (common random numbers),
+    // the k-th and j-th runs differ, and the seeds are those written in results.csv.
+    let (spec, path) = fast_spec();
+    let dir = tempfile::tempdir().unwrap();
+    let rec = SeedRecorder {
+        seen: Default::default(),
+    };
+    run_sweep(&spec, &path, &dir.path().join("o"), &rec, no_progress()).unwrap();
+    let base_seed = load_base(&spec, &path).unwrap().seed;
+    let seen = rec.seen.into_inner().unwrap();
+    assert_eq!(seen.len(), 8);
+    let seeds: HashSet<u64> = seen.iter().copied().collect();
+    assert_eq!(
+        seeds.len(),
+        2,
+        "one seed per seed index, shared by the 4 points"
+    );
+    let expected: HashSet<u64> = (0..2).map(|k| run_seed(base_seed, k)).collect();
+    assert_eq!(seeds, expected);
+    for row in rows_in(&dir.path().join("o")) {
+        let cells: Vec<&str> = row.split(',').collect();
+        let k: usize = cells[4].parse().unwrap();
+        assert_eq!(cells[5], run_seed(base_seed, k).to_string(), "{row}");
+    }
+    // Another base seed gives other run seeds.
+    assert!(!expected.contains(&run_seed(base_seed + 1, 0)));
+    assert!(!expected.contains(&run_seed(base_seed + 1, 1)));
 }
 
 // ---------- engine ----------
@@ -217,139 +270,347 @@ fn run_seeds_are_deterministic_distinct_and_shared_by_points() {
 #[test]
 fn a_sweep_completes_with_one_row_per_point_and_seed() {
     let (spec, path) = fast_spec();
-    let dir = tempfile::tempdir().unwrap();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
     let fake = Fake::new();
     let seen = AtomicUsize::new(0);
     let progress = |done: usize, total: usize| {
         assert_eq!(total, 8);
         seen.fetch_max(done, Ordering::SeqCst);
     };
-    let out = run_sweep(&spec, &path, dir.path(), &fake, &progress).unwrap();
+    let out = run_sweep(&spec, &path, &dir, &fake, &progress).unwrap();
     assert!(out.complete);
     assert_eq!((out.jobs_total, out.jobs_resumed, out.jobs_run), (8, 0, 8));
     assert_eq!(fake.calls(), 8);
     assert_eq!(seen.load(Ordering::SeqCst), 8);
-    assert_eq!(rows_in(dir.path()).len(), 8);
+    assert_eq!(rows_in(&dir).len(), 8);
     assert_eq!(out.summary.len(), 4);
     assert!(out
         .summary
         .iter()
         .all(|s| s.status == "ok" && s.runs_ok == 2));
-    let summary_csv = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+    let summary_csv = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
     assert_eq!(summary_csv.lines().count(), 5);
-    assert!(dir.path().join("recommendation.md").exists());
-    // Rerunning a complete sweep evaluates nothing and gives the same summary.
+    assert!(dir.join("recommendation.md").exists());
+    // Rerunning a complete sweep evaluates nothing, touches nothing and gives the same summary.
     let again = Fake::new();
-    let out2 = run_sweep(&spec, &path, dir.path(), &again, no_progress()).unwrap();
+    let out2 = run_sweep(&spec, &path, &dir, &again, no_progress()).unwrap();
     assert_eq!(again.calls(), 0);
     assert_eq!(out2.jobs_resumed, 8);
+    assert!(out2.files.is_empty());
+    assert_eq!(out2.summary, out.summary);
     assert_eq!(
-        std::fs::read_to_string(dir.path().join("summary.csv")).unwrap(),
+        std::fs::read_to_string(dir.join("summary.csv")).unwrap(),
         summary_csv
     );
 }
 
-#[test]
-fn summary_is_identical_for_one_and_four_threads() {
-    let (spec, path) = fast_spec();
-    let run = |threads: usize| {
-        let dir = tempfile::tempdir().unwrap();
-        let fake = Fake::new();
-        pool(threads)
-            .install(|| run_sweep(&spec, &path, dir.path(), &fake, no_progress()))
-            .unwrap();
-        (
-            std::fs::read_to_string(dir.path().join("summary.csv")).unwrap(),
-            std::fs::read_to_string(dir.path().join("recommendation.md")).unwrap(),
-        )
-    };
-    assert_eq!(run(1), run(4));
+/// Every output file of a finished sweep folder.
+fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    [
+        "results.csv",
+        "summary.csv",
+        "recommendation.md",
+        "heatmap_alpha_rms.png",
+        "heatmap_omega_rms.png",
+        "manifest.json",
+    ]
+    .iter()
+    .map(|f| {
+        let bytes = std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        (f.to_string(), bytes)
+    })
+    .collect()
+}
+
+/// Deterministic like `Fake`, but its runs take varying time, so that with several threads
+/// they finish out of order.
+struct Shuffled;
+impl Evaluator for Shuffled {
+    type Error = FakeFailure;
+    fn evaluate(
+        &self,
+        sc: &crate::scenario::Scenario,
+        seed: u64,
+    ) -> Result<PointMetrics, FakeFailure> {
+        std::thread::sleep(std::time::Duration::from_millis(
+            (seed ^ sc.frame_timing.fps as u64) % 7,
+        ));
+        Fake::new().evaluate(sc, seed)
+    }
 }
 
 #[test]
-fn an_interrupted_sweep_resumes_without_repeats_or_losses() {
+fn outputs_are_byte_identical_for_one_and_four_threads() {
+    let (spec, path) = fast_spec();
+    let run = |threads: usize| {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("out");
+        pool(threads)
+            .install(|| run_sweep(&spec, &path, &dir, &Shuffled, no_progress()))
+            .unwrap();
+        outputs(&dir)
+    };
+    let one = run(1);
+    assert_eq!(one, run(4));
+    let text = String::from_utf8(one[0].1.clone()).unwrap();
+    let order: Vec<(usize, usize)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            (c[0].parse().unwrap(), c[4].parse().unwrap())
+        })
+        .collect();
+    let mut sorted = order.clone();
+    sorted.sort();
+    assert_eq!(order, sorted, "rows in (point, seed) order");
+}
+
+#[test]
+fn shards_merge_into_the_bytes_of_a_one_machine_sweep() {
+    let (spec, path) = fast_spec();
+    let root = tempfile::tempdir().unwrap();
+    let whole = root.path().join("whole");
+    run_sweep(&spec, &path, &whole, &Fake::new(), no_progress()).unwrap();
+    for n in [2usize, 3, 8] {
+        let dir = root.path().join(format!("sharded-{n}"));
+        let fake = Fake::new();
+        for i in 0..n {
+            let run = SweepRun {
+                shard: Some(crate::shard::Shard::new(i, n).unwrap()),
+                restart: false,
+                control: &Control::none(),
+            };
+            // Shards on machines with different core counts.
+            let out = pool(1 + i % 3)
+                .install(|| run_sweep_with(&spec, &path, &dir, &Shuffled, &run))
+                .unwrap();
+            assert!(out.complete && out.summary.is_empty());
+            assert_eq!(
+                out.jobs_run,
+                crate::shard::Shard::new(i, n).unwrap().units(8).len()
+            );
+        }
+        assert_eq!(fake.calls(), 0);
+        assert!(
+            !dir.join("results.csv").exists(),
+            "shards write nothing final"
+        );
+        let merged = merge_sweep(&spec, &path, &dir).unwrap();
+        assert_eq!(outputs(&dir), outputs(&whole), "{n} shards");
+        assert_eq!(merged.summary.len(), 4);
+        // Idempotent: a second merge rewrites the same bytes.
+        merge_sweep(&spec, &path, &dir).unwrap();
+        assert_eq!(outputs(&dir), outputs(&whole), "{n} shards, merged twice");
+        assert_eq!(
+            sweep_file_of(&dir).unwrap(),
+            std::path::absolute(&path).unwrap()
+        );
+    }
+}
+
+#[test]
+fn a_merge_with_a_shard_missing_names_the_missing_runs_and_writes_nothing() {
+    let (spec, path) = fast_spec();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    for i in [0usize, 2] {
+        let run = SweepRun {
+            shard: Some(crate::shard::Shard::new(i, 3).unwrap()),
+            restart: false,
+            control: &Control::none(),
+        };
+        run_sweep_with(&spec, &path, &dir, &Fake::new(), &run).unwrap();
+    }
+    let e = merge_sweep(&spec, &path, &dir).unwrap_err();
+    let msg = e.to_string();
+    // Shard 1 of 3 owns units 1, 4, 7: (point 0, seed 1), (point 2, seed 0), (point 3, seed 1).
+    for want in [
+        "3 of 8 work units missing",
+        "shard 1/3 not started",
+        "point 0 (fps=30|differentiator=central3) seed 1",
+        "point 2 (fps=60|differentiator=central3) seed 0",
+        "point 3 (fps=60|differentiator=sg9) seed 1",
+    ] {
+        assert!(msg.contains(want), "`{want}` missing in: {msg}");
+    }
+    for f in [
+        "results.csv",
+        "summary.csv",
+        "recommendation.md",
+        "manifest.json",
+    ] {
+        assert!(!dir.join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn an_interrupted_sweep_resumes_without_repeats_or_losses_and_shows_nothing_half_done() {
     let (spec, path) = fast_spec();
     for k in [0usize, 1, 3, 7] {
-        let dir = tempfile::tempdir().unwrap();
-        let first = Fake::new();
-        let stop = || first.calls() >= k;
-        let out = pool(4)
-            .install(|| {
-                run_sweep_with(
-                    &spec,
-                    &path,
-                    dir.path(),
-                    &first,
-                    &Control {
-                        progress: no_progress(),
-                        stop: &stop,
-                    },
-                )
-            })
-            .unwrap();
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("out");
+        let (out, first_calls) = interrupted(&spec, &path, &dir, 4, k);
         assert!(!out.complete, "k = {k}");
-        assert!(!dir.path().join("summary.csv").exists());
-        let rows_first = rows_in(dir.path()).len();
-        assert_eq!(rows_first, first.calls(), "every finished job was written");
-        assert_eq!(out.jobs_run, rows_first);
+        assert!(
+            !dir.exists(),
+            "k = {k}: nothing final before the sweep is complete"
+        );
+        assert_eq!(out.jobs_run, first_calls);
         let second = Fake::new();
         let out = pool(4)
-            .install(|| run_sweep(&spec, &path, dir.path(), &second, no_progress()))
+            .install(|| run_sweep(&spec, &path, &dir, &second, no_progress()))
             .unwrap();
         assert!(out.complete);
-        assert_eq!(out.jobs_resumed, rows_first);
-        assert_eq!(
-            first.calls() + second.calls(),
-            8,
-            "k = {k}: no job repeated"
-        );
-        let rows = rows_in(dir.path());
-        assert_eq!(rows.len(), 8, "k = {k}: none lost");
+        assert_eq!(out.jobs_resumed, first_calls);
+        assert_eq!(first_calls + second.calls(), 8, "k = {k}: no job repeated");
         let axis_names: Vec<String> = spec.axes.iter().map(|a| a.name.clone()).collect();
-        let parsed = results::read(&dir.path().join("results.csv"), &axis_names).unwrap();
+        let parsed = results::read(&dir.join("results.csv"), &axis_names).unwrap();
         let pairs: HashSet<(String, usize)> = parsed
             .iter()
             .map(|r| (r.key.clone(), r.seed_index))
             .collect();
-        assert_eq!(pairs.len(), 8);
+        assert_eq!(pairs.len(), 8, "k = {k}: none lost");
+        assert_eq!(parsed.len(), 8);
     }
+}
+
+/// Runs the whole sweep on one thread and stops it once `k` runs are done (an interruption).
+fn interrupted(
+    spec: &SweepSpec,
+    path: &Path,
+    dir: &Path,
+    threads: usize,
+    k: usize,
+) -> (SweepOutcome, usize) {
+    let first = Fake::new();
+    let stop = || first.calls() >= k;
+    let control = Control {
+        progress: no_progress(),
+        stop: &stop,
+    };
+    let run = SweepRun {
+        shard: None,
+        restart: false,
+        control: &control,
+    };
+    let out = pool(threads)
+        .install(|| run_sweep_with(spec, path, dir, &first, &run))
+        .unwrap();
+    (out, first.calls())
 }
 
 #[test]
 fn a_line_cut_by_an_interruption_is_redone() {
     let (spec, path) = fast_spec();
-    let dir = tempfile::tempdir().unwrap();
-    run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
-    let file = dir.path().join("results.csv");
-    let text = std::fs::read_to_string(&file).unwrap();
-    let cut = &text[..text.len() - 10]; // the last row loses its tail and its newline
-    std::fs::write(&file, cut).unwrap();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    interrupted(&spec, &path, &dir, 1, 3);
+    let log = root.path().join(".out.partial").join(crate::shard::LOG);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert_eq!(text.lines().count(), 3);
+    std::fs::write(&log, &text[..text.len() - 10]).unwrap(); // the last row loses its tail
     let fake = Fake::new();
-    let out = run_sweep(&spec, &path, dir.path(), &fake, no_progress()).unwrap();
-    assert_eq!(fake.calls(), 1);
+    let out = run_sweep(&spec, &path, &dir, &fake, no_progress()).unwrap();
+    assert_eq!(fake.calls(), 6, "the cut run is redone");
     assert!(out.complete);
-    assert_eq!(rows_in(dir.path()).len(), 8);
+    assert_eq!(rows_in(&dir).len(), 8);
 }
 
 #[test]
-fn results_from_a_different_sweep_are_refused() {
-    let (spec, path) = fast_spec();
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("results.csv"),
-        "point,key,distance_m,seed_index\n",
-    )
-    .unwrap();
-    let e = run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap_err();
-    assert!(matches!(e, SweepError::HeaderMismatch { .. }), "{e}");
-    assert!(e.to_string().contains("different sweep"), "{e}");
-    // Same header, but a point this sweep does not have (values changed).
-    let dir = tempfile::tempdir().unwrap();
-    run_sweep(&spec, &path, dir.path(), &Fake::new(), no_progress()).unwrap();
+fn results_of_other_inputs_are_refused_naming_what_changed() {
+    let root = tempfile::tempdir().unwrap();
+    let spec_path = root.path().join("s.toml");
+    let base_path = root.path().join("base.toml");
+    let sweep = "base = \"base.toml\"\nseeds = 2\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0, 60.0]\n";
+    std::fs::write(&spec_path, sweep).unwrap();
+    std::fs::write(&base_path, "extend = \"fast\"\nseed = 5\n").unwrap();
+    let spec = SweepSpec::load(&spec_path).unwrap();
+    let dir = root.path().join("out");
+    // Interrupted after 2 runs, then the base scenario changes.
+    interrupted(&spec, &spec_path, &dir, 1, 2);
+    std::fs::write(&base_path, "extend = \"fast\"\nseed = 6\n").unwrap();
+    let fake = Fake::new();
+    let e = run_sweep(&spec, &spec_path, &dir, &fake, no_progress()).unwrap_err();
+    assert_eq!(fake.calls(), 0);
+    let msg = e.to_string();
+    assert!(
+        msg.contains("base scenario: `seed` 5 → 6") && msg.contains("--restart"),
+        "{msg}"
+    );
+    // --restart discards the stale rows and redoes every run.
+    let run = SweepRun {
+        shard: None,
+        restart: true,
+        control: &Control::none(),
+    };
+    let out = run_sweep_with(&spec, &spec_path, &dir, &fake, &run).unwrap();
+    assert!(out.complete && fake.calls() == 4 && out.jobs_resumed == 0);
+    // A finished folder: other axis values are refused, naming the axis value.
     let mut other = spec.clone();
-    other.axes[0].values = Some(vec![toml::Value::Float(24.0)]);
-    let e = run_sweep(&other, &path, dir.path(), &Fake::new(), no_progress()).unwrap_err();
-    assert!(e.to_string().contains("fps=30"), "{e}");
+    other.axes[0].values = Some(vec![toml::Value::Float(24.0), toml::Value::Float(60.0)]);
+    let e = run_sweep(&other, &spec_path, &dir, &Fake::new(), no_progress()).unwrap_err();
+    assert!(
+        e.to_string().contains("axes: `[0].values[0]` 30.0 → 24.0"),
+        "{e}"
+    );
+    // Increasing the seeds changes the work units.
+    other = spec.clone();
+    other.seeds = 3;
+    let e = run_sweep(&other, &spec_path, &dir, &Fake::new(), no_progress()).unwrap_err();
+    assert!(e.to_string().contains("seeds: 2 → 3"), "{e}");
+    // A folder with a results.csv nobody committed is not taken over.
+    let foreign = root.path().join("foreign");
+    std::fs::create_dir(&foreign).unwrap();
+    std::fs::write(foreign.join("results.csv"), "point,key\n").unwrap();
+    let e = run_sweep(&spec, &spec_path, &foreign, &Fake::new(), no_progress()).unwrap_err();
+    assert!(e.to_string().contains("did not write"), "{e}");
+}
+
+#[test]
+fn two_sweeps_on_one_folder_cannot_run_at_once() {
+    let (spec, path) = fast_spec();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    let _other = crate::io::output_dir::DirLock::of_dir(&dir, true).unwrap();
+    let fake = Fake::new();
+    let e = run_sweep(&spec, &path, &dir, &fake, no_progress()).unwrap_err();
+    assert!(
+        e.to_string().contains("in use by another geneva process"),
+        "{e}"
+    );
+    assert_eq!(fake.calls(), 0);
+    // A shard cannot start either while a whole-folder writer holds it.
+    let run = SweepRun {
+        shard: Some(crate::shard::Shard::new(0, 2).unwrap()),
+        restart: false,
+        control: &Control::none(),
+    };
+    assert!(run_sweep_with(&spec, &path, &dir, &fake, &run).is_err());
+}
+
+#[test]
+fn an_unknown_axis_field_is_an_error_before_any_run() {
+    let text = "base = \"fast\"\nseeds = 2\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fpss\"\nvalues = [30.0]\n";
+    let path = sweeps_dir().join("inline.toml");
+    let spec = SweepSpec::from_str(text, &path).unwrap();
+    let root = tempfile::tempdir().unwrap();
+    let fake = Fake::new();
+    let e = run_sweep(&spec, &path, &root.path().join("o"), &fake, no_progress()).unwrap_err();
+    assert!(matches!(e, SweepError::Point { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("fpss") && msg.contains("point `fps=30`"),
+        "{msg}"
+    );
+    assert_eq!(fake.calls(), 0);
+    assert!(!root.path().join("o").exists());
+    // A wrong type in a level is a mistake too.
+    let text = "base = \"fast\"\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [\"thirty\"]\n";
+    let spec = SweepSpec::from_str(text, &path).unwrap();
+    let e = run_sweep(&spec, &path, &root.path().join("o"), &fake, no_progress()).unwrap_err();
+    assert!(e.to_string().contains("frame_timing.fps"), "{e}");
 }
 
 #[test]
