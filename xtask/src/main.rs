@@ -2,7 +2,8 @@
 //!
 //! - `cargo xtask demo`    — install what is missing, then run the main job on the embedded
 //!   default scenario (output under `out/demo/`).
-//! - `cargo xtask test`    — install what is missing, then run the whole test suite.
+//! - `cargo xtask test`    — install what is missing, then run the whole test suite and, as
+//!   root on Debian, the real-Slurm integration test (`slurm.rs`).
 //! - `cargo xtask bench`   — run the benchmarks and print their figures.
 //! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
 //! - `cargo xtask deps`    — only check/install the system packages.
@@ -12,6 +13,7 @@
 
 use std::process::{exit, Command};
 
+mod slurm;
 mod system;
 
 fn main() {
@@ -22,11 +24,13 @@ fn main() {
         "deps" => system::ensure_packages(),
         "demo" => system::ensure_packages().and_then(|_| demo(rest)),
         "test" => system::ensure_packages().and_then(|_| test(rest)),
+        "slurm-test" => system::ensure_packages()
+            .and_then(|_| slurm::integration_test(&slurm::geneva_binary()?)),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  deps     check and install the system packages"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  deps     check and install the system packages"
             );
             Ok(())
         }
@@ -85,7 +89,13 @@ fn test(extra: &[String]) -> Result<(), String> {
         command.env("PROPTEST_RNG_SEED", "20261123");
     }
     command.args(extra);
-    run(command)
+    run(command)?;
+    // The real-Slurm test of `geneva slurm script` (skipped, saying why, unless root on Debian).
+    if std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_some() {
+        eprintln!("xtask: skipping the Slurm integration test: GENEVA_SKIP_SLURM_TEST is set");
+        return Ok(());
+    }
+    slurm::integration_test(&slurm::geneva_binary()?)
 }
 
 fn bench(extra: &[String]) -> Result<(), String> {

@@ -24,7 +24,7 @@ fn is_installed(package: &str) -> bool {
         .unwrap_or(false)
 }
 
-fn is_root() -> bool {
+pub fn is_root() -> bool {
     Command::new("id")
         .arg("-u")
         .output()
@@ -32,7 +32,7 @@ fn is_root() -> bool {
         .unwrap_or(false)
 }
 
-fn has_dpkg() -> bool {
+pub fn has_dpkg() -> bool {
     Command::new("dpkg-query")
         .arg("--version")
         .output()
@@ -40,17 +40,22 @@ fn has_dpkg() -> bool {
         .unwrap_or(false)
 }
 
-/// Installs the missing packages (as root) or explains which ones to install.
+/// Installs the missing project packages (as root) or explains which ones to install.
 pub fn ensure_packages() -> Result<(), String> {
+    ensure(PACKAGES)
+}
+
+/// Installs the missing `packages` (as root) or explains which ones to install.
+pub fn ensure(packages: &[&str]) -> Result<(), String> {
     if !has_dpkg() {
         // Not Debian/Ubuntu: we cannot check by package; trust the build to say what is missing.
         eprintln!(
             "xtask: no dpkg here; make sure these (Debian names) or their equivalents are installed: {}",
-            PACKAGES.join(" ")
+            packages.join(" ")
         );
         return Ok(());
     }
-    let missing: Vec<&str> = PACKAGES
+    let missing: Vec<&str> = packages
         .iter()
         .copied()
         .filter(|p| !is_installed(p))
@@ -91,7 +96,7 @@ pub fn ensure_packages() -> Result<(), String> {
             missing.join(" ")
         ));
     }
-    let still: Vec<&str> = PACKAGES
+    let still: Vec<&str> = packages
         .iter()
         .copied()
         .filter(|p| !is_installed(p))
