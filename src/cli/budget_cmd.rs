@@ -2,40 +2,127 @@
 //! per-source decomposition, and the reproducible reports under `reports/`.
 
 use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use geneva_vision::budget::report::Budget;
 use geneva_vision::pipeline::decompose::{decompose_effects, markdown_table};
-use geneva_vision::pipeline::montecarlo::{monte_carlo, MonteCarloOptions};
+use geneva_vision::pipeline::montecarlo::{merge_monte_carlo, monte_carlo_study, MonteCarloRun};
 use geneva_vision::pipeline::reports::{reports, ReportsOptions};
 use geneva_vision::scenario;
-use std::path::Path;
+use geneva_vision::shard::{Control, Shard};
+use std::path::{Path, PathBuf};
 
-pub fn montecarlo(spec: &str, seeds: usize, out: &Path, full_frame: bool) -> Result<()> {
-    let s = scenario::load_any(spec)?;
-    let options = MonteCarloOptions {
-        seeds,
-        roi: !full_frame,
-        write_files: true,
-        first_seed_files: true,
-    };
-    let mc = monte_carlo(&s, out, &options).with_context(|| format!("scenario {}", s.name))?;
-    let line =
-        |name: &str, unit: &str, f: &dyn Fn(&geneva_vision::budget::report::Budget) -> f64| {
-            let m = mc.metric(f);
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct MonteCarloArgs {
+    #[command(subcommand)]
+    action: Option<MonteCarloAction>,
+    /// Scenario file or built-in name.
+    #[arg(required = true)]
+    scenario: Option<String>,
+    #[arg(long, default_value_t = 10)]
+    seeds: usize,
+    #[arg(long, default_value = "out/montecarlo")]
+    out: PathBuf,
+    #[arg(long)]
+    full_frame: bool,
+    /// Run only shard I of N (0-based) into DIR/shards/I/; `geneva montecarlo merge DIR`
+    /// combines them.
+    #[arg(long, value_parser = super::sweep_cmd::parse_shard)]
+    shard: Option<Shard>,
+    /// Discard seeds computed from other inputs instead of refusing them.
+    #[arg(long)]
+    restart: bool,
+}
+
+#[derive(Subcommand, Debug)]
+enum MonteCarloAction {
+    /// Merge DIR/shards/* into budget.json, per_seed.csv, the histograms and seed0/.
+    Merge { dir: PathBuf },
+}
+
+pub fn montecarlo(a: MonteCarloArgs) -> Result<()> {
+    let spec = match (a.action, a.scenario) {
+        (Some(MonteCarloAction::Merge { dir }), _) => {
+            let out =
+                merge_monte_carlo(&dir).with_context(|| format!("merge {}", dir.display()))?;
             println!(
-                "  {name} RMS {:.3e} {unit} (95 % CI {:.3e} .. {:.3e})",
-                m.mean, m.ci95_low, m.ci95_high
+                "merged {} seeds into {}",
+                out.report.units_total,
+                dir.display()
             );
-        };
+            if let Some(mc) = &out.budget {
+                print_budget(mc);
+            }
+            return Ok(());
+        }
+        (None, Some(s)) => s,
+        (None, None) => anyhow::bail!("give a scenario, or `merge DIR`"),
+    };
+    let s = scenario::load_any(&spec)?;
+    let bar = super::sweep_cmd::bar("montecarlo");
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let control = Control {
+        progress: &progress,
+        stop: &|| false,
+    };
+    let run = MonteCarloRun {
+        seeds: a.seeds,
+        roi: !a.full_frame,
+        shard: a.shard,
+        restart: a.restart,
+        control: &control,
+    };
+    let started = std::time::Instant::now();
+    let out =
+        monte_carlo_study(&s, &a.out, &run).with_context(|| format!("scenario {}", s.name))?;
+    bar.finish_and_clear();
+    let r = &out.report;
     println!(
-        "scenario {}: seeds {:?} in {:.1} s; fused signal:",
-        s.name, mc.seeds, mc.elapsed_s
+        "scenario {}: {} seeds{}: {} already done (resumed), {} run now in {:.1} s",
+        s.name,
+        r.units_total,
+        a.shard
+            .map(|x| format!(" in shard {x}"))
+            .unwrap_or_default(),
+        r.units_resumed,
+        r.units_run,
+        started.elapsed().as_secs_f64()
     );
-    line("theta2", "rad", &|b| b.theta.rms);
-    line("omega2", "rad/s", &|b| b.omega.rms);
-    line("alpha2", "rad/s^2", &|b| b.alpha.rms);
-    for f in &mc.files {
+    match (r.complete, a.shard) {
+        (false, _) => println!("incomplete: run the same command again to resume"),
+        (true, Some(_)) => println!(
+            "shard complete; when every shard is: geneva montecarlo merge {}",
+            a.out.display()
+        ),
+        (true, None) if r.already_complete => {
+            println!("already complete: {}", a.out.join("budget.json").display())
+        }
+        (true, None) => {}
+    }
+    if let Some(mc) = &out.budget {
+        print_budget(mc);
+    }
+    for f in &r.files {
         println!("wrote {}", f.display());
     }
     Ok(())
+}
+
+fn print_budget(mc: &geneva_vision::pipeline::montecarlo::MonteCarloBudget) {
+    let line = |name: &str, unit: &str, f: &dyn Fn(&Budget) -> f64| {
+        let m = mc.metric(f);
+        println!(
+            "  {name} RMS {:.3e} {unit} (95 % CI {:.3e} .. {:.3e})",
+            m.mean, m.ci95_low, m.ci95_high
+        );
+    };
+    println!("seeds {:?}; fused signal:", mc.seeds);
+    line("theta2", "rad", &|b| b.theta.rms);
+    line("omega2", "rad/s", &|b| b.omega.rms);
+    line("alpha2", "rad/s^2", &|b| b.alpha.rms);
 }
 
 pub fn decompose(spec: &str, seeds: usize, out: &Path) -> Result<()> {

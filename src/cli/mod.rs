@@ -71,16 +71,9 @@ enum Command {
     /// shardable: --shard I/N, then `sweep merge DIR`).
     Sweep(sweep_cmd::SweepArgs),
     /// Error budget over N seeds (Monte Carlo) with 95 % confidence intervals: budget.json,
-    /// per_seed.csv, error histograms, and the first seed's full run in seed0/.
-    Montecarlo {
-        scenario: String,
-        #[arg(long, default_value_t = 10)]
-        seeds: usize,
-        #[arg(long, default_value = "out/montecarlo")]
-        out: PathBuf,
-        #[arg(long)]
-        full_frame: bool,
-    },
+    /// per_seed.csv, error histograms, and the first seed's full run in seed0/ (resumable,
+    /// shardable: --shard I/N, then `montecarlo merge DIR`).
+    Montecarlo(budget_cmd::MonteCarloArgs),
     /// Per-source decomposition of the omega2 and alpha2 error variance (each effect alone and
     /// left out): table, CSV and bar charts.
     Decompose {
@@ -117,12 +110,7 @@ pub fn main() -> Result<()> {
         Command::Slurm(cmd) => slurm_cmd::run(cmd),
         Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
         Command::Analyze(args) => analyze_cmd::run(args),
-        Command::Montecarlo {
-            scenario,
-            seeds,
-            out,
-            full_frame,
-        } => budget_cmd::montecarlo(&scenario, seeds, &out, full_frame),
+        Command::Montecarlo(args) => budget_cmd::montecarlo(args),
         Command::Decompose {
             scenario,
             seeds,

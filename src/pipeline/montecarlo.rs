@@ -2,13 +2,20 @@
 //! Monte Carlo budget — the single-run `budget.json` layout with every number replaced by its
 //! mean over seeds and a `ci95` object beside each statistics block — plus per-seed rows and
 //! pooled error histograms.
+//!
+//! As a command it is a study of work units (`shard`): unit k is seed k, its record the seed's
+//! budget and fused errors (TOML, exact floats, NaN kept). It resumes after a kill, shows
+//! progress, runs as shards (`--shard I/N`) and merges; the outputs are the same bytes whichever
+//! way the seeds were run.
 
 use super::run::{run, RunError, RunOptions};
 use crate::budget::report::Budget;
 use crate::budget::MeanCi;
 use crate::plot::histogram::histogram_png;
 use crate::scenario::Scenario;
+use crate::shard::{self, Control, Manifest, Shard, ShardError, Study, UnitDirs};
 use serde_json::{Map, Value};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -19,6 +26,14 @@ pub enum MonteCarloError {
     NoSeeds,
     #[error("{file}: {message}")]
     Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    Shard(#[from] ShardError),
+    #[error("{file}: unit {unit}: {message}")]
+    Record {
+        file: PathBuf,
+        unit: usize,
+        message: String,
+    },
 }
 
 /// Options of a Monte Carlo study.
@@ -84,25 +99,12 @@ pub fn monte_carlo(
     let mut pooled_a = Vec::new();
     let mut files = Vec::new();
     for k in 0..options.seeds {
-        let seed = scenario.seed.wrapping_add(k as u64);
-        let mut s = scenario.clone();
-        s.seed = seed;
-        let first = k == 0 && options.first_seed_files;
-        let run_options = RunOptions {
-            roi: options.roi,
-            plots: first,
-            write_files: first,
-            ..RunOptions::default()
-        };
-        let out = run(&s, &out_dir.join("seed0"), &run_options, &|_, _| {})
-            .map_err(|source| MonteCarloError::Run { seed, source })?;
-        if let Some(fused) = out.signals.iter().find(|e| e.signal == "fused") {
-            pooled_w.extend(fused.omega_err_rad_s.iter().copied());
-            pooled_a.extend(fused.alpha_err_rad_s2.iter().copied());
-        }
-        files.extend(out.files);
-        seeds.push(seed);
-        per_seed.push(out.budget);
+        let record = run_one(scenario, k, options, &out_dir.join("seed0"))?;
+        pooled_w.extend(record.omega_err_rad_s);
+        pooled_a.extend(record.alpha_err_rad_s2);
+        files.extend(record.files);
+        seeds.push(record.seed);
+        per_seed.push(record.budget);
     }
     let json = aggregate(&per_seed);
     let mut mc = MonteCarloBudget {
@@ -120,6 +122,216 @@ pub fn monte_carlo(
     }
     mc.elapsed_s = started.elapsed().as_secs_f64();
     Ok(mc)
+}
+
+/// What one seed contributes (the record of a work unit).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct SeedRecord {
+    pub seed: u64,
+    pub budget: Budget,
+    /// Fused-signal errors per frame, rad/s and rad/s².
+    pub omega_err_rad_s: Vec<f64>,
+    pub alpha_err_rad_s2: Vec<f64>,
+    #[serde(skip)]
+    pub files: Vec<PathBuf>,
+}
+
+/// Runs seed `scenario.seed + k`; with `first_seed_files`, seed 0 writes its full run into
+/// `seed0_dir`.
+fn run_one(
+    scenario: &Scenario,
+    k: usize,
+    options: &MonteCarloOptions,
+    seed0_dir: &Path,
+) -> Result<SeedRecord, MonteCarloError> {
+    let seed = scenario.seed.wrapping_add(k as u64);
+    let mut s = scenario.clone();
+    s.seed = seed;
+    let first = k == 0 && options.first_seed_files;
+    let run_options = RunOptions {
+        roi: options.roi,
+        plots: first,
+        write_files: first,
+        ..RunOptions::default()
+    };
+    let out = run(&s, seed0_dir, &run_options, &|_, _| {})
+        .map_err(|source| MonteCarloError::Run { seed, source })?;
+    let fused = out.signals.iter().find(|e| e.signal == "fused");
+    Ok(SeedRecord {
+        seed,
+        omega_err_rad_s: fused.map(|f| f.omega_err_rad_s.clone()).unwrap_or_default(),
+        alpha_err_rad_s2: fused
+            .map(|f| f.alpha_err_rad_s2.clone())
+            .unwrap_or_default(),
+        files: out.files,
+        budget: out.budget,
+    })
+}
+
+/// The aggregated study from the records in seed order.
+fn from_records(records: Vec<SeedRecord>) -> MonteCarloBudget {
+    let mut mc = MonteCarloBudget {
+        seeds: Vec::new(),
+        per_seed: Vec::new(),
+        json: Value::Null,
+        pooled_omega_err_rad_s: Vec::new(),
+        pooled_alpha_err_rad_s2: Vec::new(),
+        elapsed_s: 0.0,
+        files: Vec::new(),
+    };
+    for r in records {
+        mc.seeds.push(r.seed);
+        mc.pooled_omega_err_rad_s.extend(r.omega_err_rad_s);
+        mc.pooled_alpha_err_rad_s2.extend(r.alpha_err_rad_s2);
+        mc.per_seed.push(r.budget);
+    }
+    mc.json = aggregate(&mc.per_seed);
+    mc
+}
+
+/// How to run a Monte Carlo study as a command.
+pub struct MonteCarloRun<'a> {
+    pub seeds: usize,
+    pub roi: bool,
+    /// Only this shard's seeds, into `DIR/shards/I/` (None: all seeds into `DIR`).
+    pub shard: Option<Shard>,
+    /// Discard seeds computed from other inputs instead of refusing them.
+    pub restart: bool,
+    pub control: &'a Control<'a>,
+}
+
+/// What [`monte_carlo_study`] or [`merge_monte_carlo`] did.
+#[derive(Debug, Clone)]
+pub struct MonteCarloOutcome {
+    pub report: shard::RunReport,
+    /// The aggregated study (when this call completed it; None when resumed complete or partial).
+    pub budget: Option<MonteCarloBudget>,
+}
+
+/// The Monte Carlo study as work units.
+struct McStudy<'a> {
+    scenario: Option<&'a Scenario>,
+    name: String,
+    options: MonteCarloOptions,
+    manifest: Manifest,
+    result: std::sync::Mutex<Option<MonteCarloBudget>>,
+}
+
+impl<'a> McStudy<'a> {
+    fn new(scenario: &'a Scenario, seeds: usize, roi: bool) -> Self {
+        let mut inputs = BTreeMap::new();
+        inputs.insert(
+            "scenario".to_string(),
+            serde_json::to_value(scenario).unwrap_or_default(),
+        );
+        inputs.insert("roi".to_string(), Value::Bool(roi));
+        Self {
+            scenario: Some(scenario),
+            name: scenario.name.clone(),
+            options: MonteCarloOptions {
+                seeds,
+                roi,
+                write_files: true,
+                first_seed_files: true,
+            },
+            manifest: Manifest::new("montecarlo", seeds, inputs),
+            result: std::sync::Mutex::new(None),
+        }
+    }
+}
+
+impl Study for McStudy<'_> {
+    type Error = MonteCarloError;
+
+    fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    fn run_unit(&self, unit: usize, work_dir: &Path) -> Result<String, MonteCarloError> {
+        let scenario = self.scenario.ok_or(MonteCarloError::NoSeeds)?;
+        let r = run_one(scenario, unit, &self.options, &work_dir.join("seed0"))?;
+        toml::to_string(&r).map_err(|e| MonteCarloError::Record {
+            file: work_dir.into(),
+            unit,
+            message: e.to_string(),
+        })
+    }
+
+    fn finalize(
+        &self,
+        records: &[String],
+        unit_dirs: UnitDirs,
+        out_dir: &Path,
+    ) -> Result<(), MonteCarloError> {
+        let parsed = records
+            .iter()
+            .enumerate()
+            .map(|(unit, text)| {
+                toml::from_str::<SeedRecord>(text).map_err(|e| MonteCarloError::Record {
+                    file: unit_dirs(unit),
+                    unit,
+                    message: e.to_string(),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut mc = from_records(parsed);
+        mc.files = write_outputs(&mc, &self.name, out_dir)?;
+        // Seed 0's full run: already in place on one machine, in its shard's folder otherwise.
+        let seed0 = unit_dirs(0).join("seed0");
+        if unit_dirs(0) != out_dir && seed0.is_dir() {
+            crate::io::output_dir::link_tree(&seed0, &out_dir.join("seed0"))
+                .map_err(|e| write_err(&seed0, e))?;
+        }
+        *self.result.lock().unwrap_or_else(|p| p.into_inner()) = Some(mc);
+        Ok(())
+    }
+
+    fn unit_name(&self, unit: usize) -> String {
+        format!("seed index {unit}")
+    }
+}
+
+/// `geneva montecarlo`: the study into `out_dir` (or one shard of it), resumable, committed all
+/// at once; seeds run in parallel in the current rayon pool.
+pub fn monte_carlo_study(
+    scenario: &Scenario,
+    out_dir: &Path,
+    run: &MonteCarloRun,
+) -> Result<MonteCarloOutcome, MonteCarloError> {
+    if run.seeds == 0 {
+        return Err(MonteCarloError::NoSeeds);
+    }
+    let study = McStudy::new(scenario, run.seeds, run.roi);
+    let report = match run.shard {
+        Some(s) => shard::run_shard(&study, out_dir, s, run.restart, run.control)?,
+        None => shard::run_whole(&study, out_dir, run.restart, run.control)?,
+    };
+    let budget = study.result.into_inner().unwrap_or_else(|p| p.into_inner());
+    Ok(MonteCarloOutcome { report, budget })
+}
+
+/// Merges the shards of `out_dir` (the study's inputs are read from their manifests).
+pub fn merge_monte_carlo(out_dir: &Path) -> Result<MonteCarloOutcome, MonteCarloError> {
+    let shards = out_dir.join(shard::SHARDS);
+    let manifest = std::fs::read_dir(&shards)
+        .map_err(|e| write_err(&shards, format!("no shards to merge ({e})")))?
+        .filter_map(Result::ok)
+        .find_map(|e| Manifest::read(&e.path()).ok().flatten())
+        .ok_or_else(|| write_err(&shards, "no complete shard to merge"))?;
+    let name = manifest.inputs["scenario"]["name"]
+        .as_str()
+        .unwrap_or("montecarlo")
+        .to_string();
+    let study = McStudy {
+        scenario: None,
+        name,
+        options: MonteCarloOptions::default(),
+        manifest,
+        result: std::sync::Mutex::new(None),
+    };
+    let report = shard::merge(&study, out_dir)?;
+    let budget = study.result.into_inner().unwrap_or_else(|p| p.into_inner());
+    Ok(MonteCarloOutcome { report, budget })
 }
 
 /// The aggregated budget: the per-seed budgets' JSON averaged leaf by leaf, `seeds` = N, frame
@@ -293,6 +505,87 @@ mod tests {
             m.get("ci95").is_none(),
             "top level is not a statistics block"
         );
+    }
+
+    #[cfg(feature = "opencv-detector")]
+    #[test]
+    fn the_study_resumes_shards_and_merges_into_the_bytes_of_one_uninterrupted_run() {
+        let scenario = crate::scenario::load_any("fast").unwrap();
+        let root = tempfile::tempdir().unwrap();
+        let files = [
+            "budget.json",
+            "per_seed.csv",
+            "error_histograms.png",
+            "seed0/kinematics.csv",
+            "seed0/tracks.csv",
+            "manifest.json",
+        ];
+        let read = |dir: &Path| -> Vec<Vec<u8>> {
+            files
+                .iter()
+                .map(|f| std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")))
+                .collect()
+        };
+        let run = |dir: &Path, shard: Option<Shard>, stop_after: usize| {
+            let done = std::sync::atomic::AtomicUsize::new(0);
+            let progress = |_: usize, _: usize| {
+                done.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            };
+            let stop = || done.load(std::sync::atomic::Ordering::SeqCst) >= stop_after;
+            let control = Control {
+                progress: &progress,
+                stop: &stop,
+            };
+            let r = MonteCarloRun {
+                seeds: 3,
+                roi: true,
+                shard,
+                restart: false,
+                control: &control,
+            };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap();
+            pool.install(|| monte_carlo_study(&scenario, dir, &r))
+                .unwrap()
+        };
+        // Interrupted after one seed, then resumed: the seed is not run again.
+        let whole = root.path().join("whole");
+        let first = run(&whole, None, 1);
+        assert!(!first.report.complete && first.report.units_run == 1);
+        assert!(!whole.exists(), "nothing final while seeds are missing");
+        let second = run(&whole, None, usize::MAX);
+        assert!(second.report.complete);
+        assert_eq!(
+            (second.report.units_resumed, second.report.units_run),
+            (1, 2)
+        );
+        assert_eq!(second.budget.as_ref().unwrap().seeds.len(), 3);
+        // The same as the in-memory study (records round-trip exactly, NaN included).
+        let direct = root.path().join("direct");
+        let options = MonteCarloOptions {
+            seeds: 3,
+            first_seed_files: true,
+            ..MonteCarloOptions::default()
+        };
+        monte_carlo(&scenario, &direct, &options).unwrap();
+        for f in ["budget.json", "per_seed.csv", "error_histograms.png"] {
+            assert_eq!(
+                std::fs::read(whole.join(f)).unwrap(),
+                std::fs::read(direct.join(f)).unwrap(),
+                "{f}"
+            );
+        }
+        // Two shards and a merge: the same bytes.
+        let sharded = root.path().join("sharded");
+        for i in [1, 0] {
+            let r = run(&sharded, Some(Shard::new(i, 2).unwrap()), usize::MAX);
+            assert!(r.report.complete);
+        }
+        let merged = merge_monte_carlo(&sharded).unwrap();
+        assert_eq!(merged.budget.unwrap().seeds, second.budget.unwrap().seeds);
+        assert_eq!(read(&sharded), read(&whole));
     }
 
     #[test]
