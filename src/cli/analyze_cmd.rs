@@ -54,8 +54,9 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         "ccw" => 1.0,
         other => bail!("--angle-sense `{other}`: expected cw or ccw"),
     };
+    let staged = geneva_vision::io::output_dir::OutputDir::create(&a.out)?;
     let bar = super::run_cmd::progress_bar(0, "detect");
-    let out = analyze(&source, &options, &a.out, &|done, total| {
+    let out = analyze(&source, &options, staged.path(), &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
@@ -78,9 +79,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         c.method,
         c.rms_residual_px
     );
-    for f in &out.files {
-        println!("wrote {}", f.display());
-    }
+    super::run_cmd::print_files(&staged.commit()?);
     Ok(())
 }
 

@@ -127,10 +127,11 @@ fn print_budget(mc: &geneva_vision::pipeline::montecarlo::MonteCarloBudget) {
 
 pub fn decompose(spec: &str, seeds: usize, out: &Path) -> Result<()> {
     let s = scenario::load_any(spec)?;
-    let d =
-        decompose_effects(&s, seeds, out, true).with_context(|| format!("scenario {}", s.name))?;
+    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
+    let d = decompose_effects(&s, seeds, staged.path(), true)
+        .with_context(|| format!("scenario {}", s.name))?;
     println!("{}", markdown_table(&d));
-    println!("wrote {}", out.display());
+    super::run_cmd::print_files(&staged.commit()?);
     Ok(())
 }
 

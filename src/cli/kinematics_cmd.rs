@@ -5,7 +5,16 @@ use geneva_vision::pipeline::truth::write_truth;
 use geneva_vision::scenario;
 use std::path::Path;
 
+/// `geneva kinematics`: written into `out` all at once.
 pub fn run(spec: &str, out: &Path) -> Result<()> {
+    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
+    run_into(spec, staged.path())?;
+    super::run_cmd::print_files(&staged.commit()?);
+    Ok(())
+}
+
+/// Writes into `out` as it is (the caller commits the folder).
+pub fn run_into(spec: &str, out: &Path) -> Result<()> {
     let s = scenario::load_any(spec)?;
     let summary = write_truth(&s, out).with_context(|| format!("scenario {}", s.name))?;
     println!(

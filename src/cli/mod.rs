@@ -159,9 +159,16 @@ pub fn error_text(error: &anyhow::Error) -> String {
 /// The main job on the embedded default scenario: the truth trajectory and its plots, then the
 /// whole synthetic measurement (render → detect → estimate → budget) in the same folder.
 fn demo(out: &std::path::Path) -> Result<()> {
-    kinematics_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out)?;
+    // One folder, committed once both jobs are done.
+    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
+    kinematics_cmd::run_into(geneva_vision::scenario::DEFAULT_SCENARIO, staged.path())?;
     println!();
-    run_cmd::run(geneva_vision::scenario::DEFAULT_SCENARIO, out, false)?;
+    run_cmd::run_into(
+        geneva_vision::scenario::DEFAULT_SCENARIO,
+        staged.path(),
+        false,
+    )?;
+    run_cmd::print_files(&staged.commit()?);
     Ok(())
 }
 

@@ -47,8 +47,9 @@ pub fn run(
         png: video.is_none(),
         video,
     };
+    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
     let bar = super::run_cmd::progress_bar(0, "render");
-    let summary = render_job(&s, out, &job, &|done, total| {
+    let summary = render_job(&s, staged.path(), &job, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })
@@ -60,9 +61,15 @@ pub fn run(
         s.name,
         out.display()
     );
-    for f in summary.files {
-        println!("wrote {}", f.display());
-    }
+    // A video given outside the folder is written where it was asked.
+    let outside: Vec<_> = summary
+        .files
+        .iter()
+        .filter(|f| !f.starts_with(staged.path()))
+        .cloned()
+        .collect();
+    super::run_cmd::print_files(&staged.commit()?);
+    super::run_cmd::print_files(&outside);
     Ok(())
 }
 

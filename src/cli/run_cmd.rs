@@ -1,6 +1,7 @@
 //! `geneva run SCENARIO --out DIR`: the synthetic pipeline end to end.
 
 use anyhow::{Context, Result};
+use geneva_vision::io::output_dir::OutputDir;
 use geneva_vision::pipeline::run::{run as run_pipeline, RunOptions, RunOutput};
 use geneva_vision::scenario;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -17,7 +18,23 @@ pub fn progress_bar(total: usize, what: &str) -> ProgressBar {
     bar
 }
 
+/// `geneva run`: the run written into `out` all at once.
 pub fn run(spec: &str, out: &Path, full_frame: bool) -> Result<RunOutput> {
+    let staged = OutputDir::create(out)?;
+    let output = run_into(spec, staged.path(), full_frame)?;
+    print_files(&staged.commit()?);
+    Ok(output)
+}
+
+/// Prints the paths of the files written.
+pub fn print_files(files: &[std::path::PathBuf]) {
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+}
+
+/// The run, written into `out` as it is (the caller commits the folder).
+pub fn run_into(spec: &str, out: &Path, full_frame: bool) -> Result<RunOutput> {
     let s = scenario::load_any(spec)?;
     let options = RunOptions {
         roi: !full_frame,
@@ -69,8 +86,5 @@ pub fn print_summary(name: &str, o: &RunOutput) {
             hp.seed_alpha_doubled_rad_s2,
             100.0 * bound.alpha_seed_doubled_exceedance.fraction
         );
-    }
-    for f in &o.files {
-        println!("wrote {}", f.display());
     }
 }

@@ -35,6 +35,8 @@ pub enum ReportsError {
     Rig(#[from] RigError),
     #[error("{file}: {message}")]
     Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    Output(#[from] crate::io::output_dir::OutputError),
 }
 
 /// What to generate.
@@ -694,29 +696,35 @@ pub fn decomposition_report(out_dir: &Path, seeds: usize) -> Result<Vec<PathBuf>
 
 /// Everything under `out_root`: `fast/`, and unless `fast_only`, `seed-internal-4k/`,
 /// `seed-external-4k/` and `decomposition-1080p/`.
+/// Writes one report folder all at once (`io::output_dir`): `make` writes into the staging
+/// folder; returns the final paths.
+fn staged(
+    dir: &Path,
+    make: impl FnOnce(&Path) -> Result<(), ReportsError>,
+) -> Result<Vec<PathBuf>, ReportsError> {
+    let out = crate::io::output_dir::OutputDir::create(dir)?;
+    make(out.path())?;
+    Ok(out.commit()?)
+}
+
+/// Regenerates every report under `out_root`, each report folder committed all at once.
 pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>, ReportsError> {
-    let mut files = fast_report(&out_root.join("fast"), options.seeds)?.files;
+    let seeds = options.seeds;
+    let mut files = staged(&out_root.join("fast"), |d| {
+        fast_report(d, seeds).map(|_| ())
+    })?;
     if !options.fast_only {
-        files.extend(
-            seed_report(
-                SeedRig::Internal,
-                &out_root.join("seed-internal-4k"),
-                options.seeds,
-            )?
-            .files,
-        );
-        files.extend(
-            seed_report(
-                SeedRig::External,
-                &out_root.join("seed-external-4k"),
-                options.seeds,
-            )?
-            .files,
-        );
-        files.extend(decomposition_report(
-            &out_root.join("decomposition-1080p"),
-            2,
-        )?);
+        for (rig, name) in [
+            (SeedRig::Internal, "seed-internal-4k"),
+            (SeedRig::External, "seed-external-4k"),
+        ] {
+            files.extend(staged(&out_root.join(name), |d| {
+                seed_report(rig, d, seeds).map(|_| ())
+            })?);
+        }
+        files.extend(staged(&out_root.join("decomposition-1080p"), |d| {
+            decomposition_report(d, 2).map(|_| ())
+        })?);
     }
     Ok(files)
 }
