@@ -95,7 +95,8 @@ fn test(extra: &[String]) -> Result<(), String> {
         eprintln!("xtask: skipping the Slurm integration test: GENEVA_SKIP_SLURM_TEST is set");
         return Ok(());
     }
-    slurm::integration_test(&slurm::geneva_binary()?)
+    // `cargo test` has just built the binary its integration tests run: use that one.
+    slurm::integration_test(&slurm::test_binary()?)
 }
 
 fn bench(extra: &[String]) -> Result<(), String> {

@@ -362,6 +362,26 @@ fn wait_for(
     ))
 }
 
+/// The geneva binary that `cargo test` built for the integration tests, or `GENEVA_BIN`.
+pub fn test_binary() -> Result<PathBuf, String> {
+    if let Some(bin) = std::env::var_os("GENEVA_BIN") {
+        return Ok(PathBuf::from(bin));
+    }
+    let bin = target_dir().join("debug").join("geneva");
+    if bin.exists() {
+        Ok(bin)
+    } else {
+        geneva_binary()
+    }
+}
+
+fn target_dir() -> PathBuf {
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target"));
+    std::path::absolute(&dir).unwrap_or(dir)
+}
+
 /// The geneva binary of the test build (built if needed), or `GENEVA_BIN`.
 pub fn geneva_binary() -> Result<PathBuf, String> {
     if let Some(bin) = std::env::var_os("GENEVA_BIN") {
