@@ -116,3 +116,18 @@ fn a_folder_of_the_users_files_is_refused_and_left_alone() {
         .collect();
     assert_eq!(names, vec!["thesis.tex"]);
 }
+
+#[test]
+fn a_video_asked_inside_the_output_folder_ends_up_in_it() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("render");
+    for _ in 0..2 {
+        ok(geneva()
+            .args(["render", "fast", "--frames", "0..3", "--out"])
+            .arg(&dir)
+            .arg("--video")
+            .arg(dir.join("v.mp4")));
+        assert!(std::fs::metadata(dir.join("v.mp4")).unwrap().len() > 0);
+        assert!(dir.join("timestamps.csv").exists());
+    }
+}

@@ -41,13 +41,25 @@ pub fn run(
     video: Option<PathBuf>,
 ) -> Result<()> {
     let s = scenario::load_any(spec)?;
+    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
+    // A video inside the output folder is written into the staging folder like the rest (the
+    // old folder, swapped out at the commit, would take it with it).
+    let video = match video {
+        Some(v) => {
+            let abs = std::path::absolute(&v).with_context(|| format!("{}", v.display()))?;
+            Some(match abs.strip_prefix(staged.dir()) {
+                Ok(rel) => staged.path().join(rel),
+                Err(_) => abs,
+            })
+        }
+        None => None,
+    };
     let job = RenderJob {
         frames: frames.map(parse_range).transpose()?,
         roi_margin_px: roi,
         png: video.is_none(),
         video,
     };
-    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
     let bar = super::run_cmd::progress_bar(0, "render");
     let summary = render_job(&s, staged.path(), &job, &|done, total| {
         bar.set_length(total as u64);

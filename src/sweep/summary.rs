@@ -54,11 +54,16 @@ pub fn summarise(
     scenarios: &[Result<Scenario, ScenarioError>],
     rows: &[ResultRow],
 ) -> Vec<PointSummary> {
+    // Rows grouped by point key once (in file order), so summarising is linear in the rows.
+    let mut by_key: std::collections::HashMap<&str, Vec<&ResultRow>> = Default::default();
+    for r in rows {
+        by_key.entry(r.key.as_str()).or_default().push(r);
+    }
     points
         .iter()
         .zip(scenarios)
         .map(|(point, scenario)| {
-            let mine: Vec<&ResultRow> = rows.iter().filter(|r| r.key == point.key).collect();
+            let mine: Vec<&ResultRow> = by_key.get(point.key.as_str()).cloned().unwrap_or_default();
             let ok: Vec<&ResultRow> = mine
                 .iter()
                 .copied()
