@@ -296,6 +296,12 @@ impl OutputDir {
         }
     }
 
+    /// Nothing to write after all (the output is already complete): the staging folder is
+    /// removed when this is dropped, even for a resumable command.
+    pub fn abandon(&mut self) {
+        self.keep_staging = false;
+    }
+
     /// Empties the staging folder (a resumable command restarting from scratch).
     pub fn restart(&mut self) -> Result<(), OutputError> {
         self.clear_staging()

@@ -140,7 +140,7 @@ pub fn run_whole<S: Study>(
     if out.dir().join(MARKER).is_file() {
         let existing = Manifest::read(out.dir())?;
         if existing.as_ref().is_some_and(|m| m.matches(now)) {
-            out.restart().map_err(ShardError::from)?;
+            out.abandon();
             return Ok(RunReport {
                 units_total: total,
                 units_resumed: total,

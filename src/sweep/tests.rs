@@ -298,6 +298,15 @@ fn a_sweep_completes_with_one_row_per_point_and_seed() {
     assert_eq!(again.calls(), 0);
     assert_eq!(out2.jobs_resumed, 8);
     assert!(out2.files.is_empty());
+    let beside: Vec<_> = std::fs::read_dir(root.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        beside,
+        vec!["out"],
+        "no staging or lock left beside the folder"
+    );
     assert_eq!(out2.summary, out.summary);
     assert_eq!(
         std::fs::read_to_string(dir.join("summary.csv")).unwrap(),
