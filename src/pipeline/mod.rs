@@ -7,6 +7,7 @@
 pub mod analyze;
 #[cfg(feature = "opencv-detector")]
 pub mod decompose;
+pub mod dynamics_report;
 #[cfg(feature = "opencv-detector")]
 pub mod frames;
 pub mod measure;

@@ -4,6 +4,7 @@
 //! markdown is formatted from computed results.
 
 use super::decompose::{decompose_effects, markdown_table, DecompositionError};
+use super::dynamics_report::{dynamics_report, DynamicsReportError};
 use super::montecarlo::{monte_carlo, MonteCarloBudget, MonteCarloError, MonteCarloOptions};
 use super::rig::{Rig, RigError};
 use crate::budget::detectability::{detectability, Detectability};
@@ -33,6 +34,8 @@ pub enum ReportsError {
     Decomposition(#[from] DecompositionError),
     #[error(transparent)]
     Rig(#[from] RigError),
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsReportError),
     #[error("{file}: {message}")]
     Write { file: PathBuf, message: String },
     #[error(transparent)]
@@ -695,7 +698,7 @@ pub fn decomposition_report(out_dir: &Path, seeds: usize) -> Result<Vec<PathBuf>
 }
 
 /// Everything under `out_root`: `fast/`, and unless `fast_only`, `seed-internal-4k/`,
-/// `seed-external-4k/` and `decomposition-1080p/`.
+/// `seed-external-4k/`, `decomposition-1080p/` and `dynamics/`.
 /// Writes one report folder all at once (`io::output_dir`): `make` writes into the staging
 /// folder; returns the final paths.
 fn staged(
@@ -724,6 +727,9 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
         }
         files.extend(staged(&out_root.join("decomposition-1080p"), |d| {
             decomposition_report(d, 2).map(|_| ())
+        })?);
+        files.extend(staged(&out_root.join("dynamics"), |d| {
+            dynamics_report(d).map(|_| ()).map_err(ReportsError::from)
         })?);
     }
     Ok(files)

@@ -216,3 +216,34 @@ fn builtin_prefix_and_directories_never_shadow_builtins() {
     );
     assert_eq!(load(&f).unwrap().seed, 3);
 }
+
+/// `geneva scenario check` names impossible contact parameters by field (and the file).
+#[test]
+fn impossible_contact_parameters_name_their_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "bounce.toml",
+        "extend = \"seed-internal-4k\"\n[dynamics]\ncontact_restitution = 1.2\n\
+         [dynamics.crank]\nreflected_inertia_kg_m2 = -1.0\n",
+    );
+    let err = load(&p).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("bounce.toml")
+            && msg.contains("dynamics.contact_restitution: must be in [0.01, 1]")
+            && msg.contains("dynamics.crank.reflected_inertia_kg_m2"),
+        "{msg}"
+    );
+    assert_eq!(err.problems().len(), 2);
+    let p = write(
+        dir.path(),
+        "model.toml",
+        "extend = \"seed-internal-4k\"\n[dynamics]\ncontact_model = \"elastic\"\n",
+    );
+    let msg = load(&p).unwrap_err().to_string();
+    assert!(
+        msg.contains("model.toml") && msg.contains("dynamics.contact_model"),
+        "{msg}"
+    );
+}
