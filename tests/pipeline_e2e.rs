@@ -126,6 +126,10 @@ fn seed_settings_run_completes_and_reports() {
         "seeds",
         "signals",
         "mechanism",
+        "errors_against",
+        "raw",
+        "aliasing",
+        "resolvable",
     ] {
         assert!(json.get(key).is_some(), "budget.json has {key}");
     }

@@ -15,6 +15,12 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The seed's per-axis position error of a detected point, px: "the center point moves no more
+/// than half a pixel in x- or y-direction for a given time step" (seed §5.3, from its stationary
+/// sequence, Fig. 4.5). It is the seed's observed bound, not derived here; the bounds below
+/// generalise the seed's argument from it.
+pub const SEED_POSITION_ERROR_PX: f64 = 0.5;
+
 /// Centre weights of a linear differentiator on a uniform grid of step `h_s`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LinearWeights {

@@ -5,7 +5,9 @@
 //! mechanism's θ2 has its own sense. `sign` (±1) maps one onto the other (computed by the
 //! pipeline from the camera geometry), and each signal's constant angular position on the disc
 //! is taken from the *true* geometry at the first frame (`screen_offset_rad`), never fitted to
-//! the measurement — so a constant bias in the measurement stays visible as bias.
+//! the measurement — so a constant bias in the measurement stays visible as bias. Errors are
+//! taken against the resolvable truth (what the frames can follow, `budget::resolvable`) and
+//! against the raw truth (the actual motion at the timestamps).
 
 /// Per-frame truth, SI units, wheel convention.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,7 +19,8 @@ pub struct TruthSeries {
     pub phase: Vec<&'static str>,
 }
 
-/// One signal's measurement in the wheel convention and its errors against a truth.
+/// One signal's measurement in the wheel convention and its errors against the resolvable
+/// truth (the headline: `*_err_*`) and against the raw truth (`*_raw_err_*`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SignalErrors {
     pub signal: String,
@@ -27,44 +30,49 @@ pub struct SignalErrors {
     pub theta_err_rad: Vec<f64>,
     pub omega_err_rad_s: Vec<f64>,
     pub alpha_err_rad_s2: Vec<f64>,
+    pub theta_raw_err_rad: Vec<f64>,
+    pub omega_raw_err_rad_s: Vec<f64>,
+    pub alpha_raw_err_rad_s2: Vec<f64>,
 }
 
-/// Maps measured screen angles (CCW positive, NaN where missing) into the wheel convention:
-/// θ2_meas = sign·(θ_screen − screen_offset) + θ2_truth(first frame); ω, α = sign·(…).
-#[allow(clippy::too_many_arguments)]
+/// Maps measured screen angles `[θ, ω, α]` (CCW positive, NaN where missing) into the wheel
+/// convention: θ2_meas = sign·(θ_screen − screen_offset) + θ2_raw(first frame); ω, α = sign·(…),
+/// and subtracts the resolvable and the raw truth.
 pub fn to_wheel_convention(
     signal: &str,
-    theta_screen_rad: &[f64],
-    omega_screen_rad_s: &[f64],
-    alpha_screen_rad_s2: &[f64],
+    screen: [&[f64]; 3],
     sign: f64,
     screen_offset_rad: f64,
-    theta2_at_first_frame_rad: f64,
-    truth: &TruthSeries,
+    raw: &TruthSeries,
+    resolvable: &TruthSeries,
 ) -> SignalErrors {
-    let n = truth.t_s.len();
-    let mut theta: Vec<f64> = theta_screen_rad
+    let n = raw.t_s.len();
+    let theta2_first = raw.theta2_rad.first().copied().unwrap_or(0.0);
+    let mut theta: Vec<f64> = screen[0]
         .iter()
-        .map(|th| sign * (th - screen_offset_rad) + theta2_at_first_frame_rad)
+        .map(|th| sign * (th - screen_offset_rad) + theta2_first)
         .collect();
     // Unwrapping may start on another branch than the truth: shift by whole turns so the first
     // measured frame lies within ±π of the truth.
     if let Some(k) = theta.iter().position(|v| v.is_finite()) {
-        let turns = ((theta[k] - truth.theta2_rad[k]) / std::f64::consts::TAU).round();
+        let turns = ((theta[k] - raw.theta2_rad[k]) / std::f64::consts::TAU).round();
         if turns != 0.0 {
             theta
                 .iter_mut()
                 .for_each(|v| *v -= turns * std::f64::consts::TAU);
         }
     }
-    let omega: Vec<f64> = omega_screen_rad_s.iter().map(|w| sign * w).collect();
-    let alpha: Vec<f64> = alpha_screen_rad_s2.iter().map(|a| sign * a).collect();
+    let omega: Vec<f64> = screen[1].iter().map(|w| sign * w).collect();
+    let alpha: Vec<f64> = screen[2].iter().map(|a| sign * a).collect();
     let diff = |m: &[f64], t: &[f64]| (0..n).map(|i| m[i] - t[i]).collect::<Vec<f64>>();
     SignalErrors {
         signal: signal.to_string(),
-        theta_err_rad: diff(&theta, &truth.theta2_rad),
-        omega_err_rad_s: diff(&omega, &truth.omega2_rad_s),
-        alpha_err_rad_s2: diff(&alpha, &truth.alpha2_rad_s2),
+        theta_err_rad: diff(&theta, &resolvable.theta2_rad),
+        omega_err_rad_s: diff(&omega, &resolvable.omega2_rad_s),
+        alpha_err_rad_s2: diff(&alpha, &resolvable.alpha2_rad_s2),
+        theta_raw_err_rad: diff(&theta, &raw.theta2_rad),
+        omega_raw_err_rad_s: diff(&omega, &raw.omega2_rad_s),
+        alpha_raw_err_rad_s2: diff(&alpha, &raw.alpha2_rad_s2),
         theta2_rad: theta,
         omega2_rad_s: omega,
         alpha2_rad_s2: alpha,
@@ -86,22 +94,28 @@ mod tests {
         };
         // Screen angle runs the other way, starts at 0.3 on screen, and sits one turn up.
         let tau = std::f64::consts::TAU;
+        // The resolvable truth differs from the raw one by a known amount.
+        let mut resolvable = truth.clone();
+        resolvable.omega2_rad_s[1] = 0.45;
         let e = to_wheel_convention(
             "centre",
-            &[0.3 + tau, 0.3 - 0.5 + tau],
-            &[-0.5, -0.4],
-            &[0.0, f64::NAN],
+            [
+                &[0.3 + tau, 0.3 - 0.5 + tau],
+                &[-0.5, -0.4],
+                &[0.0, f64::NAN],
+            ],
             -1.0,
             0.3,
-            1.0,
             &truth,
+            &resolvable,
         );
+        assert!((e.omega_raw_err_rad_s[1] + 0.1).abs() < 1e-12);
+        assert!((e.omega_err_rad_s[1] + 0.05).abs() < 1e-12);
         assert!(
             e.theta_err_rad.iter().all(|v| v.abs() < 1e-12),
             "{:?}",
             e.theta_err_rad
         );
-        assert!((e.omega_err_rad_s[1] + 0.1).abs() < 1e-12);
         assert!(e.alpha_err_rad_s2[1].is_nan());
     }
 }

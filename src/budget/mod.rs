@@ -1,13 +1,16 @@
-//! Error budgets: statistics of measured-minus-true series per signal and motion phase,
-//! Monte Carlo aggregation over seeds, per-source variance decomposition and the analytic bounds
-//! they are compared with. Pure: numbers in, numbers out.
+//! Error budgets: where truth meets measurement. The resolvable truth (what the frames can
+//! follow), statistics of measured-minus-true series per signal and motion phase, Monte Carlo
+//! aggregation over seeds, per-source variance decomposition and the analytic bounds they are
+//! compared with. Pure: numbers in, numbers out.
 
 pub mod bounds;
 pub mod compare;
 pub mod decompose;
 pub mod detectability;
+pub mod judge;
 pub mod montecarlo;
 pub mod report;
+pub mod resolvable;
 pub mod stats;
 
 pub use bounds::{

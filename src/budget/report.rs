@@ -1,4 +1,5 @@
-//! The error budget of one run: statistics per signal and motion phase, the mechanism's own
+//! The error budget of one run: statistics per signal and motion phase against the resolvable
+//! truth (the headline) and against the raw truth, the aliasing part, the mechanism's own
 //! departure from ideal kinematics (a second truth, kept apart), and the analytic bounds with how
 //! often they are exceeded. Serialises to `budget.json` (SI units).
 
@@ -7,11 +8,19 @@ use super::bounds::{
     NoisePrediction,
 };
 use super::compare::{SignalErrors, TruthSeries};
+use super::resolvable::ResolvableInfo;
 use super::stats::{peak_abs, ErrorStats};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 pub const PHASES: [&str; 4] = ["dwell", "entry", "drive", "exit"];
+
+/// What the headline statistics of a budget are measured against (written into `budget.json`).
+pub const ERRORS_AGAINST: &str = "resolvable truth: the actual motion averaged over each frame's \
+     exposure of the marker and band-limited to the footage's Nyquist rate (ARCHITECTURE.md, \
+     \"Resolvable truth\"); `raw` holds the errors against the actual motion at the timestamps, \
+     `aliasing` the part of that motion above the Nyquist rate, which no camera at this frame \
+     rate can follow";
 
 /// Errors of θ2 (rad), ω2 (rad/s), α2 (rad/s²), absolute and relative to the peak true value.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -39,12 +48,22 @@ pub struct RelativeStats {
     pub alpha: ErrorStats,
 }
 
-/// One signal's budget: overall and per phase.
+/// Statistics overall and per phase.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhasedStats {
+    #[serde(flatten)]
+    pub overall: QuantityStats,
+    pub phases: BTreeMap<String, QuantityStats>,
+}
+
+/// One signal's budget: overall and per phase against the resolvable truth, and the same
+/// against the raw truth.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SignalBudget {
     #[serde(flatten)]
     pub overall: QuantityStats,
     pub phases: BTreeMap<String, QuantityStats>,
+    pub raw: PhasedStats,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -53,13 +72,15 @@ pub struct FrameCounts {
     pub detected: usize,
 }
 
-/// The analytic bounds for one signal and how the measurement compares.
+/// The analytic bounds for one signal and how the measurement compares. The exceedances count
+/// the detection part of the errors ([`BoundsInput::detection`]); the measured standard
+/// deviations are of the whole error against the resolvable truth.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoundsReport {
     pub half_pixel: HalfPixelBound,
-    /// Per-frame |θ error| against δθ.
+    /// Per-frame |θ detection error| against δθ.
     pub theta_exceedance: Exceedance,
-    /// |ω error| against the generalised worst case δθ·Σ|w_ω| and the seed's doubled value.
+    /// |ω detection error| against the generalised worst case δθ·Σ|w_ω| and the seed's doubled value.
     pub omega_exceedance: Exceedance,
     pub omega_seed_doubled_exceedance: Exceedance,
     pub alpha_exceedance: Exceedance,
@@ -73,17 +94,28 @@ pub struct BoundsReport {
     pub timebase_error_std_s: f64,
 }
 
-/// The whole budget (fused signal at the top level, every signal inside).
+/// The whole budget (fused signal at the top level, every signal inside). The top-level
+/// statistics are against the resolvable truth ([`ERRORS_AGAINST`]); `raw` and `aliasing` stand
+/// beside them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Budget {
     pub scenario: String,
     pub seeds: usize,
+    /// What `theta`, `omega`, `alpha`, `relative`, `phases` and `signals` are measured against.
+    pub errors_against: String,
     pub frames: FrameCounts,
     pub theta: ErrorStats,
     pub omega: ErrorStats,
     pub alpha: ErrorStats,
     pub relative: RelativeStats,
     pub phases: BTreeMap<String, QuantityStats>,
+    /// Fused signal against the raw truth (the actual motion at the frame timestamps).
+    pub raw: PhasedStats,
+    /// The aliasing part: raw truth minus its band-limited version at the timestamps (the
+    /// motion above the Nyquist rate), as statistics of a series.
+    pub aliasing: PhasedStats,
+    /// How the resolvable truth was made.
+    pub resolvable: ResolvableInfo,
     pub signals: BTreeMap<String, SignalBudget>,
     /// The actual motion's departure from ideal kinematics, per phase (what the mechanism adds).
     pub mechanism: BTreeMap<String, QuantityStats>,
@@ -156,21 +188,36 @@ fn per_phase(
         .collect()
 }
 
-pub fn signal_budget(e: &SignalErrors, truth: &TruthSeries) -> SignalBudget {
+/// Statistics of the three error series `[θ, ω, α]` overall and per phase of `truth` (which also
+/// gives the peaks for the relative statistics).
+pub fn phased_stats(errors: [&[f64]; 3], truth: &TruthSeries) -> PhasedStats {
     let all = vec![true; truth.t_s.len()];
+    PhasedStats {
+        overall: quantity_stats(errors[0], errors[1], errors[2], truth, &all),
+        phases: per_phase(errors[0], errors[1], errors[2], truth),
+    }
+}
+
+/// A signal's budget against the resolvable truth and against the raw truth.
+pub fn signal_budget(
+    e: &SignalErrors,
+    resolvable: &TruthSeries,
+    raw: &TruthSeries,
+) -> SignalBudget {
+    let headline = phased_stats(
+        [&e.theta_err_rad, &e.omega_err_rad_s, &e.alpha_err_rad_s2],
+        resolvable,
+    );
     SignalBudget {
-        overall: quantity_stats(
-            &e.theta_err_rad,
-            &e.omega_err_rad_s,
-            &e.alpha_err_rad_s2,
-            truth,
-            &all,
-        ),
-        phases: per_phase(
-            &e.theta_err_rad,
-            &e.omega_err_rad_s,
-            &e.alpha_err_rad_s2,
-            truth,
+        overall: headline.overall,
+        phases: headline.phases,
+        raw: phased_stats(
+            [
+                &e.theta_raw_err_rad,
+                &e.omega_raw_err_rad_s,
+                &e.alpha_raw_err_rad_s2,
+            ],
+            raw,
         ),
     }
 }
@@ -192,6 +239,10 @@ pub fn mechanism_departure(
 /// Inputs of the bounds for one signal.
 pub struct BoundsInput<'a> {
     pub errors: &'a SignalErrors,
+    /// The detection part of the errors, what the bounds are about: θ̂ − θ̄ with θ̄ the truth
+    /// averaged over each frame's exposure of the marker (what the frame shows), and
+    /// ω̂ − D(θ̄), α̂ − D(θ̄) with D the signal's own differentiator on the same time base.
+    pub detection: [&'a [f64]; 3],
     pub radius_px: f64,
     pub position_error_px: f64,
     pub h_min_s: f64,
@@ -203,11 +254,11 @@ pub struct BoundsInput<'a> {
 pub fn bounds_report(b: &BoundsInput<'_>) -> BoundsReport {
     let hp = half_pixel_bound(b.position_error_px, b.radius_px, b.h_min_s, b.weights);
     let e = b.errors;
-    let theta_stats = ErrorStats::of(&e.theta_err_rad);
-    // The position part of the angle noise: the θ error's spread (its bias is a constant offset
-    // that no derivative sees). θ errors are measured at the true frame times, so they exclude
-    // the timebase error, which the prediction adds separately.
-    let sigma_perp_px = theta_stats.std * b.radius_px;
+    let [theta, omega, alpha] = b.detection;
+    // The position part of the angle noise: the detection θ error's spread (its bias is a
+    // constant offset that no derivative sees). It is measured at the true frame times, so it
+    // excludes the timebase error, which the prediction adds separately.
+    let sigma_perp_px = ErrorStats::of(theta).std * b.radius_px;
     let statistical = predict_noise(
         sigma_perp_px,
         b.radius_px,
@@ -216,14 +267,11 @@ pub fn bounds_report(b: &BoundsInput<'_>) -> BoundsReport {
         b.timebase_error_std_s,
     );
     BoundsReport {
-        theta_exceedance: exceedance(&e.theta_err_rad, hp.theta_rad),
-        omega_exceedance: exceedance(&e.omega_err_rad_s, hp.omega_rad_s),
-        omega_seed_doubled_exceedance: exceedance(&e.omega_err_rad_s, hp.seed_omega_doubled_rad_s),
-        alpha_exceedance: exceedance(&e.alpha_err_rad_s2, hp.alpha_rad_s2),
-        alpha_seed_doubled_exceedance: exceedance(
-            &e.alpha_err_rad_s2,
-            hp.seed_alpha_doubled_rad_s2,
-        ),
+        theta_exceedance: exceedance(theta, hp.theta_rad),
+        omega_exceedance: exceedance(omega, hp.omega_rad_s),
+        omega_seed_doubled_exceedance: exceedance(omega, hp.seed_omega_doubled_rad_s),
+        alpha_exceedance: exceedance(alpha, hp.alpha_rad_s2),
+        alpha_seed_doubled_exceedance: exceedance(alpha, hp.seed_alpha_doubled_rad_s2),
         half_pixel: hp,
         statistical,
         measured_omega_std_rad_s: ErrorStats::of(&e.omega_err_rad_s).std,
@@ -259,8 +307,13 @@ mod tests {
             theta_err_rad: vec![0.001; 10],
             omega_err_rad_s: (0..10).map(|i| if i < 5 { 0.01 } else { 0.05 }).collect(),
             alpha_err_rad_s2: vec![0.2; 10],
+            theta_raw_err_rad: vec![0.002; 10],
+            omega_raw_err_rad_s: vec![0.3; 10],
+            alpha_raw_err_rad_s2: vec![f64::NAN; 10],
         };
-        let b = signal_budget(&e, &t);
+        let b = signal_budget(&e, &t, &t);
+        assert!((b.raw.phases["dwell"].omega.rms - 0.3).abs() < 1e-12);
+        assert_eq!(b.raw.overall.alpha.n, 0);
         assert_eq!(b.phases.len(), 2);
         assert!((b.phases["dwell"].omega.rms - 0.01).abs() < 1e-12);
         assert!((b.phases["drive"].omega.rms - 0.05).abs() < 1e-12);
@@ -272,7 +325,9 @@ mod tests {
         assert_eq!(b.overall.theta.n, 10);
         let json = serde_json::to_value(&b).unwrap();
         assert!(
-            json["theta"]["rms"].is_number() && json["phases"]["drive"]["alpha"]["p95"].is_number()
+            json["theta"]["rms"].is_number()
+                && json["phases"]["drive"]["alpha"]["p95"].is_number()
+                && json["raw"]["phases"]["drive"]["omega"]["rms"].is_number()
         );
     }
 

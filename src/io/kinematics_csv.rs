@@ -1,5 +1,6 @@
 //! `kinematics.csv`: per frame and signal, the measured θ2, ω2, α2 (wheel convention) and, for
-//! synthetic runs, the truth beside them (actual motion, ideal kinematics, phase).
+//! synthetic runs, the truth beside them (actual motion, ideal kinematics, resolvable truth,
+//! phase).
 
 use super::csv_out::{num, CsvError, CsvWriter};
 use crate::budget::compare::{SignalErrors, TruthSeries};
@@ -36,15 +37,15 @@ macro_rules! signal_columns {
 signal_columns!(SignalErrors);
 signal_columns!(MeasuredSignal);
 
-/// Writes rows frame-major (all signals of frame 0, then frame 1, ...). `truth`/`ideal` may be
-/// absent (real footage). `frame_numbers` (one per entry of `frames_t_s`) gives each row the
-/// input's frame number, `None` leaving that entry out (a placeholder for an absent frame);
-/// without it, entries are numbered from 0.
+/// Writes rows frame-major (all signals of frame 0, then frame 1, ...). The truths (actual,
+/// ideal, resolvable) are absent for real footage. `frame_numbers` (one per entry of
+/// `frames_t_s`) gives each row the input's frame number, `None` leaving that entry out (a
+/// placeholder for an absent frame); without it, entries are numbered from 0.
 pub fn write_kinematics_csv<S: SignalColumns>(
     path: &Path,
     frames_t_s: &[f64],
     signals: &[S],
-    truth: Option<(&TruthSeries, &TruthSeries)>,
+    truth: Option<(&TruthSeries, &TruthSeries, &TruthSeries)>,
     frame_numbers: Option<&[Option<usize>]>,
 ) -> Result<(), CsvError> {
     let mut header = vec![
@@ -63,6 +64,9 @@ pub fn write_kinematics_csv<S: SignalColumns>(
             "ideal_theta2_rad",
             "ideal_omega2_rad_s",
             "ideal_alpha2_rad_s2",
+            "resolvable_theta2_rad",
+            "resolvable_omega2_rad_s",
+            "resolvable_alpha2_rad_s2",
             "phase",
         ]);
     }
@@ -84,7 +88,7 @@ pub fn write_kinematics_csv<S: SignalColumns>(
                 num(s.omega2_rad_s()[i]),
                 num(s.alpha2_rad_s2()[i]),
             ];
-            if let Some((actual, ideal)) = truth {
+            if let Some((actual, ideal, resolvable)) = truth {
                 cells.extend([
                     num(actual.theta2_rad[i]),
                     num(actual.omega2_rad_s[i]),
@@ -92,6 +96,9 @@ pub fn write_kinematics_csv<S: SignalColumns>(
                     num(ideal.theta2_rad[i]),
                     num(ideal.omega2_rad_s[i]),
                     num(ideal.alpha2_rad_s2[i]),
+                    num(resolvable.theta2_rad[i]),
+                    num(resolvable.omega2_rad_s[i]),
+                    num(resolvable.alpha2_rad_s2[i]),
                     actual.phase[i].to_string(),
                 ]);
             }

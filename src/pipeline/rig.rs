@@ -1,6 +1,9 @@
 //! The synthetic rig: a scenario's mechanism, camera, scene, render settings and frame times,
 //! built once and shared read-only by every frame.
 
+use crate::budget::resolvable::{
+    median_interval_s, resolvable_truth, FrameInstants, Resolvable, ResolvableFilter, WINDOW_FRAMES,
+};
 use crate::camera::{Camera, CameraError};
 use crate::estimate::angle::screen_angle_rad;
 use crate::mechanism::{Mechanism, MechanismError, MotionSample};
@@ -43,6 +46,10 @@ pub struct Rig {
     pub frame_times: Timestamps,
     /// +1 when the wheel's θ2 grows counter-clockwise on screen, −1 when clockwise.
     pub screen_sign: f64,
+    /// Times where the actual motion is known, s: everywhere for closed-form motion; with
+    /// clearance dynamics from t = 0 (the start of the integration) to beyond the last frame by
+    /// the reach of the resolvable-truth filter.
+    pub truth_span_s: (f64, f64),
 }
 
 fn pose_of(s: &MotionSample) -> WheelPose {
@@ -54,12 +61,27 @@ fn pose_of(s: &MotionSample) -> WheelPose {
 
 impl Rig {
     pub fn new(scenario: &Scenario) -> Result<Rig, RigError> {
+        let frame_times = scenario.frame_times()?;
+        // The resolvable truth filters the motion around each frame's exposure of the marker:
+        // simulate past the end by that reach (the motion up to duration_s is unchanged).
+        let fx = &scenario.effects;
+        let h = median_interval_s(frame_times.as_slice());
+        let reach_s = fx.rolling_shutter.readout_or_zero_s()
+            + 1.5 * fx.motion_blur.exposure_or_zero_s()
+            + 0.5 * WINDOW_FRAMES * if h.is_finite() { h } else { 0.0 }
+            + 0.01;
+        let simulated_s = scenario.duration_s + reach_s;
         let mechanism = Mechanism::new(
             &scenario.mechanism,
             &scenario.drive_speed,
             &scenario.dynamics,
-            scenario.duration_s,
+            simulated_s,
         )?;
+        let truth_span_s = if mechanism.dynamics().is_some() {
+            (0.0, simulated_s)
+        } else {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        };
         let camera = Camera::new(&scenario.camera)?;
         let scene = Scene::new(&scenario.scene, camera)?;
         let settings = RenderSettings {
@@ -68,7 +90,6 @@ impl Rig {
             effects: scenario.effects.clone(),
             seed: scenario.seed,
         };
-        let frame_times = scenario.frame_times()?;
         let centre = scene.rotation_centre_px_at(&WheelPose {
             theta2_rad: 0.0,
             centre_offset_m: [0.0, 0.0],
@@ -89,6 +110,7 @@ impl Rig {
             settings,
             frame_times,
             screen_sign,
+            truth_span_s,
         };
         rig.check_marker_in_frame()?;
         Ok(rig)
@@ -122,6 +144,38 @@ impl Rig {
                 fx.motion_blur.exposure_or_zero_s(),
                 fx.rolling_shutter.readout_or_zero_s(),
             )
+    }
+
+    /// The centre of the marker's exposure in the frame with timestamp `t_s`: the first row's
+    /// exposure centre plus the rolling-shutter delay of the row the marker centre is on.
+    pub fn marker_exposure_centre_s(&self, t_s: f64) -> f64 {
+        let fx = &self.settings.effects;
+        let row0 = self.render_time_s(t_s);
+        let readout = fx.rolling_shutter.readout_or_zero_s();
+        if readout == 0.0 {
+            return row0;
+        }
+        let y = self.scene.marker_centre_px_at(&self.pose(row0)).y;
+        row0 + readout * y / self.settings.height_px as f64
+    }
+
+    /// The truth the frames at `timestamps_s` can resolve (see `budget::resolvable`), and the
+    /// filter that made it (for plots; none when the frames define no frame rate).
+    pub fn resolvable_truth(&self, timestamps_s: &[f64]) -> (Resolvable, Option<ResolvableFilter>) {
+        let centres: Vec<f64> = timestamps_s
+            .iter()
+            .map(|&t| self.marker_exposure_centre_s(t))
+            .collect();
+        let mechanism = &self.mechanism;
+        resolvable_truth(
+            &|t| mechanism.actual(t).theta2_rad,
+            &FrameInstants {
+                timestamps_s,
+                marker_centres_s: &centres,
+                exposure_s: self.settings.effects.motion_blur.exposure_or_zero_s(),
+                truth_span_s: self.truth_span_s,
+            },
+        )
     }
 
     /// The marker's paper bounding box over the exposure and readout of the frame with
@@ -243,5 +297,82 @@ mod tests {
             let half = value_with_flash_at(exposed_from + exposure / 2.0);
             assert!((half - 0.5).abs() <= tol, "{mark}: {half}");
         }
+    }
+}
+
+#[cfg(test)]
+mod resolvable_tests {
+    use super::*;
+    use std::f64::consts::TAU;
+
+    fn rig(extra: &str) -> Rig {
+        let text = format!("extend = \"fast\"\n{extra}");
+        Rig::new(&crate::scenario::from_str(&text, std::path::Path::new("t.toml")).unwrap())
+            .unwrap()
+    }
+
+    fn vibration(freq_hz: f64) -> String {
+        format!(
+            "[dynamics.disc_vibration]\nenabled = true\n\
+             components = [{{ amplitude_rad = 2e-4, frequency_hz = {freq_hz}, phase_rad = 0.4 }}]\n"
+        )
+    }
+
+    /// A wheel vibration above the Nyquist rate of the 30 fps frames is not resolvable: the
+    /// resolvable truth is that of the same rig without it, and the aliasing part is the
+    /// vibration itself. One below the Nyquist rate is resolved whole.
+    #[test]
+    fn wheel_vibration_is_aliasing_above_the_nyquist_rate_and_resolved_below() {
+        let plain = rig("");
+        let t = plain.frame_times.as_slice().to_vec();
+        let (base, _) = plain.resolvable_truth(&t);
+        assert_eq!(
+            base.info.frames_defined,
+            t.len(),
+            "closed-form motion: every frame"
+        );
+        for (freq, resolved) in [(40.0, false), (5.0, true)] {
+            let r = rig(&vibration(freq));
+            let (res, _) = r.resolvable_truth(&t);
+            for (k, &tk) in t.iter().enumerate() {
+                let v = 2e-4 * (TAU * freq * tk + 0.4).sin();
+                let w = 2e-4 * TAU * freq * (TAU * freq * tk + 0.4).cos();
+                let dtheta = res.theta2_rad[k] - base.theta2_rad[k];
+                let domega = res.omega2_rad_s[k] - base.omega2_rad_s[k];
+                let (want_theta, want_omega) = if resolved { (v, w) } else { (0.0, 0.0) };
+                assert!(
+                    (dtheta - want_theta).abs() < 2e-3 * 2e-4,
+                    "{freq} Hz, frame {k}"
+                );
+                assert!((domega - want_omega).abs() < 2e-3 * 2e-4 * TAU * freq);
+                // Aliasing part: raw minus band-limited, against the plain rig's.
+                let raw = r.mechanism.actual(tk).theta2_rad;
+                let alias = raw - res.band_limited_theta2_rad[k];
+                let base_alias =
+                    plain.mechanism.actual(tk).theta2_rad - base.band_limited_theta2_rad[k];
+                let want_alias = if resolved { 0.0 } else { v };
+                assert!((alias - base_alias - want_alias).abs() < 2e-3 * 2e-4);
+            }
+        }
+    }
+
+    /// The marker is seen at the centre of its own row's exposure: E/2 after an exposure-start
+    /// timestamp, plus the readout delay of the marker centre's row.
+    #[test]
+    fn marker_exposure_centre_follows_the_timestamp_convention_and_the_row() {
+        let r = rig(
+            "[frame_timing]\ntimestamp_marks = \"first_row_exposure_start\"\n\
+             [effects.motion_blur]\nenabled = true\nexposure_s = 0.008\n\
+             [effects.rolling_shutter]\nenabled = true\nreadout_s = 0.02\n",
+        );
+        for &t in &r.frame_times.as_slice()[..10] {
+            let y = r.scene.marker_centre_px_at(&r.pose(t + 0.004)).y;
+            let want = t + 0.004 + 0.02 * y / 720.0;
+            assert!((r.marker_exposure_centre_s(t) - want).abs() < 1e-12);
+        }
+        let t = r.frame_times.as_slice().to_vec();
+        let (res, _) = r.resolvable_truth(&t);
+        assert!(res.info.marker_delay_min_s > 0.004 && res.info.marker_delay_max_s < 0.024);
+        assert_eq!(res.info.exposure_s, 0.008);
     }
 }

@@ -1,22 +1,18 @@
 //! `geneva run`: render → detect → estimate → budget for a synthetic scenario, in one streaming
 //! pass. Writes `tracks.csv`, `kinematics.csv`, `budget.json` and plots into the output folder.
+//! The truths (actual, ideal, resolvable) are made here from the rig; `budget` compares.
 
 use super::frames::{detect_frames, FrameDetection, FrameLoopOptions, FramePath};
 use super::measure::estimate_track;
 use super::plots::plot_measured_vs_truth;
 use super::rig::{Rig, RigError};
-use crate::budget::bounds::LinearWeights;
-use crate::budget::compare::{to_wheel_convention, SignalErrors, TruthSeries};
-use crate::budget::report::{
-    bounds_report, mechanism_departure, signal_budget, BoundsInput, Budget, FrameCounts,
-};
-use crate::estimate::angle::screen_angle_rad;
-use crate::estimate::{Estimate, Signal};
+use crate::budget::compare::{SignalErrors, TruthSeries};
+use crate::budget::judge::{build_budget, signal_errors, TrueGeometry, Truths};
+use crate::budget::report::{Budget, FrameCounts};
 use crate::io::kinematics_csv::write_kinematics_csv;
 use crate::io::tracks_csv::{Corners, TrackRow, TracksWriter};
 use crate::mechanism::MotionSample;
 use crate::scenario::Scenario;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -70,6 +66,8 @@ pub struct RunOutput {
     pub signals: Vec<SignalErrors>,
     pub truth: TruthSeries,
     pub ideal: TruthSeries,
+    /// What the frames can resolve of the truth (NaN where undefined).
+    pub resolvable: TruthSeries,
     pub detections: Vec<FrameDetection>,
     pub roi_frames: usize,
     pub full_frames: usize,
@@ -177,12 +175,55 @@ fn judge(
     let ideal_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.ideal(x)).collect();
     let truth = truth_series(&actual_samples);
     let ideal = truth_series(&ideal_samples);
-    let signals = signal_errors(rig, &est, &truth);
-    let budget = build_budget(rig, &est, &signals, &truth, &ideal, &detections);
+    let (resolved, filter) = rig.resolvable_truth(&t);
+    let with_phases = |theta: &[f64], omega: &[f64], alpha: &[f64]| TruthSeries {
+        t_s: t.clone(),
+        theta2_rad: theta.to_vec(),
+        omega2_rad_s: omega.to_vec(),
+        alpha2_rad_s2: alpha.to_vec(),
+        phase: truth.phase.clone(),
+    };
+    let resolvable = with_phases(
+        &resolved.theta2_rad,
+        &resolved.omega2_rad_s,
+        &resolved.alpha2_rad_s2,
+    );
+    let band_limited = with_phases(
+        &resolved.band_limited_theta2_rad,
+        &resolved.band_limited_omega2_rad_s,
+        &resolved.band_limited_alpha2_rad_s2,
+    );
+    let geometry = true_geometry(rig, t.first().copied().unwrap_or(0.0));
+    let signals = signal_errors(&est, &geometry, &truth, &resolvable);
+    let frames = FrameCounts {
+        total: detections.len(),
+        detected: detections.iter().filter(|d| d.corners_px.is_some()).count(),
+    };
+    let budget = build_budget(
+        &scenario.name,
+        &est,
+        &signals,
+        &Truths {
+            raw: &truth,
+            ideal: &ideal,
+            resolvable: &resolvable,
+            band_limited: &band_limited,
+            frame_theta2_rad: &resolved.frame_theta2_rad,
+            info: &resolved.info,
+        },
+        &geometry,
+        frames,
+    );
     let mut files = Vec::new();
     if options.write_files {
         let kin = out_dir.join("kinematics.csv");
-        write_kinematics_csv(&kin, &t, &signals, Some((&truth, &ideal)), None)?;
+        write_kinematics_csv(
+            &kin,
+            &t,
+            &signals,
+            Some((&truth, &ideal, &resolvable)),
+            None,
+        )?;
         let json_path = out_dir.join("budget.json");
         let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json {
             file: json_path.clone(),
@@ -196,10 +237,11 @@ fn judge(
         if options.plots {
             files.extend(plot_measured_vs_truth(
                 out_dir,
-                &scenario.name,
+                rig,
                 &signals,
                 &truth,
-                &actual_samples,
+                &resolved.info,
+                filter.as_ref(),
             )?);
         }
     }
@@ -213,6 +255,7 @@ fn judge(
         signals,
         truth,
         ideal,
+        resolvable,
         detections,
         roi_frames,
         full_frames,
@@ -221,110 +264,19 @@ fn judge(
     })
 }
 
-/// The true screen position of each signal's point at the first frame, for the angle offset.
-fn true_points(rig: &Rig, t_s: f64) -> ([f64; 2], Vec<[f64; 2]>) {
+/// The true image geometry at `t_s` (the first frame), for the per-signal angle offsets and the
+/// bounds' radii: truth only, never fitted to the measurement.
+fn true_geometry(rig: &Rig, t_s: f64) -> TrueGeometry {
     let pose = rig.pose(t_s);
     let centre = rig.scene.rotation_centre_px_at(&pose);
     let corners = rig.scene.marker_corners_px_at(&pose);
     let mc = rig.scene.marker_centre_px_at(&pose);
-    let mut points: Vec<[f64; 2]> = corners.to_vec();
-    points.push([mc.x, mc.y]); // centre
-    points.push([mc.x, mc.y]); // fused is aligned to the centre signal
-    ([centre.x, centre.y], points)
-}
-
-fn signal_errors(rig: &Rig, est: &Estimate, truth: &TruthSeries) -> Vec<SignalErrors> {
-    let t0 = truth.t_s.first().copied().unwrap_or(0.0);
-    let (centre, points) = true_points(rig, t0);
-    est.signals
-        .iter()
-        .map(|s| {
-            let p = points[s.signal.index()];
-            let offset = screen_angle_rad(p, centre);
-            to_wheel_convention(
-                s.signal.name(),
-                &s.theta_rad,
-                &s.omega_rad_s,
-                &s.alpha_rad_s2,
-                rig.screen_sign,
-                offset,
-                truth.theta2_rad.first().copied().unwrap_or(0.0),
-                truth,
-            )
-        })
-        .collect()
-}
-
-fn build_budget(
-    rig: &Rig,
-    est: &Estimate,
-    signals: &[SignalErrors],
-    truth: &TruthSeries,
-    ideal: &TruthSeries,
-    detections: &[FrameDetection],
-) -> Budget {
-    let t0 = truth.t_s.first().copied().unwrap_or(0.0);
-    let (centre, points) = true_points(rig, t0);
-    let intervals: Vec<f64> = est.t_used_s.windows(2).map(|w| w[1] - w[0]).collect();
-    let h_min = intervals.iter().copied().fold(f64::INFINITY, f64::min);
-    let h_mean = if intervals.is_empty() {
-        1.0 / 30.0
-    } else {
-        intervals.iter().sum::<f64>() / intervals.len() as f64
-    };
-    let timebase_err: Vec<f64> = est
-        .t_used_s
-        .iter()
-        .zip(&truth.t_s)
-        .map(|(u, t)| u - t)
-        .collect();
-    let timebase_error_std_s = crate::budget::ErrorStats::of(&timebase_err).std;
-    let omega_rms_true = (truth.omega2_rad_s.iter().map(|w| w * w).sum::<f64>()
-        / truth.omega2_rad_s.len().max(1) as f64)
-        .sqrt();
-    let mut per_signal = BTreeMap::new();
-    let mut bounds = BTreeMap::new();
-    for (series, errors) in est.signals.iter().zip(signals) {
-        per_signal.insert(errors.signal.clone(), signal_budget(errors, truth));
-        let p = points[series.signal.index()];
-        let radius_px = ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)).sqrt();
-        let differentiator = series.differentiator.clone();
-        let weights = LinearWeights::probe(
-            |tt, th| match differentiator.differentiate(tt, th) {
-                Ok(d) => (d.omega_rad_s, d.alpha_rad_s2),
-                Err(_) => (vec![f64::NAN; tt.len()], vec![f64::NAN; tt.len()]),
-            },
-            h_mean,
-            12,
-        );
-        bounds.insert(
-            errors.signal.clone(),
-            bounds_report(&BoundsInput {
-                errors,
-                radius_px,
-                position_error_px: 0.5,
-                h_min_s: h_min,
-                weights: &weights,
-                omega_rms_true_rad_s: omega_rms_true,
-                timebase_error_std_s,
-            }),
-        );
-    }
-    let fused = &per_signal[Signal::Fused.name()];
-    Budget {
-        scenario: rig.scenario.name.clone(),
-        seeds: 1,
-        frames: FrameCounts {
-            total: detections.len(),
-            detected: detections.iter().filter(|d| d.corners_px.is_some()).count(),
-        },
-        theta: fused.overall.theta,
-        omega: fused.overall.omega,
-        alpha: fused.overall.alpha,
-        relative: fused.overall.relative.clone(),
-        phases: fused.phases.clone(),
-        mechanism: mechanism_departure(truth, ideal),
-        signals: per_signal,
-        bounds,
+    let mut points_px: Vec<[f64; 2]> = corners.to_vec();
+    points_px.push([mc.x, mc.y]); // centre
+    points_px.push([mc.x, mc.y]); // fused is aligned to the centre signal
+    TrueGeometry {
+        centre_px: [centre.x, centre.y],
+        points_px,
+        screen_sign: rig.screen_sign,
     }
 }

@@ -33,7 +33,8 @@ pub enum Style {
     Points,
 }
 
-/// One named series of (x, y) points; non-finite points are skipped (gaps, missing frames).
+/// One named series of (x, y) points; non-finite points are skipped (missing frames), and a
+/// line is broken there (a gap is drawn as a gap).
 #[derive(Debug, Clone)]
 pub struct Series {
     pub name: String,
@@ -137,16 +138,37 @@ pub fn stacked_png(
                 .map_err(|e| err(e.to_string()))?;
             for s in &panel.series {
                 let color = s.color;
-                let pts = s
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|(a, b)| a.is_finite() && b.is_finite());
+                let finite = |(a, b): &(f64, f64)| a.is_finite() && b.is_finite();
                 let drawn = match s.style {
-                    Style::Line => chart.draw_series(LineSeries::new(pts, color.stroke_width(2))),
-                    Style::Points => {
-                        chart.draw_series(pts.map(move |p| Circle::new(p, 2, color.filled())))
+                    Style::Line => {
+                        // One polyline per run of finite points; the legend entry is the last.
+                        let runs: Vec<&[(f64, f64)]> = s
+                            .points
+                            .split(|p| !finite(p))
+                            .filter(|r| !r.is_empty())
+                            .collect();
+                        let empty: &[(f64, f64)] = &[];
+                        let (last, before) = runs.split_last().unwrap_or((&empty, &[]));
+                        for run in before {
+                            chart
+                                .draw_series(LineSeries::new(
+                                    run.iter().copied(),
+                                    color.stroke_width(2),
+                                ))
+                                .map_err(|e| err(e.to_string()))?;
+                        }
+                        chart.draw_series(LineSeries::new(
+                            last.iter().copied(),
+                            color.stroke_width(2),
+                        ))
                     }
+                    Style::Points => chart.draw_series(
+                        s.points
+                            .iter()
+                            .copied()
+                            .filter(finite)
+                            .map(move |p| Circle::new(p, 2, color.filled())),
+                    ),
                 }
                 .map_err(|e| err(e.to_string()))?;
                 drawn.label(s.name.as_str()).legend(move |(x, y)| {

@@ -7,7 +7,7 @@ mod error;
 mod fit;
 mod parse;
 mod schedule;
-mod stats;
+pub(crate) mod stats;
 mod timestamps;
 
 #[cfg(test)]
