@@ -59,22 +59,43 @@ impl Problems {
     /// `value` must be finite and inside `[lo, hi]` (inclusive).
     pub fn range(&mut self, field: impl Into<String>, value: f64, lo: f64, hi: f64) {
         if !value.is_finite() || value < lo || value > hi {
-            self.push(field, format!("must be in [{lo}, {hi}], got {value}"));
+            self.push(
+                field,
+                format!(
+                    "must be in [{}, {}], got {}",
+                    short(lo),
+                    short(hi),
+                    short(value)
+                ),
+            );
         }
     }
 
     /// `value` must be finite and strictly positive.
     pub fn positive(&mut self, field: impl Into<String>, value: f64) {
         if !value.is_finite() || value <= 0.0 {
-            self.push(field, format!("must be > 0, got {value}"));
+            self.push(field, format!("must be > 0, got {}", short(value)));
         }
     }
 
     /// `value` must be finite and ≥ 0.
     pub fn non_negative(&mut self, field: impl Into<String>, value: f64) {
         if !value.is_finite() || value < 0.0 {
-            self.push(field, format!("must be >= 0, got {value}"));
+            self.push(field, format!("must be >= 0, got {}", short(value)));
         }
+    }
+}
+
+/// A number as short as it can be written and still read back exactly: plain decimal up to 8
+/// characters (`10000`, `0.00001`), else plain or scientific, whichever is shorter (`1e308`,
+/// `2.5e-300`; never 309 digits).
+pub fn short(v: f64) -> String {
+    let plain = format!("{v}");
+    let sci = format!("{v:e}");
+    if plain.len() > 8 && sci.len() < plain.len() {
+        sci
+    } else {
+        plain
     }
 }
 
@@ -103,6 +124,27 @@ mod tests {
         assert_eq!(msgs[0], "camera.fps: must be in [0.1, 1000], got -1");
         assert_eq!(msgs[1], "mechanism.crank_radius_mm: must be > 0, got 0");
         assert!(msgs[2].starts_with("effects.pixel_noise.read_noise_e: must be >= 0"));
+    }
+
+    #[test]
+    fn numbers_are_printed_short() {
+        // Issue #14: messages printed 1e308 as 309 digits.
+        assert_eq!(short(1e308), "1e308");
+        assert_eq!(short(-1e-300), "-1e-300");
+        assert_eq!(short(0.00001), "0.00001");
+        assert_eq!(short(1e12), "1e12");
+        assert_eq!(short(1234.5), "1234.5");
+        assert_eq!(short(0.1 + 0.2), "0.30000000000000004");
+        assert_eq!(short(f64::NAN), "NaN");
+        for v in [1e308, 3.7e-12, 123456789.0, 0.1 + 0.2] {
+            assert_eq!(short(v).parse::<f64>().unwrap(), v);
+        }
+        let mut p = Problems::new();
+        p.range("scene.disc_radius_mm", 1e308, 0.1, 1e4);
+        assert_eq!(
+            p.0[0].to_string(),
+            "scene.disc_radius_mm: must be in [0.1, 10000], got 1e308"
+        );
     }
 
     #[test]

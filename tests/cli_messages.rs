@@ -95,3 +95,80 @@ fn error_messages_state_each_cause_once() {
         );
     }
 }
+
+#[test]
+fn check_reports_combinations_and_work_and_run_refuses_unbounded_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = geneva(dir.path(), &["scenario", "check", "fast"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        out.contains("work: 61 frames of 1280x720 px") && out.contains("rig: 60 frames"),
+        "{out}"
+    );
+    // Issue #14: accepted by `check`, fatal in `run` (once with its message printed thrice).
+    for (text, field) in [
+        ("dynamics.wheel_mass_kg = 1e-300", "dynamics.wheel_mass_kg"),
+        ("scene.disc_radius_mm = 1e308", "scene.disc_radius_mm"),
+        ("detector.marker_id = 3", "detector.marker_id"),
+    ] {
+        std::fs::write(
+            dir.path().join("s.toml"),
+            format!("extend = \"fast\"\n{text}\n"),
+        )
+        .unwrap();
+        for cmd in [&["scenario", "check", "s.toml"][..], &["run", "s.toml"][..]] {
+            let o = geneva(dir.path(), cmd);
+            let e = stderr(&o);
+            assert_eq!(o.status.code(), Some(1), "{cmd:?} {text}: {e}");
+            assert!(e.contains(field) && repeated(&e).is_empty(), "{e}");
+            assert!(!e.contains("panicked"), "{e}");
+        }
+    }
+    // Every field in range, but hours of work: refused before any of it, unless --yes.
+    std::fs::write(
+        dir.path().join("huge.toml"),
+        "extend = \"fast\"\nduration_s = 3600.0\nframe_timing.fps = 10000.0\n\
+         camera.width_px = 20000\ncamera.height_px = 20000\n",
+    )
+    .unwrap();
+    let started = std::time::Instant::now();
+    let o = geneva(dir.path(), &["run", "huge.toml"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("--yes") && e.contains("36000001 frames"), "{e}");
+    let o = geneva(dir.path(), &["scenario", "check", "huge.toml"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && out.contains("needs --yes"), "{out}");
+    assert!(started.elapsed().as_secs() < 60);
+}
+
+#[test]
+fn a_million_point_sweep_is_refused_before_its_grid_is_built() {
+    // Issue #14: a 10⁶-point grid was neither refused nor warned about (2.3 GB, 60 s before the
+    // first row).
+    let dir = tempfile::tempdir().unwrap();
+    let values = |scale: f64| {
+        (0..1000)
+            .map(|k| format!("{}", scale * (1.0 + k as f64 / 1000.0)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    std::fs::write(
+        dir.path().join("big.toml"),
+        format!(
+            "base = \"fast\"\nseeds = 2\n[[axis]]\nname = \"d\"\nfield = \"camera.distance_m\"\n\
+             values = [{}]\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [{}]\n",
+            values(0.3),
+            values(30.0)
+        ),
+    )
+    .unwrap();
+    let started = std::time::Instant::now();
+    let o = geneva(dir.path(), &["sweep", "big.toml", "--out", "sw"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("2000000 runs") && e.contains("--yes"), "{e}");
+    assert!(started.elapsed().as_secs() < 30, "{:?}", started.elapsed());
+    assert!(!dir.path().join("sw/results.csv").exists());
+}

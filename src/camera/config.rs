@@ -10,19 +10,19 @@ use crate::validation::{join, Problems};
 pub enum FocalConfig {
     /// Physical lens and sensor: focal_px = focal_length_mm · width_px / sensor_width_mm.
     Physical {
-        /// Lens focal length, mm.
+        /// Lens focal length, mm, in [0.5, 5000].
         focal_length_mm: f64,
-        /// Sensor width matching `width_px`, mm.
+        /// Sensor width matching `width_px`, mm, in [0.1, 200].
         sensor_width_mm: f64,
     },
     /// Horizontal field of view: focal_px = width_px / (2 · tan(hfov_deg / 2)).
     FieldOfView {
-        /// Horizontal field of view, degrees, in (0, 180).
+        /// Horizontal field of view, degrees, in [0.01, 175].
         hfov_deg: f64,
     },
     /// Image scale at the disc plane at `distance_m` (untilted): focal_px = 1000 · distance_m / mm_per_px.
     ImageScale {
-        /// Millimetres on the disc plane per pixel (seed rig: 0.195).
+        /// Millimetres on the disc plane per pixel, in [1e-4, 1000] (seed rig: 0.195).
         mm_per_px: f64,
     },
 }
@@ -103,7 +103,7 @@ pub struct CameraConfig {
     /// Focal length as `physical`, `field_of_view` or `image_scale` (`kind = ...`).
     /// Default `image_scale` with mm_per_px = 0.195 (the seed rig).
     pub focal: FocalConfig,
-    /// Perpendicular distance from the camera centre to the disc plane, m, in (0, 100]. Default 0.30.
+    /// Perpendicular distance from the camera centre to the disc plane, m, in [0.001, 100]. Default 0.30.
     pub distance_m: f64,
     /// Principal point [x, y], px (OpenCV convention). Default: image centre ((W−1)/2, (H−1)/2).
     pub principal_point_px: Option<[f64; 2]>,
@@ -155,27 +155,28 @@ impl CameraConfig {
                 focal_length_mm,
                 sensor_width_mm,
             } => {
-                problems.positive(join(&focal, "focal_length_mm"), *focal_length_mm);
-                problems.positive(join(&focal, "sensor_width_mm"), *sensor_width_mm);
+                // Lenses from a phone's 0.5 mm to a 5 m telescope; sensors up to large format.
+                problems.range(
+                    join(&focal, "focal_length_mm"),
+                    *focal_length_mm,
+                    0.5,
+                    5000.0,
+                );
+                problems.range(
+                    join(&focal, "sensor_width_mm"),
+                    *sensor_width_mm,
+                    0.1,
+                    200.0,
+                );
             }
             FocalConfig::FieldOfView { hfov_deg } => {
-                if !(hfov_deg.is_finite() && *hfov_deg > 0.0 && *hfov_deg < 180.0) {
-                    problems.push(
-                        join(&focal, "hfov_deg"),
-                        format!("must be in (0, 180), got {hfov_deg}"),
-                    );
-                }
+                problems.range(join(&focal, "hfov_deg"), *hfov_deg, 0.01, 175.0);
             }
             FocalConfig::ImageScale { mm_per_px } => {
-                problems.positive(join(&focal, "mm_per_px"), *mm_per_px)
+                problems.range(join(&focal, "mm_per_px"), *mm_per_px, 1e-4, 1e3)
             }
         }
-        if !(self.distance_m.is_finite() && self.distance_m > 0.0 && self.distance_m <= 100.0) {
-            problems.push(
-                join(path, "distance_m"),
-                format!("must be in (0, 100], got {}", self.distance_m),
-            );
-        }
+        problems.range(join(path, "distance_m"), self.distance_m, 0.001, 100.0);
         for (name, p) in [
             ("principal_point_px", self.principal_point_px),
             ("rotation_centre_px", self.rotation_centre_px),

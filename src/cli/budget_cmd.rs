@@ -32,6 +32,9 @@ pub struct MonteCarloArgs {
     /// Discard seeds computed from other inputs instead of refusing them.
     #[arg(long)]
     restart: bool,
+    /// Run even when the estimated time or memory is above the limits.
+    #[arg(long)]
+    yes: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -59,6 +62,10 @@ pub fn montecarlo(a: MonteCarloArgs) -> Result<()> {
         (None, None) => anyhow::bail!("give a scenario, or `merge DIR`"),
     };
     let s = scenario::load_any(&spec)?;
+    let shards = a.shard.map_or(1, |s| s.count.max(1));
+    let seeds_here = a.seeds.div_ceil(shards) as f64;
+    let work = geneva_vision::pipeline::workload::Workload::of(&s, !a.full_frame).times(seeds_here);
+    super::work::confirm(&format!("{} seeds of {}", a.seeds, s.name), &work, a.yes)?;
     let bar = super::sweep_cmd::bar("montecarlo");
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);

@@ -6,7 +6,12 @@ use geneva_vision::scenario;
 use std::path::Path;
 
 /// `geneva kinematics`: written into `out` all at once.
-pub fn run(spec: &str, out: &Path) -> Result<()> {
+pub fn run(spec: &str, out: &Path, yes: bool) -> Result<()> {
+    let s = scenario::load_any(spec)?;
+    let mut work = geneva_vision::pipeline::workload::Workload::of(&s, true);
+    // Only the truth: no pixels are rendered.
+    (work.window_px, work.width_px, work.height_px) = (0.0, 0, 0);
+    super::work::confirm("the truth trajectory", &work, yes)?;
     let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
     run_into(spec, staged.path())?;
     super::run_cmd::print_files(&staged.commit()?);

@@ -13,6 +13,7 @@ mod scenario_cmd;
 mod slurm_cmd;
 mod sweep_cmd;
 mod timing_cmd;
+mod work;
 
 /// Validates camera-based motion measurement of Geneva drives with synthetic data.
 #[derive(Parser, Debug)]
@@ -39,6 +40,9 @@ enum Command {
         scenario: String,
         #[arg(long, default_value = "out/kinematics")]
         out: PathBuf,
+        /// Run even when the estimated time or memory is above the limits.
+        #[arg(long)]
+        yes: bool,
     },
     /// Render, detect, estimate and judge a synthetic scenario end to end.
     Run {
@@ -49,13 +53,16 @@ enum Command {
         /// Render and search whole frames instead of the region of interest.
         #[arg(long)]
         full_frame: bool,
+        /// Run even when the estimated time or memory is above the limits.
+        #[arg(long)]
+        yes: bool,
     },
     /// Render frames (PNG) or a video with variable timestamps, plus timestamps.csv and truth.csv.
     Render {
         scenario: String,
         #[arg(long, default_value = "out/render")]
         out: PathBuf,
-        /// Frame range A..B (end exclusive).
+        /// Frame range A..B (end exclusive), A..=B (end inclusive) or A (one frame).
         #[arg(long)]
         frames: Option<String>,
         /// Render only a window around the marker, grown by this many pixels.
@@ -64,6 +71,9 @@ enum Command {
         /// Write an MP4 (through ffmpeg) that keeps the variable timestamps instead of PNGs.
         #[arg(long)]
         video: Option<PathBuf>,
+        /// Run even when the estimated time or memory is above the limits.
+        #[arg(long)]
+        yes: bool,
     },
     /// Measure real data (video, frames + timestamps, or a corner track) with the same pipeline.
     Analyze(analyze_cmd::AnalyzeArgs),
@@ -108,7 +118,7 @@ pub fn main() -> Result<()> {
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Slurm(cmd) => slurm_cmd::run(cmd),
-        Command::Kinematics { scenario, out } => kinematics_cmd::run(&scenario, &out),
+        Command::Kinematics { scenario, out, yes } => kinematics_cmd::run(&scenario, &out, yes),
         Command::Analyze(args) => analyze_cmd::run(args),
         Command::Montecarlo(args) => budget_cmd::montecarlo(args),
         Command::Decompose {
@@ -128,12 +138,14 @@ pub fn main() -> Result<()> {
             frames,
             roi,
             video,
-        } => render_cmd::run(&scenario, &out, frames.as_deref(), roi, video),
+            yes,
+        } => render_cmd::run(&scenario, &out, frames.as_deref(), roi, video, yes),
         Command::Run {
             scenario,
             out,
             full_frame,
-        } => run_cmd::run(&scenario, &out, full_frame).map(|_| ()),
+            yes,
+        } => run_cmd::run(&scenario, &out, full_frame, yes).map(|_| ()),
     }
 }
 

@@ -39,8 +39,14 @@ pub fn run(
     frames: Option<&str>,
     roi: Option<usize>,
     video: Option<PathBuf>,
+    yes: bool,
 ) -> Result<()> {
     let s = scenario::load_any(spec)?;
+    let mut work = geneva_vision::pipeline::workload::Workload::of(&s, false);
+    if let Some(r) = frames.map(parse_range).transpose()? {
+        work.frames = work.frames.min(r.len() as f64);
+    }
+    super::work::confirm(&format!("rendering {}", s.name), &work, yes)?;
     let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
     // A video inside the output folder is written into the staging folder like the rest (the
     // old folder, swapped out at the commit, would take it with it).

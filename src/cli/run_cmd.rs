@@ -20,7 +20,10 @@ pub fn progress_bar(total: usize, what: &str) -> ProgressBar {
 }
 
 /// `geneva run`: the run written into `out` all at once.
-pub fn run(spec: &str, out: &Path, full_frame: bool) -> Result<RunOutput> {
+pub fn run(spec: &str, out: &Path, full_frame: bool, yes: bool) -> Result<RunOutput> {
+    let s = scenario::load_any(spec)?;
+    let work = geneva_vision::pipeline::workload::Workload::of(&s, !full_frame);
+    super::work::confirm(&format!("scenario {}", s.name), &work, yes)?;
     let staged = OutputDir::create(out)?;
     let output = run_into(spec, staged.path(), full_frame)?;
     print_files(&staged.commit()?);

@@ -1,12 +1,16 @@
 //! `geneva scenario check|show|list`.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Subcommand;
+use geneva_vision::pipeline::rig::Rig;
+use geneva_vision::pipeline::workload::Workload;
 use geneva_vision::scenario;
 
 #[derive(Subcommand, Debug)]
 pub enum ScenarioCmd {
-    /// Validate a scenario file (or built-in name); prints every problem with its field.
+    /// Validate a scenario file (or built-in name): every problem with its field, the
+    /// combinations that make a run impossible, the rig's geometry in every frame, and the work a
+    /// run will do.
     Check { scenario: String },
     /// Print the fully resolved scenario (after `extend`) as TOML.
     Show { scenario: String },
@@ -18,6 +22,21 @@ pub fn run(cmd: ScenarioCmd) -> Result<()> {
     match cmd {
         ScenarioCmd::Check { scenario: spec } => {
             let s = scenario::load_any(&spec)?;
+            let work = Workload::of(&s, true);
+            println!("work: {work}");
+            match work.over_limits() {
+                // Building the rig integrates the dynamics, which is part of that work.
+                Some(why) => println!(
+                    "note: {why}: `run` needs --yes; the rig (geometry in every frame) was not built"
+                ),
+                None => {
+                    let rig = Rig::new(&s).with_context(|| spec.clone())?;
+                    println!(
+                        "rig: {} frames, the marker inside the image in every one",
+                        rig.frame_times.len()
+                    );
+                }
+            }
             println!("{spec}: ok ({})", s.name);
             Ok(())
         }

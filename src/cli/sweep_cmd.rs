@@ -27,6 +27,9 @@ pub struct SweepArgs {
     /// refusing them.
     #[arg(long)]
     restart: bool,
+    /// Run even when the estimated time or memory is above the limits.
+    #[arg(long)]
+    yes: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -59,13 +62,24 @@ pub fn bar(what: &str) -> ProgressBar {
 pub fn run(args: SweepArgs) -> Result<()> {
     match (args.action, args.sweep) {
         (Some(SweepAction::Merge { dir, sweep }), _) => merge(&dir, sweep),
-        (None, Some(spec_path)) => sweep(&spec_path, &args.out, args.shard, args.restart),
+        (None, Some(spec_path)) => sweep(&spec_path, &args.out, args.shard, args.restart, args.yes),
         (None, None) => anyhow::bail!("give a sweep file, or `merge DIR`"),
     }
 }
 
-fn sweep(spec_path: &Path, out: &Path, shard: Option<Shard>, restart: bool) -> Result<()> {
+fn sweep(
+    spec_path: &Path,
+    out: &Path,
+    shard: Option<Shard>,
+    restart: bool,
+    yes: bool,
+) -> Result<()> {
     let spec = SweepSpec::load(spec_path)?;
+    let base = geneva_vision::sweep::grid::load_base(&spec, spec_path)?;
+    let shards = shard.map_or(1.0, |s| s.count.max(1) as f64);
+    let mut work = super::work::sweep_workload(&spec, &base, spec_path);
+    work.runs = (work.runs / shards).ceil();
+    super::work::confirm(&format!("sweep {}", spec_path.display()), &work, yes)?;
     let bar = bar("sweep");
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);

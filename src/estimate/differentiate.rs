@@ -37,11 +37,12 @@ pub enum Differentiator {
     Central3,
     /// Savitzky–Golay on real time.
     SavitzkyGolay {
-        /// Window length in frames, odd, ≥ order + 1 (and ≥ 3); default 9. Ignored when
+        /// Window length in frames, odd, ≥ order + 1 (and ≥ 3), ≤ 10001; default 9. Ignored when
         /// `window_s` is set.
         #[serde(default = "default_sg_window")]
         window_frames: usize,
-        /// Optional window length in seconds (frames within ±window_s/2 of the evaluated frame);
+        /// Optional window length in seconds, in [1e-4, 3600] (frames within ±window_s/2 of the
+        /// evaluated frame);
         /// default unset (use `window_frames`).
         #[serde(default)]
         window_s: Option<f64>,
@@ -51,7 +52,8 @@ pub enum Differentiator {
     },
     /// Kalman filter + RTS smoother, white-jerk model.
     KalmanRts {
-        /// Jerk PSD over measurement variance λ = q/r, 1/s⁶; default unset = chosen automatically
+        /// Jerk PSD over measurement variance λ = q/r, 1/s⁶, in [1e-20, 1e30]; default unset =
+        /// chosen automatically
         /// by maximum marginal likelihood for each series.
         #[serde(default)]
         lambda_per_s6: Option<f64>,
@@ -81,6 +83,9 @@ pub struct Derivatives {
     pub alpha_rad_s2: Vec<f64>,
 }
 
+/// Longest Savitzky–Golay window, frames (five minutes at 30 fps).
+const MAX_WINDOW_FRAMES: usize = 10_001;
+
 impl Differentiator {
     /// Pushes problems for invalid settings.
     pub fn validate(&self, path: &str, problems: &mut Problems) {
@@ -88,7 +93,9 @@ impl Differentiator {
             lambda_per_s6: Some(l),
         } = self
         {
-            problems.positive(join(path, "lambda_per_s6"), *l);
+            // The automatic choice searches h⁻⁶·10^[−10, 4] for frame intervals h of 0.1 ms to
+            // 10 s; this range holds all of it.
+            problems.range(join(path, "lambda_per_s6"), *l, 1e-20, 1e30);
         }
         if let Differentiator::SavitzkyGolay {
             window_frames,
@@ -102,18 +109,24 @@ impl Differentiator {
                     format!("must be in [2, 8], got {order}"),
                 );
             }
-            match window_s {
-                Some(w) => problems.positive(join(path, "window_s"), *w),
-                None => {
-                    if window_frames % 2 == 0 || *window_frames < 3 || *window_frames < order + 1 {
-                        problems.push(
-                            join(path, "window_frames"),
-                            format!(
-                                "must be odd and in [max(3, order + 1), ∞), got {window_frames}"
-                            ),
-                        );
-                    }
-                }
+            if let Some(w) = window_s {
+                problems.range(join(path, "window_s"), *w, 1e-4, 3600.0);
+            }
+            // Ignored when `window_s` is set, but never out of all bounds.
+            let ignored = window_s.is_some() && *window_frames <= MAX_WINDOW_FRAMES;
+            if !ignored
+                && (window_frames % 2 == 0
+                    || *window_frames < 3
+                    || *window_frames < order + 1
+                    || *window_frames > MAX_WINDOW_FRAMES)
+            {
+                problems.push(
+                    join(path, "window_frames"),
+                    format!(
+                        "must be odd and in [max(3, order + 1), {MAX_WINDOW_FRAMES}], got \
+                         {window_frames}"
+                    ),
+                );
             }
         }
     }

@@ -13,20 +13,22 @@ pub struct MechanismConfig {
     pub kind: GenevaKind,
     /// Number of slots n, 3..=36. Default 4.
     pub slots: u32,
-    /// Distance between crank and wheel axes L, mm. Default 25 (seed).
+    /// Distance between crank and wheel axes L, mm, in [0.1, 10000]. Default 25 (seed).
     pub centre_distance_mm: f64,
     /// Crank radius r, mm; optional, must equal L·sin(π/n) within 0.5 % when given.
     /// Default none (derived).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub crank_radius_mm: Option<f64>,
-    /// Pin diameter, mm, at most `slot_width_mm`. Default 9.5 (seed: 0.5 mm clearance).
+    /// Pin diameter, mm, in [0.01, 1000] and at most `slot_width_mm`. Default 9.5 (seed: 0.5 mm
+    /// clearance).
     pub pin_diameter_mm: f64,
-    /// Slot width, mm. Default 10.
+    /// Slot width, mm, in [0.01, 1000]. Default 10.
     pub slot_width_mm: f64,
-    /// Outer radius of the driven disc, mm; must clear the slot ends. Default 170 (holds the
-    /// seed's marker at 145 mm).
+    /// Outer radius of the driven disc, mm, in [0.1, 10000]; must clear the slot ends. Default
+    /// 170 (holds the seed's marker at 145 mm).
     pub wheel_radius_mm: f64,
-    /// Crank angle θ1 at t = 0, rad, from the line of centres (0 = pin deepest). Default none:
+    /// Crank angle θ1 at t = 0, rad, in [−1000, 1000], from the line of centres (0 = pin
+    /// deepest). Default none:
     /// in dwell, 20 % of the dwell angle before the next entry (depends on the crank direction).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub theta1_start_rad: Option<f64>,
@@ -86,10 +88,11 @@ impl MechanismConfig {
                 format!("must be in [3, 36], got {}", self.slots),
             );
         }
-        problems.positive(f("centre_distance_mm"), self.centre_distance_mm);
-        problems.positive(f("pin_diameter_mm"), self.pin_diameter_mm);
-        problems.positive(f("slot_width_mm"), self.slot_width_mm);
-        problems.positive(f("wheel_radius_mm"), self.wheel_radius_mm);
+        // Physical bounds: from a watch movement (0.1 mm) to an industrial indexer (10 m).
+        problems.range(f("centre_distance_mm"), self.centre_distance_mm, 0.1, 1e4);
+        problems.range(f("pin_diameter_mm"), self.pin_diameter_mm, 0.01, 1e3);
+        problems.range(f("slot_width_mm"), self.slot_width_mm, 0.01, 1e3);
+        problems.range(f("wheel_radius_mm"), self.wheel_radius_mm, 0.1, 1e4);
         if !(0.0..0.5).contains(&self.entry_exit_fraction) {
             problems.push(
                 f("entry_exit_fraction"),
@@ -97,14 +100,11 @@ impl MechanismConfig {
             );
         }
         if let Some(t) = self.theta1_start_rad {
-            if !t.is_finite() {
-                problems.push(f("theta1_start_rad"), format!("must be finite, got {t}"));
-            }
+            problems.range(f("theta1_start_rad"), t, -1e3, 1e3);
         }
         // Geometry checks need sane basic values.
-        let basics_ok = (3..=36).contains(&self.slots)
-            && self.centre_distance_mm > 0.0
-            && self.centre_distance_mm.is_finite();
+        let basics_ok =
+            (3..=36).contains(&self.slots) && (0.1..=1e4).contains(&self.centre_distance_mm);
         if !basics_ok {
             return;
         }
@@ -237,7 +237,10 @@ mod tests {
             centre_distance_mm: -1.0,
             ..base.clone()
         });
-        assert_eq!(m, vec!["mechanism.centre_distance_mm: must be > 0, got -1"]);
+        assert_eq!(
+            m,
+            vec!["mechanism.centre_distance_mm: must be in [0.1, 10000], got -1"]
+        );
 
         let m = messages(&MechanismConfig {
             wheel_radius_mm: 40.0,

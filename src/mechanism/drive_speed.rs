@@ -121,6 +121,9 @@ impl DriveSpeedConfig {
                         ),
                     );
                 }
+                if let Some((i, &t)) = t_s.iter().enumerate().find(|(_, t)| t.abs() > 1e4) {
+                    problems.range(format!("{}[{i}]", join(path, "t_s")), t, -1e4, 1e4);
+                }
                 for (i, w) in t_s.windows(2).enumerate() {
                     let increasing = w[1] > w[0];
                     if !increasing || !w[0].is_finite() || !w[1].is_finite() {

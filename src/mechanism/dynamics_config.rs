@@ -22,9 +22,9 @@ pub struct DynamicsConfig {
     /// Simulate the clearance dynamics (else the actual wheel motion is the ideal kinematics).
     /// Default false.
     pub enabled: bool,
-    /// Wheel mass, kg. Default 0.348 (seed).
+    /// Wheel mass, kg, in [1e-4, 1e4]. Default 0.348 (seed).
     pub wheel_mass_kg: f64,
-    /// Wheel inertia about its axis, kg·m²; default none = uniform disc ½·m·R² with
+    /// Wheel inertia about its axis, kg·m², in [1e-12, 1e6]; default none = uniform disc ½·m·R² with
     /// R = `mechanism.wheel_radius_mm`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wheel_inertia_kg_m2: Option<f64>,
@@ -99,9 +99,9 @@ pub enum CrankModel {
 pub struct CrankConfig {
     /// `prescribed` or `servo`. Default `prescribed`.
     pub model: CrankModel,
-    /// Crank disc mass, kg, > 0. Default 0.017 (seed).
+    /// Crank disc mass, kg, in [1e-4, 1e4]. Default 0.017 (seed).
     pub disc_mass_kg: f64,
-    /// Crank disc radius (uniform disc ½·m·R²), mm, > 0. Default 25.
+    /// Crank disc radius (uniform disc ½·m·R²), mm, in [0.1, 1e4]. Default 25.
     pub disc_radius_mm: f64,
     /// Motor rotor and gears reflected to the crank axis, kg·m², >= 0. Default 1e-3.
     pub reflected_inertia_kg_m2: f64,
@@ -133,8 +133,9 @@ impl CrankConfig {
 
     fn validate(&self, path: &str, problems: &mut Problems) {
         let f = |name: &str| join(path, name);
-        problems.positive(f("disc_mass_kg"), self.disc_mass_kg);
-        problems.positive(f("disc_radius_mm"), self.disc_radius_mm);
+        // The same span as the wheel's: a watch train to an indexing table.
+        problems.range(f("disc_mass_kg"), self.disc_mass_kg, 1e-4, 1e4);
+        problems.range(f("disc_radius_mm"), self.disc_radius_mm, 0.1, 1e4);
         problems.range(
             f("reflected_inertia_kg_m2"),
             self.reflected_inertia_kg_m2,
@@ -214,9 +215,10 @@ impl Default for AxisRunoutConfig {
 impl DynamicsConfig {
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         let f = |name: &str| join(path, name);
-        problems.positive(f("wheel_mass_kg"), self.wheel_mass_kg);
+        // A 0.1 g watch wheel to a 10 t indexing table.
+        problems.range(f("wheel_mass_kg"), self.wheel_mass_kg, 1e-4, 1e4);
         if let Some(j) = self.wheel_inertia_kg_m2 {
-            problems.positive(f("wheel_inertia_kg_m2"), j);
+            problems.range(f("wheel_inertia_kg_m2"), j, 1e-12, 1e6);
         }
         problems.range(f("mu_static"), self.mu_static, 0.0, 2.0);
         let mu_s = if self.mu_static.is_finite() {
@@ -314,7 +316,7 @@ mod tests {
             m,
             vec![
                 "dynamics.mu_kinetic: must be in [0, 0.05], got 0.089",
-                "dynamics.step_s: must be in [0.0000001, 0.0001], got 0.001",
+                "dynamics.step_s: must be in [1e-7, 0.0001], got 0.001",
                 "dynamics.output_step_s: must be in [0.001, 0.01], got 0.0001",
                 "dynamics.disc_vibration.components[0].amplitude_rad: must be in [0, 0.1], got -1",
                 "dynamics.axis_runout.amplitude_m: must be in [0, 0.01], got 1",
@@ -351,8 +353,8 @@ mod tests {
         assert_eq!(
             m,
             vec![
-                "dynamics.contact_stiffness_n_m: must be in [1, 10000000000], got 0",
-                "dynamics.crank.disc_mass_kg: must be > 0, got 0",
+                "dynamics.contact_stiffness_n_m: must be in [1, 1e10], got 0",
+                "dynamics.crank.disc_mass_kg: must be in [0.0001, 10000], got 0",
                 "dynamics.crank.reflected_inertia_kg_m2: must be in [0, 100], got -0.001",
                 "dynamics.crank.damping_n_m_s_rad: must be in [0, 1000000], got -1",
             ]

@@ -21,4 +21,4 @@ pub use dynamics_config::{
 };
 pub use error::MechanismError;
 pub use kinematics::{CrankState, Geneva, GenevaKind, WheelState};
-pub use trajectory::{Mechanism, MotionSample, Phase};
+pub use trajectory::{stable_step_limit_s, Mechanism, MotionSample, Phase};

@@ -97,16 +97,13 @@ impl Mechanism {
         let theta2_abs0_rad = geneva.wheel_angle_abs_rad(c0.theta1_rad);
         let dyn_result = if dynamics.enabled {
             let params = dynamics_params(mech, dynamics);
-            let rho_max_m = match mech.kind {
-                GenevaKind::Internal => mech.centre_distance_mm + mech.crank_radius_derived_mm(),
-                GenevaKind::External => mech.centre_distance_mm * (PI / mech.slots as f64).cos(),
-            } * 1e-3;
-            let h_max = max_stable_step_s(&params, rho_max_m);
+            let h_max = stable_step_limit_s(mech, dynamics);
             if params.step_s > h_max {
                 return Err(MechanismError::InvalidConfig(format!(
-                    "dynamics.step_s: must be <= {h_max:.3e} s for this contact stiffness, \
+                    "dynamics.step_s: must be <= {} s for this contact stiffness, \
                      damping and wheel inertia, got {}",
-                    params.step_s
+                    crate::validation::short(h_max),
+                    crate::validation::short(params.step_s)
                 )));
             }
             let w0 = geneva.wheel_state(&c0).omega2_rad_s;
@@ -294,6 +291,16 @@ pub fn dynamics_params(mech: &MechanismConfig, d: &DynamicsConfig) -> DynamicsPa
         step_s: d.step_s,
         output_step_s: d.output_step_s,
     }
+}
+
+/// Largest stable integration step for the contact stiffness, damping and wheel inertia, s
+/// (at the largest pin radius from the wheel axis, where the contact acts most stiffly).
+pub fn stable_step_limit_s(mech: &MechanismConfig, d: &DynamicsConfig) -> f64 {
+    let rho_max_m = match mech.kind {
+        GenevaKind::Internal => mech.centre_distance_mm + mech.crank_radius_derived_mm(),
+        GenevaKind::External => mech.centre_distance_mm * (PI / mech.slots as f64).cos(),
+    } * 1e-3;
+    max_stable_step_s(&dynamics_params(mech, d), rho_max_m)
 }
 
 #[cfg(test)]

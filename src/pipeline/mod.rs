@@ -23,3 +23,4 @@ pub mod run;
 #[cfg(feature = "opencv-detector")]
 pub mod sweep_eval;
 pub mod truth;
+pub mod workload;

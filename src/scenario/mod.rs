@@ -9,10 +9,12 @@
 //! [`Scenario::validate`]; downstream code may rely on every range check documented there.
 
 mod builtin;
+mod cross;
 pub mod effects;
 mod error;
 mod external;
 mod merge;
+mod typed;
 
 pub use builtin::{builtin_names, builtin_text, DEFAULT_SCENARIO};
 pub use error::ScenarioError;
@@ -78,7 +80,7 @@ impl Default for Scenario {
 }
 
 impl Scenario {
-    /// Checks every field's range and the cross-field geometry; returns all problems at once.
+    /// Checks every field's range, then the combinations (`cross`); returns all problems at once.
     pub fn validate(&self) -> Problems {
         let mut problems = Problems::new();
         if self.name.trim().is_empty() {
@@ -94,6 +96,10 @@ impl Scenario {
         self.effects.validate("effects", &mut problems);
         self.detector.validate("detector", &mut problems);
         self.estimator.validate("estimator", &mut problems);
+        // Combinations only make sense once every field is in range.
+        if problems.is_empty() {
+            cross::check(self, &mut problems);
+        }
         problems
     }
 
@@ -176,14 +182,7 @@ pub fn with_overrides(
     let timing_changed = overrides
         .iter()
         .any(|(p, _)| p.starts_with("frame_timing.model"));
-    let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
-        let field = e.path().to_string();
-        ScenarioError::Field {
-            file: origin.to_path_buf(),
-            field,
-            message: e.into_inner().to_string(),
-        }
-    })?;
+    let mut scenario = typed::deserialize(value, origin)?;
     let problems = scenario.validate();
     if !problems.is_empty() {
         return Err(ScenarioError::Invalid {
@@ -222,14 +221,7 @@ fn set_dotted(root: &mut Value, path: &str, v: Value) -> Result<(), String> {
 }
 
 fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
-    let mut scenario: Scenario = serde_path_to_error::deserialize(value).map_err(|e| {
-        let field = e.path().to_string();
-        ScenarioError::Field {
-            file: file.to_path_buf(),
-            field,
-            message: e.into_inner().to_string(),
-        }
-    })?;
+    let mut scenario = typed::deserialize(value, file)?;
     let problems = scenario.validate();
     if problems.is_empty() {
         external::load_external(&mut scenario, file)?;
@@ -350,3 +342,5 @@ fn same_file(a: &Path, b: &Path) -> bool {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_bounds;

@@ -15,15 +15,15 @@ pub struct MarkerConfig {
     /// Marker id in the dictionary, in [0, count − 1]. Default 0.
     pub id: usize,
     /// Edge of the black square (outer edge of the black border, white margin excluded), mm,
-    /// > 0. Default 32.
+    /// in [0.1, 10000]. Default 32.
     pub size_mm: f64,
     /// Black border width in cells, in [1, 4]. Default 1.
     pub border_bits: usize,
-    /// White paper around the black square on each side, mm, ≥ 0. Default 8: OpenCV drops a
+    /// White paper around the black square on each side, mm, in [0, 10000]. Default 8: OpenCV drops a
     /// candidate closer than `min_marker_distance_rate` × perimeter to another, and the paper's
     /// outline is such a candidate, so a thin margin makes detection fail.
     pub white_margin_mm: f64,
-    /// Distance from the rotation centre to the marker centre, mm, ≥ 0. Default 145
+    /// Distance from the rotation centre to the marker centre, mm, in [0, 10000]. Default 145
     /// (seed: ≈ 744 px × 0.195 mm/px).
     pub radius_mm: f64,
     /// Marker rotation on the disc relative to the radial direction, degrees; 0 = the printed
@@ -59,11 +59,11 @@ pub struct ReferenceMarkerConfig {
     pub dictionary: Dictionary,
     /// Marker id, in [0, count − 1]. Default 1.
     pub id: usize,
-    /// Edge of the black square, mm, > 0. Default 60.
+    /// Edge of the black square, mm, in [0.1, 10000]. Default 60.
     pub size_mm: f64,
     /// Black border width in cells, in [1, 4]. Default 1.
     pub border_bits: usize,
-    /// White paper around the black square on each side, mm, ≥ 0. Default 12.
+    /// White paper around the black square on each side, mm, in [0, 10000]. Default 12.
     pub white_margin_mm: f64,
     /// Marker centre in the disc plane [x, y], mm (world frame). Default [-280, 0].
     pub position_mm: [f64; 2],
@@ -90,7 +90,7 @@ impl Default for ReferenceMarkerConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SceneConfig {
-    /// Radius of the driven disc, mm, > 0. Default 180.
+    /// Radius of the driven disc, mm, in [0.1, 10000]; its image at most 1e6 px. Default 180.
     pub disc_radius_mm: f64,
     /// Linear radiance of the disc surface, in [0, 1]. Default 0.55 (orange disc in grey).
     pub disc_radiance: f64,
@@ -140,9 +140,9 @@ fn check_marker_common(
             ),
         );
     }
-    problems.positive(join(path, "size_mm"), size_mm);
+    problems.range(join(path, "size_mm"), size_mm, 0.1, 1e4);
     problems.range(join(path, "border_bits"), border_bits as f64, 1.0, 4.0);
-    problems.non_negative(join(path, "white_margin_mm"), white_margin_mm);
+    problems.range(join(path, "white_margin_mm"), white_margin_mm, 0.0, 1e4);
 }
 
 impl MarkerConfig {
@@ -171,7 +171,7 @@ impl MarkerConfig {
             self.white_margin_mm,
             problems,
         );
-        problems.non_negative(join(path, "radius_mm"), self.radius_mm);
+        problems.range(join(path, "radius_mm"), self.radius_mm, 0.0, 1e4);
         problems.range(
             join(path, "orientation_deg"),
             self.orientation_deg,
@@ -188,10 +188,8 @@ impl MarkerConfig {
 }
 
 impl ReferenceMarkerConfig {
+    /// Checks the fields whether or not the marker is drawn (a sweep may switch it on).
     pub fn validate(&self, path: &str, problems: &mut Problems) {
-        if !self.enabled {
-            return;
-        }
         check_marker_common(
             path,
             self.dictionary,
@@ -215,7 +213,7 @@ impl ReferenceMarkerConfig {
 
 impl SceneConfig {
     pub fn validate(&self, path: &str, problems: &mut Problems) {
-        problems.positive(join(path, "disc_radius_mm"), self.disc_radius_mm);
+        problems.range(join(path, "disc_radius_mm"), self.disc_radius_mm, 0.1, 1e4);
         for (name, v) in [
             ("disc_radiance", self.disc_radiance),
             ("background_radiance", self.background_radiance),

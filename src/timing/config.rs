@@ -88,10 +88,10 @@ pub enum TimingModel {
 #[serde(deny_unknown_fields, default)]
 pub struct VfrModel {
     /// Standard deviation of each timestamp's Gaussian jitter, s (interval jitter is √2 larger).
-    /// ≥ 0. Default 5.5e-5 (the residual of the phone-log fits, 46–61 µs).
+    /// In [0, 1]. Default 5.5e-5 (the residual of the phone-log fits, 46–61 µs).
     pub jitter_s: f64,
     /// Amplitude a of the paired alternation: consecutive intervals alternate 1/actual_fps ± a,
-    /// s. ≥ 0. Default 0.
+    /// s, in [0, 1]. Default 0.
     pub pair_alternation_s: f64,
     /// Interval between frame 0 and frame 1, s; 0 means one regular interval. 0 or in
     /// [0.5 / actual_fps, 10]. Default 0.055.
@@ -134,7 +134,7 @@ pub struct LogModel {
     pub format: LogFormat,
     /// Subtract the first frame's time so the schedule starts at 0 s. Default true.
     pub rebase_to_zero: bool,
-    /// Added to every time after rebasing, s. Finite. Default 0.
+    /// Added to every time after rebasing, s, in [−10000, 10000]. Default 0.
     pub offset_s: f64,
 }
 
@@ -176,8 +176,13 @@ impl VfrModel {
             0.0,
             0.5,
         );
-        problems.non_negative(join(path, "jitter_s"), self.jitter_s);
-        problems.non_negative(join(path, "pair_alternation_s"), self.pair_alternation_s);
+        problems.range(join(path, "jitter_s"), self.jitter_s, 0.0, 1.0);
+        problems.range(
+            join(path, "pair_alternation_s"),
+            self.pair_alternation_s,
+            0.0,
+            1.0,
+        );
         if problems.len() > before || !nominal_fps.is_finite() || nominal_fps <= 0.0 {
             return; // the derived checks below need sane inputs
         }
@@ -212,11 +217,6 @@ impl LogModel {
                 "must name the timing log file, got an empty path",
             );
         }
-        if !self.offset_s.is_finite() {
-            problems.push(
-                join(path, "offset_s"),
-                format!("must be finite, got {}", self.offset_s),
-            );
-        }
+        problems.range(join(path, "offset_s"), self.offset_s, -1e4, 1e4);
     }
 }

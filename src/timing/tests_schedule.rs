@@ -77,7 +77,7 @@ fn validation_names_fields_and_ranges() {
         .any(|m| m.starts_with("frame_timing.model.drop_probability: must be in [0, 0.5]")));
     assert!(msgs
         .iter()
-        .any(|m| m.starts_with("frame_timing.model.jitter_s: must be >= 0")));
+        .any(|m| m.starts_with("frame_timing.model.jitter_s: must be in [0, 1]")));
     let too_jittery = vfr(
         30.0,
         VfrModel {

@@ -37,11 +37,11 @@ impl Default for Sinusoid {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RandomVibrationConfig {
-    /// RMS of the random x translation, px, ≥ 0. Default: 0.
+    /// RMS of the random x translation, px, in [0, 10000]. Default: 0.
     pub x_rms_px: f64,
-    /// RMS of the random y translation, px, ≥ 0. Default: 0.
+    /// RMS of the random y translation, px, in [0, 10000]. Default: 0.
     pub y_rms_px: f64,
-    /// RMS of the random rotation, rad, ≥ 0. Default: 0.
+    /// RMS of the random rotation, rad, in [0, 1]. Default: 0.
     pub rotation_rms_rad: f64,
     /// Lower band edge, Hz, ≥ 0. Default: 1.
     pub band_min_hz: f64,
@@ -95,9 +95,10 @@ impl CameraVibrationConfig {
         validate_sinusoids(&self.rotation_rad, &join(path, "rotation_rad"), problems);
         let r = &self.random;
         let rp = join(path, "random");
-        problems.non_negative(join(&rp, "x_rms_px"), r.x_rms_px);
-        problems.non_negative(join(&rp, "y_rms_px"), r.y_rms_px);
-        problems.non_negative(join(&rp, "rotation_rms_rad"), r.rotation_rms_rad);
+        // As the sinusoids' amplitudes: up to 1e4 px, and a rotation of at most 1 rad RMS.
+        problems.range(join(&rp, "x_rms_px"), r.x_rms_px, 0.0, 1e4);
+        problems.range(join(&rp, "y_rms_px"), r.y_rms_px, 0.0, 1e4);
+        problems.range(join(&rp, "rotation_rms_rad"), r.rotation_rms_rad, 0.0, 1.0);
         problems.range(join(&rp, "band_min_hz"), r.band_min_hz, 0.0, 1e4);
         problems.range(
             join(&rp, "band_max_hz"),

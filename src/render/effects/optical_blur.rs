@@ -85,8 +85,13 @@ pub fn sigma_for_effective_px(effective_px: f64) -> f64 {
 /// Normalised Gaussian weights for offsets −r..=r.
 pub fn kernel(sigma_px: f64, radius_px: usize) -> Vec<f32> {
     let r = radius_px as i64;
+    // The centre weight is 1 whatever σ: for a σ so small that 2σ² underflows, 0/0 would make it
+    // NaN and every pixel of the frame with it.
     let w: Vec<f64> = (-r..=r)
-        .map(|k| (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp())
+        .map(|k| match k {
+            0 => 1.0,
+            _ => (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp(),
+        })
         .collect();
     let sum: f64 = w.iter().sum();
     w.iter().map(|v| (v / sum) as f32).collect()
@@ -175,6 +180,14 @@ mod tests {
         for i in 0..k.len() {
             assert_eq!(k[i], k[k.len() - 1 - i]);
         }
+    }
+
+    #[test]
+    fn a_vanishing_sigma_is_the_identity_never_nan() {
+        // Issue #14 probe: sigma_px = 1e-300 (valid: in [0, 20]) made every pixel NaN and `run`
+        // found no marker.
+        assert_eq!(kernel(1e-300, 1), vec![0.0, 1.0, 0.0]);
+        assert_eq!(kernel(1e-160, 1), vec![0.0, 1.0, 0.0]);
     }
 
     #[test]

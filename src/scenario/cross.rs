@@ -1,0 +1,126 @@
+//! Cross-field checks: values each valid on their own that together make a run impossible or
+//! unbounded — a detector looking for another marker than the one drawn, an integration step
+//! too long for the contact stiffness and wheel inertia, a disc that images larger than any
+//! tessellation can follow. Run by [`super::Scenario::validate`], so `geneva scenario check`
+//! reports them before any work.
+
+use super::Scenario;
+use crate::detect::parse_dictionary;
+use crate::marker::Dictionary;
+use crate::validation::{short, Problems};
+
+/// Largest image radius of the disc, px: its outline is tessellated to a thousandth of a pixel,
+/// so the vertex count grows as the square root of this (about 70,000 vertices at the limit).
+pub const MAX_DISC_RADIUS_PX: f64 = 1e6;
+
+/// Whether the detector's dictionary decodes markers drawn from `drawn` (the smaller ArUco
+/// dictionaries are prefixes of the larger ones of the same bit size).
+fn decodes(detector_dictionary: &str, drawn: Dictionary) -> bool {
+    let Some(info) = parse_dictionary(detector_dictionary) else {
+        return true; // an unknown name is reported by the detector's own validation
+    };
+    let family = |code: i32| (0..16).contains(&code).then_some(code / 4);
+    let code = drawn.opencv_id();
+    info.opencv_code == code || family(info.opencv_code).is_some_and(|f| Some(f) == family(code))
+}
+
+pub fn check(s: &Scenario, problems: &mut Problems) {
+    let d = &s.detector;
+    let m = &s.scene.marker;
+    if usize::try_from(d.marker_id).ok() != Some(m.id) {
+        problems.push(
+            "detector.marker_id",
+            format!(
+                "the detector looks for marker {} but the scene draws scene.marker.id = {}; \
+                 set both to the same id",
+                d.marker_id, m.id
+            ),
+        );
+    }
+    if !decodes(&d.dictionary, m.dictionary) {
+        problems.push(
+            "detector.dictionary",
+            format!(
+                "`{}` cannot decode the drawn scene.marker.dictionary ({})",
+                d.dictionary,
+                m.dictionary.opencv_name()
+            ),
+        );
+    }
+    if usize::try_from(d.marker_border_bits).ok() != Some(m.border_bits) {
+        problems.push(
+            "detector.marker_border_bits",
+            format!(
+                "the detector expects a {}-cell border but scene.marker.border_bits = {}",
+                d.marker_border_bits, m.border_bits
+            ),
+        );
+    }
+    let r = &s.scene.reference_marker;
+    if let (true, Some(id)) = (r.enabled, d.reference_marker_id) {
+        if usize::try_from(id).ok() != Some(r.id) {
+            problems.push(
+                "detector.reference_marker_id",
+                format!(
+                    "the detector looks for reference marker {id} but the scene draws \
+                     scene.reference_marker.id = {}",
+                    r.id
+                ),
+            );
+        }
+        if !decodes(&d.dictionary, r.dictionary) {
+            problems.push(
+                "scene.reference_marker.dictionary",
+                format!(
+                    "{} cannot be decoded by detector.dictionary `{}`",
+                    r.dictionary.opencv_name(),
+                    d.dictionary
+                ),
+            );
+        }
+    }
+    if s.dynamics.enabled {
+        let h_max = crate::mechanism::stable_step_limit_s(&s.mechanism, &s.dynamics);
+        if s.dynamics.step_s > h_max {
+            let d = &s.dynamics;
+            let mut on = vec![format!(
+                "dynamics.contact_stiffness_n_m = {}",
+                short(d.contact_stiffness_n_m)
+            )];
+            if d.contact_model == crate::mechanism::ContactModel::Penalty {
+                on.push(format!(
+                    "dynamics.contact_damping_n_s_m = {}",
+                    short(d.contact_damping_n_s_m)
+                ));
+            }
+            if d.crank.model == crate::mechanism::CrankModel::Servo {
+                on.push("the crank's inertia and servo (dynamics.crank)".into());
+            }
+            problems.push(
+                "dynamics.step_s",
+                format!(
+                    "must be <= {} s for {} and the wheel's inertia (from \
+                     dynamics.wheel_mass_kg = {} or dynamics.wheel_inertia_kg_m2), got {}",
+                    short(h_max),
+                    on.join(", "),
+                    short(d.wheel_mass_kg),
+                    short(d.step_s)
+                ),
+            );
+        }
+    }
+    if let Ok(camera) = crate::camera::Camera::new(&s.camera) {
+        let r_px = s.scene.disc_radius_mm / camera.image_scale_mm_per_px();
+        if r_px.is_nan() || r_px > MAX_DISC_RADIUS_PX {
+            problems.push(
+                "scene.disc_radius_mm",
+                format!(
+                    "images at a radius of {} px at this camera's scale ({} mm/px); at most {} px",
+                    short(r_px),
+                    short(camera.image_scale_mm_per_px()),
+                    short(MAX_DISC_RADIUS_PX)
+                ),
+            );
+        }
+    }
+}
