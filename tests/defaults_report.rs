@@ -67,7 +67,8 @@ fn the_default_estimator_is_the_best_of_the_committed_table() {
 
 fn write_tracks(path: &Path) {
     // A 40 px marker on a 300 px orbit turning at 0.5 rad/s, 60 frames at 30 fps.
-    let mut text = String::from("frame,t_s,marker_id,x0_px,y0_px,x1_px,y1_px,x2_px,y2_px,x3_px,y3_px\n");
+    let mut text =
+        String::from("frame,t_s,marker_id,x0_px,y0_px,x1_px,y1_px,x2_px,y2_px,x3_px,y3_px\n");
     for k in 0..60 {
         let t = k as f64 / 30.0;
         let a = 0.5 * t;
@@ -96,7 +97,11 @@ fn analyze_says_which_estimator_it_used_and_why() {
             .output()
             .unwrap();
         let stdout = String::from_utf8_lossy(&o.stdout).to_string();
-        assert!(o.status.success(), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{stdout}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         stdout
             .lines()
             .find(|l| l.starts_with("estimator "))
@@ -112,7 +117,10 @@ fn analyze_says_which_estimator_it_used_and_why() {
         default.rotation_centre.name()
     );
     assert!(line.contains(&fixed), "{line}");
-    assert!(line.contains("no --scenario") && line.contains("reports/defaults/"), "{line}");
+    assert!(
+        line.contains("no --scenario") && line.contains("reports/defaults/"),
+        "{line}"
+    );
     let line = run(&["--scenario", "seed-internal-4k"], "b");
     assert!(
         line.contains("seed / corner_mean / seed — chosen by scenario `seed-internal-4k`"),

@@ -18,10 +18,17 @@ use std::path::Path;
 use toml::Value;
 
 /// `fast` with lighting off (pixel noise, optical blur and quantisation are what remains;
-/// motion blur is already off there), 4 s, plus `extra`.
+/// motion blur is already off there), 4 s, plus `extra`. The differentiator is the 3-point
+/// central difference: the white-noise prediction is about a stencil without smoothing bias (a
+/// smoother such as the default `kalman_rts` adds its bias at the phase boundaries to the
+/// measured σ).
 fn budget(seed: u64, mm_per_px: f64, extra: &[(&str, Value)]) -> Budget {
     let base = load_any("fast").unwrap();
     let mut o: Vec<(String, Value)> = vec![
+        (
+            "estimator.differentiator".into(),
+            Value::Table(toml::toml! { kind = "central3" }),
+        ),
         ("effects.lighting.enabled".into(), Value::Boolean(false)),
         ("effects.pixel_noise.enabled".into(), Value::Boolean(true)),
         ("duration_s".into(), Value::Float(4.0)),

@@ -2,7 +2,9 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use geneva_vision::estimate::{EstimatorConfig, Signal};
 use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions, Source};
+use geneva_vision::pipeline::defaults_study::defaults_reason;
 use geneva_vision::scenario;
 use std::path::PathBuf;
 
@@ -44,10 +46,12 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         _ => bail!("give exactly one of --video, --frames (with --timestamps) or --tracks"),
     };
     let mut options = AnalyzeOptions::default();
+    let mut estimator_from = None;
     if let Some(spec) = &a.scenario {
         let s = scenario::load_any(spec)?;
         options.detector = s.detector;
         options.estimator = s.estimator;
+        estimator_from = Some(s.name);
     }
     options.angle_sign = match a.angle_sense.as_str() {
         "cw" => -1.0,
@@ -71,6 +75,10 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         }
     }
     println!(
+        "{}",
+        estimator_line(&options.estimator, e, estimator_from.as_deref())
+    );
+    println!(
         "rotation centre ({:.2}, {:.2}) px ± ({:.2}, {:.2}) px [{:?}], rms residual {:.3} px",
         c.centre_px[0],
         c.centre_px[1],
@@ -81,6 +89,38 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     );
     super::run_cmd::print_files(&staged.commit()?);
     Ok(())
+}
+
+/// Which estimator the analysis used and why: the scenario's choice, or the defaults and what
+/// chose them. A differentiator with a data-driven parameter (the Kalman λ) is shown as resolved
+/// on the fused signal.
+fn estimator_line(
+    config: &EstimatorConfig,
+    estimate: &geneva_vision::estimate::Estimate,
+    scenario: Option<&str>,
+) -> String {
+    let resolved = estimate
+        .signals
+        .get(Signal::Fused.index())
+        .map(|s| s.differentiator.clone())
+        .unwrap_or_else(|| config.differentiator.clone());
+    let used = EstimatorConfig {
+        differentiator: resolved,
+        ..config.clone()
+    };
+    let is_default = config.choice_name() == EstimatorConfig::default().choice_name();
+    let why = match (scenario, is_default) {
+        (None, _) => format!("no --scenario, so {}", defaults_reason()),
+        (Some(name), true) => format!(
+            "scenario `{name}` keeps the defaults: {}",
+            defaults_reason()
+        ),
+        (Some(name), false) => format!("chosen by scenario `{name}`"),
+    };
+    format!(
+        "estimator (differentiator / marker centre / rotation centre): {} — {why}",
+        used.choice_name()
+    )
 }
 
 /// The frame accounting of an analysis, one statement per line: what the input spans, what was

@@ -142,8 +142,15 @@ pub fn decompose(spec: &str, seeds: usize, out: &Path) -> Result<()> {
     Ok(())
 }
 
-pub fn write_reports(out: &Path, seeds: usize, fast_only: bool) -> Result<()> {
-    let files = reports(out, &ReportsOptions { seeds, fast_only })?;
+pub fn write_reports(out: &Path, seeds: usize, fast_only: bool, only: Vec<String>) -> Result<()> {
+    let files = reports(
+        out,
+        &ReportsOptions {
+            seeds,
+            fast_only,
+            only,
+        },
+    )?;
     for f in files {
         println!("wrote {}", f.display());
     }

@@ -93,7 +93,7 @@ enum Command {
         #[arg(long, default_value = "out/decompose")]
         out: PathBuf,
     },
-    /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition) deterministically.
+    /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition-1080p, dynamics, defaults) deterministically.
     Reports {
         #[arg(long, default_value = "reports")]
         out: PathBuf,
@@ -102,6 +102,9 @@ enum Command {
         /// Only reports/fast (seconds instead of minutes).
         #[arg(long)]
         fast_only: bool,
+        /// Only these report folders, comma-separated (e.g. `defaults,fast`).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
     },
     /// Frame-timing logs: statistics and VFR model fit.
     #[command(subcommand)]
@@ -130,7 +133,8 @@ pub fn main() -> Result<()> {
             out,
             seeds,
             fast_only,
-        } => budget_cmd::write_reports(&out, seeds, fast_only),
+            only,
+        } => budget_cmd::write_reports(&out, seeds, fast_only, only),
         Command::Sweep(args) => sweep_cmd::run(args),
         Command::Render {
             scenario,

@@ -10,7 +10,8 @@ use crate::validation::{join, Problems};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum MarkerCentreMethod {
-    /// Mean of the four corners (what the seed study did). Biased under perspective.
+    /// Mean of the four corners (what the seed study did; default: the best of
+    /// `reports/defaults/`). Biased under perspective.
     #[default]
     CornerMean,
     /// Intersection of the two diagonals: the projection of the printed centre, exact under
@@ -27,11 +28,34 @@ pub enum RotationCentreMethod {
     Seed,
     /// Kåsa algebraic circle fit, one centre shared by all five signals.
     Kasa,
-    /// Taubin algebraic circle fit, one centre shared by all five signals.
-    Taubin,
-    /// Taubin start refined by Levenberg–Marquardt on orthogonal distances (default).
+    /// Taubin algebraic circle fit, one centre shared by all five signals (default: the best of
+    /// `reports/defaults/`).
     #[default]
+    Taubin,
+    /// Taubin start refined by Levenberg–Marquardt on orthogonal distances.
     Geometric,
+}
+
+impl MarkerCentreMethod {
+    /// The scenario spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            MarkerCentreMethod::CornerMean => "corner_mean",
+            MarkerCentreMethod::DiagonalIntersection => "diagonal_intersection",
+        }
+    }
+}
+
+impl RotationCentreMethod {
+    /// The scenario spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            RotationCentreMethod::Seed => "seed",
+            RotationCentreMethod::Kasa => "kasa",
+            RotationCentreMethod::Taubin => "taubin",
+            RotationCentreMethod::Geometric => "geometric",
+        }
+    }
 }
 
 /// Camera-motion compensation from a static reference marker.
@@ -116,15 +140,15 @@ fn default_timebase_fps() -> f64 {
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorConfig {
     /// Marker-centre method: `"corner_mean"` (default, seed) or `"diagonal_intersection"`.
+    /// The defaults of the three choices below are the best of `reports/defaults/`.
     pub marker_centre: MarkerCentreMethod,
-    /// Rotation-centre method: `"seed"`, `"kasa"`, `"taubin"`, `"geometric"` (default).
+    /// Rotation-centre method: `"seed"`, `"kasa"`, `"taubin"` (default), `"geometric"`.
     pub rotation_centre: RotationCentreMethod,
     /// Camera-motion compensation from the reference marker: `"off"` (default), `"translation"`,
     /// `"rigid"`.
     pub reference_compensation: ReferenceCompensation,
     /// Numerical differentiator (`kind = "seed" | "central3" | "savitzky_golay" | "kalman_rts"`);
-    /// default
-    /// `central3`.
+    /// default `kalman_rts` with λ chosen automatically.
     pub differentiator: Differentiator,
     /// Time base (`kind = "timestamps"` default, or `kind = "constant_fps"` with `fps_hz`).
     pub timebase: Timebase,
@@ -149,6 +173,17 @@ impl Default for EstimatorConfig {
 }
 
 impl EstimatorConfig {
+    /// The three choices `reports/defaults/` ranks, comma-free:
+    /// `differentiator / marker centre / rotation centre`.
+    pub fn choice_name(&self) -> String {
+        format!(
+            "{} / {} / {}",
+            self.differentiator.label(),
+            self.marker_centre.name(),
+            self.rotation_centre.name()
+        )
+    }
+
     /// Pushes one problem per invalid field, with its dotted path and allowed range.
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         problems.range(join(path, "min_arc_deg"), self.min_arc_deg, 0.0, 360.0);

@@ -27,13 +27,12 @@ use super::{kalman, linalg};
 use crate::validation::{join, Problems};
 
 /// Numerical differentiator (`[estimator.differentiator]`, `kind = ...`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Differentiator {
     /// numpy.gradient twice (the seed study).
     Seed,
-    /// Non-uniform 3-point central differences (default).
-    #[default]
+    /// Non-uniform 3-point central differences.
     Central3,
     /// Savitzky–Golay on real time.
     SavitzkyGolay {
@@ -50,7 +49,8 @@ pub enum Differentiator {
         #[serde(default = "default_sg_order")]
         order: usize,
     },
-    /// Kalman filter + RTS smoother, white-jerk model.
+    /// Kalman filter + RTS smoother, white-jerk model (default, with λ automatic: the best of
+    /// `reports/defaults/`).
     KalmanRts {
         /// Jerk PSD over measurement variance λ = q/r, 1/s⁶, in [1e-20, 1e30]; default unset =
         /// chosen automatically
@@ -58,6 +58,14 @@ pub enum Differentiator {
         #[serde(default)]
         lambda_per_s6: Option<f64>,
     },
+}
+
+impl Default for Differentiator {
+    fn default() -> Self {
+        Differentiator::KalmanRts {
+            lambda_per_s6: None,
+        }
+    }
 }
 
 fn default_sg_window() -> usize {
@@ -87,6 +95,27 @@ pub struct Derivatives {
 const MAX_WINDOW_FRAMES: usize = 10_001;
 
 impl Differentiator {
+    /// A short comma-free label with the parameters (`savitzky_golay 9 frames order 2`,
+    /// `kalman_rts` with λ automatic, `kalman_rts λ 1e7` when fixed).
+    pub fn label(&self) -> String {
+        match self {
+            Differentiator::Seed => "seed".into(),
+            Differentiator::Central3 => "central3".into(),
+            Differentiator::SavitzkyGolay {
+                window_frames,
+                window_s,
+                order,
+            } => match window_s {
+                Some(w) => format!("savitzky_golay {w} s order {order}"),
+                None => format!("savitzky_golay {window_frames} frames order {order}"),
+            },
+            Differentiator::KalmanRts { lambda_per_s6 } => match lambda_per_s6 {
+                Some(l) => format!("kalman_rts λ {l:.3e} /s⁶"),
+                None => "kalman_rts".into(),
+            },
+        }
+    }
+
     /// Pushes problems for invalid settings.
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         if let Differentiator::KalmanRts {

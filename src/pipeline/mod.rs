@@ -7,6 +7,8 @@
 pub mod analyze;
 #[cfg(feature = "opencv-detector")]
 pub mod decompose;
+#[cfg(feature = "opencv-detector")]
+pub mod defaults_study;
 pub mod dynamics_report;
 #[cfg(feature = "opencv-detector")]
 pub mod frames;

@@ -4,6 +4,7 @@
 //! markdown is formatted from computed results.
 
 use super::decompose::{decompose_effects, markdown_table, DecompositionError};
+use super::defaults_study::{defaults_report, DefaultsError, Spread};
 use super::dynamics_report::{dynamics_report, DynamicsReportError};
 use super::montecarlo::{monte_carlo, MonteCarloBudget, MonteCarloError, MonteCarloOptions};
 use super::rig::{Rig, RigError};
@@ -36,6 +37,10 @@ pub enum ReportsError {
     Rig(#[from] RigError),
     #[error(transparent)]
     Dynamics(#[from] DynamicsReportError),
+    #[error(transparent)]
+    Defaults(#[from] DefaultsError),
+    #[error("no report named `{name}` (reports: {known})")]
+    UnknownReport { name: String, known: String },
     #[error("{file}: {message}")]
     Write { file: PathBuf, message: String },
     #[error(transparent)]
@@ -49,13 +54,26 @@ pub struct ReportsOptions {
     pub seeds: usize,
     /// Only `reports/fast/` (seconds instead of minutes).
     pub fast_only: bool,
+    /// Only these report folders ([`REPORT_NAMES`]); empty: all of them.
+    pub only: Vec<String>,
 }
+
+/// The report folders `reports` writes, in the order it writes them.
+pub const REPORT_NAMES: [&str; 6] = [
+    "fast",
+    "seed-internal-4k",
+    "seed-external-4k",
+    "decomposition-1080p",
+    "dynamics",
+    "defaults",
+];
 
 impl Default for ReportsOptions {
     fn default() -> Self {
         Self {
             seeds: 3,
             fast_only: false,
+            only: Vec::new(),
         }
     }
 }
@@ -726,8 +744,6 @@ pub fn decomposition_report(out_dir: &Path, seeds: usize) -> Result<Vec<PathBuf>
     Ok(files)
 }
 
-/// Everything under `out_root`: `fast/`, and unless `fast_only`, `seed-internal-4k/`,
-/// `seed-external-4k/`, `decomposition-1080p/` and `dynamics/`.
 /// Writes one report folder all at once (`io::output_dir`): `make` writes into the staging
 /// folder; returns the final paths.
 fn staged(
@@ -739,26 +755,59 @@ fn staged(
     Ok(out.commit()?)
 }
 
-/// Regenerates every report under `out_root`, each report folder committed all at once.
+/// Regenerates the reports under `out_root`: `fast/`, and unless `fast_only`,
+/// `seed-internal-4k/`, `seed-external-4k/`, `decomposition-1080p/`, `dynamics/` and
+/// `defaults/` — or only those named in `options.only` — each folder committed all at once.
 pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>, ReportsError> {
+    if let Some(unknown) = options
+        .only
+        .iter()
+        .find(|n| !REPORT_NAMES.contains(&n.as_str()))
+    {
+        return Err(ReportsError::UnknownReport {
+            name: unknown.clone(),
+            known: REPORT_NAMES.join(", "),
+        });
+    }
     let seeds = options.seeds;
-    let mut files = staged(&out_root.join("fast"), |d| {
-        fast_report(d, seeds).map(|_| ())
-    })?;
-    if !options.fast_only {
-        for (rig, name) in [
-            (SeedRig::Internal, "seed-internal-4k"),
-            (SeedRig::External, "seed-external-4k"),
-        ] {
+    let wanted = |name: &str| {
+        if options.only.is_empty() {
+            name == "fast" || !options.fast_only
+        } else {
+            options.only.iter().any(|n| n == name)
+        }
+    };
+    let mut files = Vec::new();
+    if wanted("fast") {
+        files.extend(staged(&out_root.join("fast"), |d| {
+            fast_report(d, seeds).map(|_| ())
+        })?);
+    }
+    for (rig, name) in [
+        (SeedRig::Internal, "seed-internal-4k"),
+        (SeedRig::External, "seed-external-4k"),
+    ] {
+        if wanted(name) {
             files.extend(staged(&out_root.join(name), |d| {
                 seed_report(rig, d, seeds).map(|_| ())
             })?);
         }
+    }
+    if wanted("decomposition-1080p") {
         files.extend(staged(&out_root.join("decomposition-1080p"), |d| {
             decomposition_report(d, 2).map(|_| ())
         })?);
+    }
+    if wanted("dynamics") {
         files.extend(staged(&out_root.join("dynamics"), |d| {
             dynamics_report(d).map(|_| ()).map_err(ReportsError::from)
+        })?);
+    }
+    if wanted("defaults") {
+        files.extend(staged(&out_root.join("defaults"), |d| {
+            defaults_report(d, &Spread::full())
+                .map(|_| ())
+                .map_err(ReportsError::from)
         })?);
     }
     Ok(files)

@@ -9,6 +9,7 @@ use super::rig::{Rig, RigError};
 use crate::budget::compare::{SignalErrors, TruthSeries};
 use crate::budget::judge::{build_budget, signal_errors, TrueGeometry, Truths};
 use crate::budget::report::{Budget, FrameCounts};
+use crate::budget::resolvable::{Resolvable, ResolvableFilter};
 use crate::io::kinematics_csv::write_kinematics_csv;
 use crate::io::tracks_csv::{Corners, TrackRow, TracksWriter};
 use crate::mechanism::MotionSample;
@@ -171,29 +172,15 @@ fn judge(
         with_reference.then_some(reference.as_slice()),
     )
     .map_err(|e| RunError::Estimate(e, tracks_path.to_path_buf()))?;
-    let actual_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.actual(x)).collect();
-    let ideal_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.ideal(x)).collect();
-    let truth = truth_series(&actual_samples);
-    let ideal = truth_series(&ideal_samples);
-    let (resolved, filter) = rig.resolvable_truth(&t);
-    let with_phases = |theta: &[f64], omega: &[f64], alpha: &[f64]| TruthSeries {
-        t_s: t.clone(),
-        theta2_rad: theta.to_vec(),
-        omega2_rad_s: omega.to_vec(),
-        alpha2_rad_s2: alpha.to_vec(),
-        phase: truth.phase.clone(),
-    };
-    let resolvable = with_phases(
-        &resolved.theta2_rad,
-        &resolved.omega2_rad_s,
-        &resolved.alpha2_rad_s2,
-    );
-    let band_limited = with_phases(
-        &resolved.band_limited_theta2_rad,
-        &resolved.band_limited_omega2_rad_s,
-        &resolved.band_limited_alpha2_rad_s2,
-    );
-    let geometry = true_geometry(rig, t.first().copied().unwrap_or(0.0));
+    let RunTruths {
+        truth,
+        ideal,
+        resolvable,
+        band_limited,
+        resolved,
+        filter,
+        geometry,
+    } = run_truths(rig, &t);
     let signals = signal_errors(&est, &geometry, &truth, &resolvable);
     let frames = FrameCounts {
         total: detections.len(),
@@ -262,6 +249,58 @@ fn judge(
         elapsed_s: 0.0,
         files,
     })
+}
+
+/// The truths a run's measurement is judged against, at the frame timestamps `t`: made once from
+/// the rig, shared by every estimate of the same detections.
+pub struct RunTruths {
+    /// The actual motion at the timestamps.
+    pub truth: TruthSeries,
+    /// The ideal kinematics at the timestamps.
+    pub ideal: TruthSeries,
+    /// What the frames can resolve of the actual motion (NaN where undefined).
+    pub resolvable: TruthSeries,
+    /// The actual motion band-limited at the timestamps (truth − this = the aliasing part).
+    pub band_limited: TruthSeries,
+    pub resolved: Resolvable,
+    pub filter: Option<ResolvableFilter>,
+    pub geometry: TrueGeometry,
+}
+
+/// The truths of the frames at timestamps `t` (see [`RunTruths`]).
+pub fn run_truths(rig: &Rig, t: &[f64]) -> RunTruths {
+    let actual_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.actual(x)).collect();
+    let ideal_samples: Vec<MotionSample> = t.iter().map(|&x| rig.mechanism.ideal(x)).collect();
+    let truth = truth_series(&actual_samples);
+    let ideal = truth_series(&ideal_samples);
+    let (resolved, filter) = rig.resolvable_truth(t);
+    let with_phases = |theta: &[f64], omega: &[f64], alpha: &[f64]| TruthSeries {
+        t_s: t.to_vec(),
+        theta2_rad: theta.to_vec(),
+        omega2_rad_s: omega.to_vec(),
+        alpha2_rad_s2: alpha.to_vec(),
+        phase: truth.phase.clone(),
+    };
+    let resolvable = with_phases(
+        &resolved.theta2_rad,
+        &resolved.omega2_rad_s,
+        &resolved.alpha2_rad_s2,
+    );
+    let band_limited = with_phases(
+        &resolved.band_limited_theta2_rad,
+        &resolved.band_limited_omega2_rad_s,
+        &resolved.band_limited_alpha2_rad_s2,
+    );
+    let geometry = true_geometry(rig, t.first().copied().unwrap_or(0.0));
+    RunTruths {
+        truth,
+        ideal,
+        resolvable,
+        band_limited,
+        resolved,
+        filter,
+        geometry,
+    }
 }
 
 /// The true image geometry at `t_s` (the first frame), for the per-signal angle offsets and the
