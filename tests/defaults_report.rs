@@ -127,3 +127,15 @@ fn analyze_says_which_estimator_it_used_and_why() {
         "{line}"
     );
 }
+
+#[test]
+fn the_seed_scenarios_keep_the_seed_estimator() {
+    for name in ["seed-internal-4k", "seed-external-4k"] {
+        let s = geneva_vision::scenario::load_any(name).unwrap();
+        assert_eq!(
+            s.estimator.choice_name(),
+            "seed / corner_mean / seed",
+            "{name}"
+        );
+    }
+}
