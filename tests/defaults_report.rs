@@ -139,3 +139,22 @@ fn the_seed_scenarios_keep_the_seed_estimator() {
         );
     }
 }
+
+#[test]
+fn the_seed_reports_better_settings_use_the_default_estimator() {
+    let base = geneva_vision::scenario::load_any("seed-internal-4k").unwrap();
+    let better = geneva_vision::scenario::with_overrides(
+        &base,
+        &geneva_vision::pipeline::reports::better_overrides(),
+        Path::new("test"),
+    )
+    .unwrap();
+    assert_eq!(
+        better.estimator.choice_name(),
+        EstimatorConfig::default().choice_name()
+    );
+    assert_eq!(
+        better.estimator.differentiator,
+        EstimatorConfig::default().differentiator
+    );
+}
