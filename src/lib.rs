@@ -8,6 +8,7 @@
 //! link OpenCV.
 
 pub mod budget;
+pub mod calibrate;
 pub mod camera;
 pub mod detect;
 pub mod estimate;

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 mod analyze_cmd;
 mod budget_cmd;
+mod calibrate_cmd;
 mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
@@ -77,6 +78,8 @@ enum Command {
     },
     /// Measure real data (video, frames + timestamps, or a corner track) with the same pipeline.
     Analyze(analyze_cmd::AnalyzeArgs),
+    /// Fit a scenario to real footage: scenario.toml (extends --base), calibration.md, overlay.png.
+    Calibrate(calibrate_cmd::CalibrateArgs),
     /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable,
     /// shardable: --shard I/N, then `sweep merge DIR`).
     Sweep(sweep_cmd::SweepArgs),
@@ -123,6 +126,7 @@ pub fn main() -> Result<()> {
         Command::Slurm(cmd) => slurm_cmd::run(cmd),
         Command::Kinematics { scenario, out, yes } => kinematics_cmd::run(&scenario, &out, yes),
         Command::Analyze(args) => analyze_cmd::run(args),
+        Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Montecarlo(args) => budget_cmd::montecarlo(args),
         Command::Decompose {
             scenario,

@@ -34,6 +34,21 @@ impl LmFit {
         )
     }
 
+    /// 1-σ standard errors with the residual σ taken as at least `min_sigma` (for data whose
+    /// errors have a known floor the residuals may not show).
+    pub fn std_errors_with_floor(&self, min_sigma: f64) -> Vec<f64> {
+        let (n, p) = (self.residuals.len(), self.params.len());
+        let s2 = if n > p {
+            (self.cost / (n - p) as f64).max(min_sigma * min_sigma)
+        } else {
+            f64::INFINITY
+        };
+        match linalg::invert(&self.jtj) {
+            Some(inv) => (0..p).map(|i| (s2 * inv[i][i]).max(0.0).sqrt()).collect(),
+            None => vec![f64::INFINITY; p],
+        }
+    }
+
     /// 1-σ standard errors (infinite where the covariance is unavailable).
     pub fn std_errors(&self) -> Vec<f64> {
         match self.covariance() {

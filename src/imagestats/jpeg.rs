@@ -266,7 +266,9 @@ pub fn jpeg_quality(
             need: 16,
         });
     }
-    let sigmas = [0.3, 0.45, 0.7, 1.0];
+    // Rounding noise of an 8-bit decode (0.29 DN, more through a colour conversion): a wider
+    // σ would let the lattice model explain genuine image noise around zero.
+    let sigmas = [0.3, 0.4, 0.5];
     let tables: Vec<[u16; 64]> = (1..=100u8).map(ijg_luma_table).collect();
     // ll[k][s] per distinct step: cache per frequency.
     let mut per_freq: Vec<std::collections::BTreeMap<u16, Vec<f64>>> = Vec::new();
@@ -311,7 +313,7 @@ pub fn jpeg_quality(
     }
     let gain = (best.0 - baseline) / used as f64;
     let coarse = ZIGZAG15.iter().any(|&idx| tables[best.1][idx] > 1);
-    if !(gain > 0.05 && coarse) {
+    if !(gain > 0.3 && coarse) {
         return Ok(None);
     }
     let close: Vec<usize> = (0..tables.len())

@@ -47,6 +47,24 @@ pub struct RegionStats {
     pub pixels: usize,
     /// Neighbour pairs used for `noise_sigma_diff_dn`.
     pub pairs: usize,
+    /// The values pile up at one end (a tone curve or the sensor clipped the noise): at least
+    /// 30 % of the pixels share the extreme value, and more than the next level inside. (After
+    /// JPEG compression the pile is smeared and not detected.)
+    pub clipping: Option<Clipping>,
+}
+
+/// A region whose noise is cut off at one grey level.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clipping {
+    /// The level the values pile up at, DN.
+    pub level_dn: f64,
+    /// `true`: clipped from above (nothing brighter), `false`: from below.
+    pub high: bool,
+    /// Fraction of the pixels at that level.
+    pub fraction: f64,
+    /// σ of the noise before clipping, from the one-sided tail: a normal clamped at its mean
+    /// keeps E[(level − x)²] = σ²/2, DN.
+    pub sigma_dn: f64,
 }
 
 /// Levels of the three materials around one marker.
@@ -263,6 +281,7 @@ pub fn region_stats(
         }
     }
     let noise_sigma_diff_dn = clipped_sigma(&diffs).map_or(0.0, |s| s / std::f64::consts::SQRT_2);
+    let clipping = clipping_of(&hist, n, median_dn);
     Ok(RegionStats {
         median_dn,
         trimmed_mean_dn,
@@ -270,7 +289,65 @@ pub fn region_stats(
         noise_sigma_diff_dn,
         pixels: n,
         pairs: diffs.len(),
+        clipping,
     })
+}
+
+fn clipping_of(hist: &[usize; 256], n: usize, _median_dn: f64) -> Option<Clipping> {
+    let quantile = |q: f64| {
+        let rank = ((n as f64 - 1.0) * q).round() as usize;
+        let mut acc = 0;
+        for (v, &c) in hist.iter().enumerate() {
+            acc += c;
+            if acc > rank {
+                return v;
+            }
+        }
+        255
+    };
+    let (p02, p50, p98) = (quantile(0.02), quantile(0.5), quantile(0.98));
+    let (lower, upper) = ((p50 - p02) as f64, (p98 - p50) as f64);
+    // Either a pile at the extreme value (more pixels there than one level inside), or, when
+    // compression smeared the pile, one tail much shorter than the other.
+    let piled = |level: usize, inner: usize| {
+        hist[level] as f64 >= 0.3 * n as f64 && hist[level] > hist[inner]
+    };
+    let hi = hist.iter().rposition(|&c| c > 0)?;
+    let lo = hist.iter().position(|&c| c > 0)?;
+    if hi == lo {
+        return None;
+    }
+    let side = |high: bool| -> Option<Clipping> {
+        let (extreme, inner) = if high { (hi, hi - 1) } else { (lo, lo + 1) };
+        let (long, short) = if high { (lower, upper) } else { (upper, lower) };
+        // A short tail alone is not enough: JPEG ringing near edges skews flat regions too.
+        let _ = (long, short);
+        if !piled(extreme, inner) {
+            return None;
+        }
+        // The pile: the most frequent level on the short side of the median.
+        let range: Vec<usize> = if high {
+            (p50..=hi).collect()
+        } else {
+            (lo..=p50).collect()
+        };
+        let level = range
+            .into_iter()
+            .max_by_key(|&v| (hist[v], if high { v } else { 255 - v }))?;
+        let ss: f64 = hist
+            .iter()
+            .enumerate()
+            .filter(|(v, _)| if high { *v <= level } else { *v >= level })
+            .map(|(v, &c)| c as f64 * (v as f64 - level as f64).powi(2))
+            .sum();
+        Some(Clipping {
+            level_dn: level as f64,
+            high,
+            fraction: hist[level] as f64 / n as f64,
+            sigma_dn: (2.0 * ss / n as f64).sqrt(),
+        })
+    };
+    side(true).or_else(|| side(false))
 }
 
 /// RMS of residuals about a least-squares plane, values beyond 3.5σ dropped (three rounds).
@@ -347,6 +424,53 @@ fn clipped_sigma(values: &[f64]) -> Option<f64> {
         lim = new_lim;
     }
     Some(sigma)
+}
+
+/// Evidence of motion between two frames of a static-looking marker: the mean absolute
+/// difference of the pixels on strong edges of `a` (gradient above half its maximum) over that
+/// of its flat pixels (gradient below a twentieth). Noise alone gives ≈ 1; a shift of a few
+/// hundredths of a pixel raises it, long before a quantised corner moves. `None` when the
+/// overlap of the views has too few pixels of either kind.
+pub fn motion_ratio(a: &GrayView<'_>, b: &GrayView<'_>) -> Option<f64> {
+    let (ax0, ay0, ax1, ay1) = view_bounds(a);
+    let (bx0, by0, bx1, by1) = view_bounds(b);
+    let (x0, y0, x1, y1) = (
+        ax0.max(bx0) + 1,
+        ay0.max(by0) + 1,
+        ax1.min(bx1) - 1,
+        ay1.min(by1) - 1,
+    );
+    if x1 <= x0 || y1 <= y0 {
+        return None;
+    }
+    let at = |v: &GrayView<'_>, x: i64, y: i64| pixel(v, x, y).map_or(0.0, f64::from);
+    let mut grads = Vec::new();
+    let mut max_g: f64 = 0.0;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let gx = at(a, x + 1, y) - at(a, x - 1, y);
+            let gy = at(a, x, y + 1) - at(a, x, y - 1);
+            let g = gx.hypot(gy);
+            max_g = max_g.max(g);
+            grads.push((x, y, g));
+        }
+    }
+    let (mut edge, mut ne, mut flat, mut nf) = (0.0, 0usize, 0.0, 0usize);
+    for (x, y, g) in grads {
+        let d = (at(a, x, y) - at(b, x, y)).abs();
+        if g > 0.5 * max_g {
+            edge += d;
+            ne += 1;
+        } else if g < 0.05 * max_g {
+            flat += d;
+            nf += 1;
+        }
+    }
+    if ne < 20 || nf < 20 {
+        return None;
+    }
+    let flat = flat / nf as f64;
+    Some((edge / ne as f64) / flat.max(0.25))
 }
 
 /// Temporal noise of `pixels` (absolute coordinates, static in the scene) over `frames`: the

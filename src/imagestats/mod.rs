@@ -9,6 +9,7 @@
 //! | [`marker_levels`] | ink, paper and surround grey levels (median, trimmed mean) and per-frame noise σ of each, from pixels well inside each region |
 //! | [`marker_regions`] | the absolute pixels of those regions (for [`temporal_noise`] across frames) |
 //! | [`region_stats`] | level and noise of any list of pixels |
+//! | [`motion_ratio`] | evidence of sub-pixel motion between two frames (edge over flat frame differences) |
 //! | [`temporal_noise`] | noise σ of a static set of pixels from its variation over frames |
 //! | [`outer_edge_profiles`] | blur σ of each outer side of the black square (erf-type edge model with free levels) with the side's unit normal, fitted edge line and standard errors |
 //! | [`inner_edge_profiles`] | the same on the straight boundaries between inner black and white cells |
@@ -49,8 +50,8 @@ pub use edge::{
 pub use grid::{Homography, MarkerLayout, Material};
 pub use jpeg::{blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality};
 pub use levels::{
-    marker_levels, marker_regions, region_stats, temporal_noise, LevelOptions, MarkerLevels,
-    MarkerRegions, RegionStats, TemporalNoise,
+    marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise, Clipping,
+    LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,
 };
 pub use shape::{square_fit, SquareFit};
 
@@ -83,6 +84,11 @@ pub enum StatsError {
     NoFit { what: String, reason: String },
     #[error("invalid input: {0}")]
     Invalid(String),
+}
+
+/// Grey level of absolute pixel (x, y) of `view`, if inside it.
+pub fn pixel_at(view: &GrayView<'_>, x: i64, y: i64) -> Option<u8> {
+    pixel(view, x, y)
 }
 
 /// Grey level of absolute pixel (x, y), if inside the view.

@@ -18,6 +18,7 @@ const PAPER: f32 = 0.95;
 const SURROUND: f32 = 0.5;
 
 struct Setup {
+    paper: f32,
     corners: [[f64; 2]; 4],
     layout: MarkerLayout,
     fx: EffectsConfig,
@@ -42,6 +43,7 @@ impl Setup {
             ]
         });
         Setup {
+            paper: PAPER,
             corners,
             layout: MarkerLayout::new(Dictionary::Dict4x4_50, 7, 1, Some(0.25)).unwrap(),
             fx: EffectsConfig::none(),
@@ -67,7 +69,7 @@ impl Setup {
             background_radiance: SURROUND,
             layers: vec![
                 Layer {
-                    radiance: PAPER,
+                    radiance: self.paper,
                     polygons: vec![quad(-m, -m, n + m, n + m)],
                 },
                 Layer {
@@ -181,11 +183,34 @@ fn levels_and_noise_of_ink_paper_and_surround_match_the_rendered_ones() {
             st.noise_sigma_diff_dn
         );
         assert!(st.pixels > 300 && st.pairs > 200, "{name}: {st:?}");
+        assert_eq!(st.clipping, None, "{name}");
     }
     // The regions keep the guard: no ink pixel within 3 px of the paper.
     let regions =
         marker_regions(&view(&img), &s.corners, &s.layout, &LevelOptions::default()).unwrap();
     assert_eq!(regions.ink.len(), lv.ink.pixels);
+}
+
+#[test]
+fn paper_at_the_white_level_is_reported_clipped_with_its_unclipped_noise() {
+    // Radiance 1 maps to the white level and the tone curve clips the noise above it.
+    let mut s = Setup::new(240, 120.0, 0.3, 1.5);
+    s.paper = 1.0;
+    s.levels(40.0, 210.0);
+    s.blur(0.8);
+    s.noise(4000.0, 40.0);
+    let img = s.render(0);
+    let lv = marker_levels(&view(&img), &s.corners, &s.layout, &LevelOptions::default()).unwrap();
+    let c = lv.paper.clipping.clone().expect("clipped");
+    let (_, sigma) = s.expect(1.0);
+    assert!(c.high && c.level_dn == 210.0 && c.fraction > 0.4, "{c:?}");
+    assert!(
+        (c.sigma_dn / sigma - 1.0).abs() < 0.1,
+        "{} vs {sigma}",
+        c.sigma_dn
+    );
+    assert!(lv.paper.noise_sigma_dn < 0.7 * sigma);
+    assert_eq!(lv.ink.clipping, None);
 }
 
 #[test]

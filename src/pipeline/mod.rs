@@ -6,6 +6,10 @@
 #[cfg(feature = "opencv-detector")]
 pub mod analyze;
 #[cfg(feature = "opencv-detector")]
+pub mod calibrate;
+#[cfg(feature = "opencv-detector")]
+pub mod calibrate_roundtrip;
+#[cfg(feature = "opencv-detector")]
 pub mod decompose;
 #[cfg(feature = "opencv-detector")]
 pub mod defaults_study;

@@ -150,6 +150,19 @@ pub fn load_any(spec: &str) -> Result<Scenario, ScenarioError> {
     }
 }
 
+/// The fields that `spec` (a file, or a built-in name) and the files it extends state
+/// themselves, merged, before defaults apply: what a user wrote, as opposed to what a default
+/// supplied (`geneva calibrate` checks that the base states the marker's side).
+pub fn stated_fields(spec: &str) -> Result<Value, ScenarioError> {
+    let path = Path::new(spec);
+    if path.exists() || builtin_text(spec).is_none() {
+        resolve_file(path, &mut Vec::new())
+    } else {
+        let pseudo = PathBuf::from(format!("builtin:{spec}"));
+        resolve_builtin(spec, &pseudo, &mut Vec::new())
+    }
+}
+
 /// Parses scenario text that claims to come from `file` (used by tests and by `load`).
 pub fn from_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
     let mut value = parse_toml(text, file)?;

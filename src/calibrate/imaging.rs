@@ -1,0 +1,436 @@
+//! Image formation from the per-frame statistics: grey levels of ink, paper and disc, blur σ,
+//! pixel noise (shot + read) and JPEG compression, and their mapping onto the renderer's
+//! parameters (levels and radiances, `optical_blur.sigma_px`, `pixel_noise` electrons).
+
+use super::{CalibrateError, Fitted, FootageStats};
+use crate::imagestats::{EdgeProfile, RegionStats};
+use crate::render::effects::compression::jpeg_round_trip;
+use crate::render::effects::optical_blur::sigma_for_effective_px;
+use crate::render::effects::pixel_noise::{frame_key, normal_at};
+
+/// The noise model: measured σ at the ink and paper levels and the renderer's electrons.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseFit {
+    /// Measured noise σ at the ink and paper levels, DN (after compression, as in the footage).
+    pub ink_sigma_dn: Fitted,
+    pub paper_sigma_dn: Fitted,
+    /// `effects.pixel_noise.full_well_e` and `read_noise_e` reproducing them.
+    pub full_well_e: f64,
+    pub read_noise_e: f64,
+    /// The noise grows with the level (shot noise resolved).
+    pub shot_resolved: bool,
+    /// Where the σ came from.
+    pub source: String,
+}
+
+/// Image formation of the footage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImagingFit {
+    /// Grey levels of the disc marker's ink and paper and of the disc around its paper, DN.
+    pub ink_dn: Fitted,
+    pub paper_dn: Fitted,
+    pub disc_dn: Option<Fitted>,
+    /// Frames whose levels were used.
+    pub level_frames: usize,
+    /// `effects.lighting` black and white levels and the scene radiances that reproduce the
+    /// levels with room for the noise on both sides.
+    pub black_level_dn: f64,
+    pub white_level_dn: f64,
+    pub ink_radiance: f64,
+    pub paper_radiance: f64,
+    pub disc_radiance: Option<f64>,
+    /// Blur σ of the continuous PSF from the edge fits, px, and the scenario's
+    /// `optical_blur.sigma_px` that renders it.
+    pub blur_sigma_px: Option<Fitted>,
+    pub blur_sigma_param_px: Option<Fitted>,
+    pub blur_edges: usize,
+    pub noise: NoiseFit,
+    /// Median 8-px blockiness ratio (Wang–Sheikh–Bovik B/A; ≈ 1 without block coding).
+    pub blockiness: Option<f64>,
+    /// JPEG quality when the footage is JPEG-quantised: (quality, range, frames agreeing).
+    pub jpeg_quality: Option<(u8, (u8, u8), usize)>,
+    pub compression_frames: usize,
+    /// The reference marker's own levels and blur, when measured.
+    pub reference_ink_dn: Option<Fitted>,
+    pub reference_paper_dn: Option<Fitted>,
+    pub reference_blur_sigma_px: Option<Fitted>,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Median over frames with U = 2·1.2533·sd/√n (the median's standard error), floored.
+fn robust_level(values: &[f64], floor: f64) -> Option<Fitted> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut v = values.to_vec();
+    let m = median(&mut v);
+    let n = v.len() as f64;
+    let sd = if v.len() > 1 {
+        let mean = v.iter().sum::<f64>() / n;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    Some(Fitted::from_sigma(m, 1.2533 * sd / n.sqrt(), floor))
+}
+
+fn blur_of(edges: &[&EdgeProfile]) -> Option<Fitted> {
+    let sigmas: Vec<f64> = edges
+        .iter()
+        .filter(|e| e.sigma_stderr_px.is_finite())
+        .map(|e| e.sigma_px)
+        .collect();
+    let r = robust_level(&sigmas, 0.0)?;
+    let se = edges
+        .iter()
+        .map(|e| e.sigma_stderr_px)
+        .filter(|s| s.is_finite())
+        .sum::<f64>()
+        / edges.len().max(1) as f64;
+    // A single edge's own standard error bounds how well one edge can tell; the continuous
+    // PSF model and the renderer's kernel sampled at whole pixels differ by up to ~0.03 px.
+    Some(Fitted::new(
+        r.value,
+        r.u95.max(2.0 * se / (sigmas.len() as f64).sqrt()) + 0.01 * r.value + 0.03,
+    ))
+}
+
+/// Ratio of the noise σ after a JPEG round trip at `quality` to the σ before, for a flat patch
+/// at `level_dn` (the renderer adds noise before compressing; the footage shows it after).
+fn jpeg_noise_ratio(level_dn: f64, sigma_dn: f64, quality: u8) -> f64 {
+    let (w, h) = (64usize, 64usize);
+    let key = frame_key(0x4a50_4547, 0);
+    let noisy: Vec<f64> = (0..w * h)
+        .map(|i| level_dn + sigma_dn * normal_at(key, (i % w) as i64, (i / w) as i64) as f64)
+        .collect();
+    let q: Vec<u8> = noisy
+        .iter()
+        .map(|v| (v + 0.5).clamp(0.0, 255.0) as u8)
+        .collect();
+    let sd = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    };
+    let before = sd(&q.iter().map(|&x| x as f64).collect::<Vec<_>>());
+    let Ok(out) = jpeg_round_trip(&q, w, h, quality) else {
+        return 1.0;
+    };
+    let after = sd(&out.iter().map(|&x| x as f64).collect::<Vec<_>>());
+    if before > 0.0 {
+        after / before
+    } else {
+        1.0
+    }
+}
+
+/// The renderer's noise electrons for variances `vars_dn2` (before quantisation) at grey levels
+/// `levels_dn` (ink, paper) under `black`/`white` levels: var(DN) = α + β·(DN − black) with
+/// β = span/full_well and α = (span·read/full_well)², through the two points, with β at least
+/// the value that gives 0.04 DN² of shot variance between ink and paper (so the model stays
+/// continuous when the paper is not noisier than the ink) and the read noise inside the
+/// scenario's range. Returns (full_well_e, read_noise_e, shot_resolved) where shot noise counts
+/// as resolved when the variance difference exceeds `resolvable_dn2`.
+pub fn noise_electrons(
+    levels_dn: [f64; 2],
+    vars_dn2: [f64; 2],
+    black: f64,
+    white: f64,
+    resolvable_dn2: f64,
+) -> (f64, f64, bool) {
+    let span = (white - black).max(1.0);
+    let (li, lp) = (levels_dn[0] - black, levels_dn[1] - black);
+    let (vi, vp) = (vars_dn2[0].max(0.0), vars_dn2[1].max(0.0));
+    let dl = (lp - li).max(1.0);
+    let beta = ((vp - vi) / dl).max(0.04 / dl);
+    let alpha = (vi - beta * li.max(0.0)).max(0.0);
+    let mut fw = (span / beta).clamp(1.0, 1e7);
+    if alpha > 0.0 {
+        fw = fw.min(1e4 * span / alpha.sqrt()).max(1.0);
+    }
+    let read = (alpha.sqrt() * fw / span).clamp(0.0, 1e4);
+    (fw, read, vp - vi > resolvable_dn2)
+}
+
+/// Fits the image formation.
+pub fn fit_imaging(
+    stats: &FootageStats,
+    notes: &mut Vec<String>,
+) -> Result<ImagingFit, CalibrateError> {
+    let levels: Vec<_> = stats
+        .frames
+        .iter()
+        .filter_map(|f| f.levels.as_ref())
+        .collect();
+    if levels.is_empty() {
+        return Err(CalibrateError::Unresolved {
+            what: "grey levels".into(),
+            reason: "no frame shows enough ink and paper well inside the marker (too small, \
+                     or too close to the image edge)"
+                .into(),
+        });
+    }
+    let pick =
+        |f: fn(&crate::imagestats::MarkerLevels) -> Option<&RegionStats>| -> Vec<&RegionStats> {
+            levels.iter().filter_map(|l| f(l)).collect()
+        };
+    let ink_r = pick(|l| Some(&l.ink));
+    let paper_r = pick(|l| Some(&l.paper));
+    let disc_r = pick(|l| l.surround.as_ref());
+    let level_of = |r: &[&RegionStats]| {
+        robust_level(
+            &r.iter().map(|s| s.trimmed_mean_dn).collect::<Vec<_>>(),
+            0.15,
+        )
+    };
+    // A region whose noise piles up at one level in most frames is clipped there (the tone
+    // curve's white or black): that level is the region's, and the noise is the one-sided σ.
+    let clip_of = |r: &[&RegionStats], high: bool| -> Option<(Fitted, Fitted)> {
+        let c: Vec<_> = r
+            .iter()
+            .filter_map(|s| s.clipping.as_ref())
+            .filter(|c| c.high == high)
+            .collect();
+        if 2 * c.len() <= r.len() {
+            return None;
+        }
+        let level = robust_level(&c.iter().map(|c| c.level_dn).collect::<Vec<_>>(), 0.15)?;
+        let sigma = robust_level(&c.iter().map(|c| c.sigma_dn).collect::<Vec<_>>(), 0.0)?;
+        Some((
+            level,
+            Fitted::new(sigma.value, sigma.u95 + 0.05 * sigma.value),
+        ))
+    };
+    let ink_clip = clip_of(&ink_r, false);
+    let paper_clip = clip_of(&paper_r, true);
+    if paper_clip.is_some() {
+        notes.push("the paper is clipped at the white level (its noise is cut off above): white level = paper level, paper radiance 1".into());
+    }
+    if ink_clip.is_some() {
+        notes.push(
+            "the ink is clipped at the black level: black level = ink level, ink radiance 0".into(),
+        );
+    }
+    let (ink_level, paper_level) = (level_of(&ink_r), level_of(&paper_r));
+    let ink_level = ink_clip.map(|c| c.0).or(ink_level);
+    let paper_level = paper_clip.map(|c| c.0).or(paper_level);
+    let (Some(ink_dn), Some(paper_dn)) = (ink_level, paper_level) else {
+        return Err(CalibrateError::Unresolved {
+            what: "grey levels".into(),
+            reason: "no ink or paper region".into(),
+        });
+    };
+    let disc_dn = level_of(&disc_r);
+
+    // Compression first: it changes what the noise means.
+    let jpeg_found: Vec<_> = stats.jpeg.iter().flatten().collect();
+    let jpeg_quality = if !stats.jpeg.is_empty() && 2 * jpeg_found.len() > stats.jpeg.len() {
+        let mut qs: Vec<f64> = jpeg_found.iter().map(|j| j.quality as f64).collect();
+        let q = median(&mut qs).round() as u8;
+        let lo = jpeg_found
+            .iter()
+            .map(|j| j.quality_range.0)
+            .min()
+            .unwrap_or(q);
+        let hi = jpeg_found
+            .iter()
+            .map(|j| j.quality_range.1)
+            .max()
+            .unwrap_or(q);
+        Some((q, (lo, hi), jpeg_found.len()))
+    } else {
+        None
+    };
+    let blockiness = {
+        let mut b: Vec<f64> = stats.blockiness.iter().map(|b| b.ratio).collect();
+        (!b.is_empty()).then(|| median(&mut b))
+    };
+    if jpeg_quality.is_none() && blockiness.is_some_and(|b| b > 1.1) {
+        notes.push(format!(
+            "the footage shows 8-px blockiness (B/A = {:.2}) without a JPEG quantiser: block \
+             coding by a video codec is not modelled (compression stays off)",
+            blockiness.unwrap_or(1.0)
+        ));
+    }
+
+    // Noise: temporal on static runs when measured, else spatial per frame.
+    let temporal = |material: &str| -> Option<Fitted> {
+        let t: Vec<_> = stats
+            .temporal
+            .iter()
+            .filter(|s| s.what.ends_with(material) && s.what.starts_with("disc"))
+            .chain(
+                stats
+                    .temporal
+                    .iter()
+                    .filter(|s| s.what.ends_with(material) && !s.what.starts_with("disc")),
+            )
+            .collect();
+        let s = t.first()?;
+        Some(Fitted::from_sigma(
+            s.noise.sigma_dn,
+            s.noise.sigma_stderr_dn,
+            0.01 * s.noise.sigma_dn,
+        ))
+    };
+    let spatial = |r: &[&RegionStats]| {
+        robust_level(&r.iter().map(|s| s.noise_sigma_dn).collect::<Vec<_>>(), 0.0)
+            .map(|f| Fitted::new(f.value, f.u95 + 0.03 * f.value))
+    };
+    let (ink_sigma, paper_sigma, mut source) = match (temporal("ink"), temporal("paper")) {
+        (Some(i), Some(p)) => (
+            i,
+            p,
+            format!(
+                "temporal σ of static pixels ({})",
+                stats
+                    .temporal
+                    .iter()
+                    .map(|s| format!(
+                        "{}: {} frames × {} px",
+                        s.what, s.noise.frames, s.noise.pixels
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ),
+        _ => {
+            let (Some(i), Some(p)) = (spatial(&ink_r), spatial(&paper_r)) else {
+                return Err(CalibrateError::Unresolved {
+                    what: "noise".into(),
+                    reason: "no flat region".into(),
+                });
+            };
+            (
+                i,
+                p,
+                format!(
+                    "spatial σ about a plane fitted to the well-inside pixels, median over {} frames",
+                    ink_r.len()
+                ),
+            )
+        }
+    };
+    let ink_sigma = ink_clip.map_or(ink_sigma, |c| c.1);
+    let paper_sigma = paper_clip.map_or(paper_sigma, |c| c.1);
+    if ink_clip.is_some() || paper_clip.is_some() {
+        source.push_str("; one-sided σ where clipped");
+    }
+    // Levels with room for 5σ of noise on both sides (the tone curve clips at 0 and 1), unless
+    // the footage is clipped there itself.
+    let black = match ink_clip {
+        Some(c) => c.0.value,
+        None => (ink_dn.value - 5.0 * ink_sigma.value - 1.0).max(0.0),
+    };
+    let white = match paper_clip {
+        Some(c) => c.0.value,
+        None => (paper_dn.value + 5.0 * paper_sigma.value + 1.0).min(255.0),
+    }
+    .max(black + 10.0);
+    let span = white - black;
+    let rad = |dn: f64| ((dn - black) / span).clamp(0.0, 1.0);
+    // Undo the JPEG's smoothing of the noise (simulated on a flat patch at each level).
+    let pre = |level: f64, s: f64| -> f64 {
+        let Some((q, _, _)) = jpeg_quality else {
+            return s;
+        };
+        let mut guess = s;
+        for _ in 0..3 {
+            let r = jpeg_noise_ratio(level, guess, q).max(0.05);
+            guess = s / r;
+        }
+        guess
+    };
+    let var = |level: f64, s: f64| (pre(level, s).powi(2) - 1.0 / 12.0).max(0.0);
+    let (vi, vp) = (
+        var(ink_dn.value, ink_sigma.value),
+        var(paper_dn.value, paper_sigma.value),
+    );
+    // The variance difference must exceed its own 95 % uncertainty (U(σ²) ≈ 2σ·U(σ)).
+    let u_diff =
+        (2.0 * paper_sigma.value * paper_sigma.u95).hypot(2.0 * ink_sigma.value * ink_sigma.u95);
+    let (full_well_e, read_noise_e, shot_resolved) = noise_electrons(
+        [ink_dn.value, paper_dn.value],
+        [vi, vp],
+        black,
+        white,
+        u_diff,
+    );
+    if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
+        eprintln!("imaging: ink {ink_dn} paper {paper_dn} σ {ink_sigma} {paper_sigma} vars {vi} {vp} black {black} white {white} u {u_diff} → {full_well_e} {read_noise_e} {shot_resolved}");
+    }
+    if !shot_resolved {
+        notes.push(format!(
+            "pixel noise: σ does not grow measurably from ink ({}) to paper ({}) DN: modelled as \
+             read noise only",
+            ink_sigma, paper_sigma
+        ));
+    }
+
+    // Blur: static frames' disc-marker edges and the reference marker's.
+    // Moving frames add motion blur across some edges: use static poses when there are any.
+    let static_edges = stats
+        .frames
+        .iter()
+        .filter(|f| f.static_pose && !f.edges.is_empty())
+        .count();
+    let edges: Vec<&EdgeProfile> = stats
+        .frames
+        .iter()
+        .filter(|f| f.static_pose || static_edges < 2)
+        .flat_map(|f| f.edges.iter())
+        .chain(stats.reference_edges.iter())
+        .collect();
+    let blur_sigma_px = blur_of(&edges);
+    if blur_sigma_px.is_none() {
+        notes.push(
+            "blur: no marker edge could be fitted (marker too small or always moving); the \
+             base's optical blur is kept"
+                .into(),
+        );
+    }
+    let blur_sigma_param_px = blur_sigma_px.map(|b| b.map(sigma_for_effective_px));
+    let ref_edges: Vec<&EdgeProfile> = stats.reference_edges.iter().collect();
+    let ref_level = |f: fn(&crate::imagestats::MarkerLevels) -> f64| {
+        robust_level(
+            &stats.reference_levels.iter().map(f).collect::<Vec<_>>(),
+            0.15,
+        )
+    };
+    Ok(ImagingFit {
+        ink_dn,
+        paper_dn,
+        disc_dn,
+        level_frames: levels.len(),
+        black_level_dn: black,
+        white_level_dn: white,
+        ink_radiance: rad(ink_dn.value),
+        paper_radiance: rad(paper_dn.value),
+        disc_radiance: disc_dn.map(|d| rad(d.value)),
+        blur_sigma_px,
+        blur_sigma_param_px,
+        blur_edges: edges.len(),
+        noise: NoiseFit {
+            ink_sigma_dn: ink_sigma,
+            paper_sigma_dn: paper_sigma,
+            full_well_e,
+            read_noise_e,
+            shot_resolved,
+            source,
+        },
+        blockiness,
+        jpeg_quality,
+        compression_frames: stats.jpeg.len(),
+        reference_ink_dn: ref_level(|l| l.ink.trimmed_mean_dn),
+        reference_paper_dn: ref_level(|l| l.paper.trimmed_mean_dn),
+        reference_blur_sigma_px: blur_of(&ref_edges),
+    })
+}

@@ -1,0 +1,224 @@
+//! Calibration of a scenario from footage (`geneva calibrate`): the fitting maths, pure (no I/O,
+//! no OpenCV). The pipeline (`pipeline::calibrate`) reads the footage, detects the marker and
+//! measures every frame with [`crate::imagestats`]; this module turns those per-frame
+//! observations into fitted values with uncertainties ([`Calibration`]) and into a scenario that
+//! extends the user's base ([`output`]).
+//!
+//! Every fitted value is a [`Fitted`]: the value and its expanded uncertainty U at about 95 %
+//! coverage (k = 2 on the standard uncertainty from the fit, with a small floor for effects the
+//! fit does not see). What is fitted, from what:
+//!
+//! - image scale (mm/px): marker side in px from edge-fitted corners (OpenCV's unrefined corners
+//!   sit ~½ px inside) on static frames, against the known side in mm (`geometry`);
+//! - rotation centre (px), marker radius (mm), marker orientation on the disc and its angle at
+//!   the first frame (deg): circle fit of the four corner tracks (static poses merged), after
+//!   undoing a measured perspective compression (`geometry`);
+//! - sense of rotation, crank phase at the first frame and crank speed (and, when resolved, the
+//!   per-engagement polynomial): least squares of the exact Geneva kinematics to the unwrapped
+//!   marker angle (`motion`);
+//! - grey levels, blur σ, noise (shot + read), compression: medians and fits over the per-frame
+//!   image statistics (`imaging`);
+//! - perspective tilt: the mean image-space metric of the marker's affine shape (aspect), with
+//!   the tilt's sign from the size gradient across the image (`geometry`).
+//!
+//! The frame timing is the footage's own timestamps, replayed exactly by the calibrated scenario,
+//! with the VFR model fitted by [`crate::timing::fit::fit_vfr`] reported beside them.
+
+mod geometry;
+mod imaging;
+mod motion;
+pub mod output;
+
+#[cfg(test)]
+mod tests;
+
+pub use geometry::{fit_geometry, GeometryFit, TiltFit};
+pub use imaging::{fit_imaging, noise_electrons, ImagingFit, NoiseFit};
+pub use motion::{fit_motion, MotionFit, MotionInput};
+
+use crate::imagestats::{Blockiness, EdgeProfile, JpegQuality, MarkerLevels, TemporalNoise};
+use crate::timing::TimingFit;
+use std::fmt;
+
+/// A fitted value and its expanded uncertainty (≈ 95 % coverage).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fitted {
+    pub value: f64,
+    /// Half-width of the ≈ 95 % interval (k = 2).
+    pub u95: f64,
+}
+
+impl Fitted {
+    pub fn new(value: f64, u95: f64) -> Self {
+        Self { value, u95 }
+    }
+
+    /// From a standard uncertainty σ: U = 2·√(σ² + floor²).
+    pub fn from_sigma(value: f64, sigma: f64, floor: f64) -> Self {
+        Self {
+            value,
+            u95: 2.0 * (sigma * sigma + floor * floor).sqrt(),
+        }
+    }
+
+    /// True when `truth` lies within the interval.
+    pub fn covers(&self, truth: f64) -> bool {
+        (self.value - truth).abs() <= self.u95
+    }
+
+    /// The same interval through a monotone map (U from the mapped interval ends).
+    pub fn map(&self, f: impl Fn(f64) -> f64) -> Fitted {
+        let v = f(self.value);
+        let a = f(self.value - self.u95);
+        let b = f(self.value + self.u95);
+        Fitted::new(v, (a - v).abs().max((b - v).abs()))
+    }
+}
+
+impl fmt::Display for Fitted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let digits = significant_decimals(self.u95);
+        write!(f, "{:.*} ± {:.*}", digits, self.value, digits, self.u95)
+    }
+}
+
+/// Decimals that show two significant digits of `u`.
+pub(crate) fn significant_decimals(u: f64) -> usize {
+    if !(u.is_finite() && u > 0.0) {
+        return 4;
+    }
+    (1.0 - u.log10().floor()).clamp(0.0, 9.0) as usize
+}
+
+/// What the pipeline measured on one frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrameObservation {
+    /// Frame index in the footage.
+    pub frame: usize,
+    /// Timestamp from the footage, s, relative to its first frame.
+    pub t_s: f64,
+    /// The disc marker's corners as detected (OpenCV order, px), if found.
+    pub corners_px: Option<[[f64; 2]; 4]>,
+    /// The static reference marker's corners, if configured and found.
+    pub reference_px: Option<[[f64; 2]; 4]>,
+    /// Levels and noise around the disc marker.
+    pub levels: Option<MarkerLevels>,
+    /// Outer-side edge fits of the disc marker (only on the frames chosen for them).
+    pub edges: Vec<EdgeProfile>,
+    /// Corners from the four fitted sides, when all four fitted.
+    pub refined_px: Option<[[f64; 2]; 4]>,
+    /// The marker moved less than the static threshold since the previous frame.
+    pub static_pose: bool,
+}
+
+/// Temporal noise of one material measured on a run of static frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TemporalSample {
+    /// Which marker and material (`disc ink`, `reference paper`, …).
+    pub what: String,
+    pub noise: TemporalNoise,
+}
+
+/// Everything the pipeline measured on the footage.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FootageStats {
+    pub width_px: usize,
+    pub height_px: usize,
+    /// All frames in order (with or without a detection).
+    pub frames: Vec<FrameObservation>,
+    /// Levels of the reference marker on the frames where it was measured.
+    pub reference_levels: Vec<MarkerLevels>,
+    /// Edge fits on the reference marker.
+    pub reference_edges: Vec<EdgeProfile>,
+    /// Temporal noise on static runs.
+    pub temporal: Vec<TemporalSample>,
+    /// 8-px blockiness of the frames where it was measured.
+    pub blockiness: Vec<Blockiness>,
+    /// JPEG quality estimates of those frames (`None`: no quantisation found).
+    pub jpeg: Vec<Option<JpegQuality>>,
+    /// The frame timing fit (≥ 5 frames).
+    pub timing: Option<TimingFit>,
+}
+
+/// What the user asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrateOptions {
+    /// Calibrate image formation (and the marker's pose) from one frame, without motion.
+    pub single_frame: bool,
+}
+
+/// Why the footage cannot be calibrated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrateError {
+    #[error(
+        "the marker (dictionary {dictionary}, id {id}) was not found in any of the {frames} frames"
+    )]
+    MarkerNotFound {
+        dictionary: String,
+        id: usize,
+        frames: usize,
+    },
+    #[error("{0}")]
+    Missing(String),
+    #[error("{what}: {reason}")]
+    Unresolved { what: String, reason: String },
+}
+
+/// The fitted rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    pub frames: usize,
+    pub detected_frames: usize,
+    pub geometry: GeometryFit,
+    /// `None` in single-frame mode.
+    pub motion: Option<MotionFit>,
+    pub imaging: ImagingFit,
+    pub timing: Option<TimingFit>,
+    /// Things the user should know (assumptions, effects that were not resolved).
+    pub notes: Vec<String>,
+}
+
+/// Fits the rig described by `stats`, for the marker and mechanism of `base`.
+pub fn calibrate(
+    base: &crate::scenario::Scenario,
+    stats: &FootageStats,
+    options: &CalibrateOptions,
+) -> Result<Calibration, CalibrateError> {
+    let detected = stats
+        .frames
+        .iter()
+        .filter(|f| f.corners_px.is_some())
+        .count();
+    if detected == 0 {
+        return Err(CalibrateError::MarkerNotFound {
+            dictionary: base.scene.marker.dictionary.opencv_name(),
+            id: base.scene.marker.id,
+            frames: stats.frames.len(),
+        });
+    }
+    if !options.single_frame && stats.frames.len() < 2 {
+        return Err(CalibrateError::Missing(format!(
+            "the motion (rotation centre, crank phase and speed) needs several frames, the footage \
+             has {}; pass --single-frame to calibrate the image formation only",
+            stats.frames.len()
+        )));
+    }
+    let mut notes = Vec::new();
+    let geometry = fit_geometry(base, stats, options.single_frame, &mut notes)?;
+    let motion = if options.single_frame {
+        None
+    } else {
+        let input = MotionInput::from_geometry(&geometry, base)?;
+        Some(fit_motion(&input, &mut notes)?)
+    };
+    let imaging = fit_imaging(stats, &mut notes)?;
+    Ok(Calibration {
+        frames: stats.frames.len(),
+        detected_frames: detected,
+        geometry,
+        motion,
+        imaging,
+        timing: stats.timing.clone(),
+        notes,
+    })
+}

@@ -1,0 +1,725 @@
+//! The calibrated scenario (fields that extend the base, each with its uncertainty as a TOML
+//! comment) and the calibration report, as text. One list of [`Override`]s feeds both the file
+//! and the typed scenario (`scenario::with_overrides`), so they cannot disagree.
+
+use super::{significant_decimals, Calibration, Fitted};
+use crate::mechanism::Mechanism;
+use crate::scenario::Scenario;
+use std::fmt::Write;
+use toml::Value;
+
+/// One field of the calibrated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Override {
+    /// Dotted path (`camera.focal.mm_per_px`).
+    pub path: String,
+    pub value: Value,
+    /// How it was measured, with its uncertainty.
+    pub comment: String,
+}
+
+/// Where the calibration's inputs and outputs live.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputContext {
+    /// The `extend` target written into the scenario (built-in name or absolute path).
+    pub extend: String,
+    /// The footage, for the header.
+    pub footage: String,
+    /// Timestamps file next to the scenario (`timestamps.csv`), `None` in single-frame mode.
+    pub timestamps_file: Option<String>,
+    pub width_px: usize,
+    pub height_px: usize,
+    /// Timestamp of the last frame from the first, s.
+    pub last_t_s: f64,
+}
+
+/// The re-rendering check: the calibrated scenario rendered at a footage frame's instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReRenderCheck {
+    pub frame: usize,
+    pub t_s: f64,
+    /// Window compared (x0, y0, width, height), px.
+    pub window: (i64, i64, usize, usize),
+    /// RMS of footage − noise-free render over the window, DN.
+    pub residual_rms_dn: f64,
+    /// RMS noise the fitted model predicts over the same pixels, DN.
+    pub expected_noise_dn: f64,
+}
+
+impl ReRenderCheck {
+    pub fn ratio(&self) -> f64 {
+        self.residual_rms_dn / self.expected_noise_dn.max(1e-9)
+    }
+}
+
+fn num(v: f64, decimals: usize) -> Value {
+    let s = format!("{v:.decimals$}");
+    Value::Float(s.parse().unwrap_or(v))
+}
+
+/// A value written with two more decimals than its uncertainty shows.
+fn fitted_value(f: &Fitted) -> Value {
+    num(f.value, significant_decimals(f.u95) + 2)
+}
+
+fn ov(path: &str, value: Value, comment: impl Into<String>) -> Override {
+    Override {
+        path: path.into(),
+        value,
+        comment: comment.into(),
+    }
+}
+
+/// The scenario fields the calibration sets.
+pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec<Override> {
+    let g = &cal.geometry;
+    let im = &cal.imaging;
+    let mut o = Vec::new();
+    o.push(ov(
+        "name",
+        Value::String("calibrated".into()),
+        "calibrated from the footage",
+    ));
+    let fps = cal.timing.as_ref().map_or(base.frame_timing.fps, |t| t.fps);
+    let duration = if ctx.timestamps_file.is_some() {
+        ctx.last_t_s + 0.5 / fps
+    } else {
+        (0.5 / base.frame_timing.fps).max(1e-3)
+    };
+    o.push(ov(
+        "duration_s",
+        num(duration.max(1e-3), 6),
+        format!(
+            "{} frames over {:.4} s (+ half a frame)",
+            cal.frames, ctx.last_t_s
+        ),
+    ));
+    o.push(ov(
+        "camera.width_px",
+        Value::Integer(ctx.width_px as i64),
+        "footage",
+    ));
+    o.push(ov(
+        "camera.height_px",
+        Value::Integer(ctx.height_px as i64),
+        "footage",
+    ));
+    o.push(ov(
+        "camera.focal.kind",
+        Value::String("image_scale".into()),
+        "",
+    ));
+    o.push(ov(
+        "camera.focal.mm_per_px",
+        num(g.mm_per_px.value, significant_decimals(g.mm_per_px.u95) + 2),
+        format!(
+            "± {:.*} (95 %): pose fit of {} marker poses ({}), side ≈ {:.2} px",
+            significant_decimals(g.mm_per_px.u95),
+            g.mm_per_px.u95,
+            g.poses,
+            if g.from_edges {
+                "edge-fitted corners"
+            } else {
+                "OpenCV corners"
+            },
+            g.side_px
+        ),
+    ));
+    if let Some([cx, cy]) = g.centre_px {
+        o.push(ov(
+            "camera.rotation_centre_px",
+            Value::Array(vec![fitted_value(&cx), fitted_value(&cy)]),
+            format!(
+                "± [{:.*}, {:.*}] px (95 %): pose fit over {:.0}° of rotation, RMS {:.3} px",
+                significant_decimals(cx.u95),
+                cx.u95,
+                significant_decimals(cy.u95),
+                cy.u95,
+                g.arc_deg,
+                g.rms_residual_px
+            ),
+        ));
+    }
+    let t = &g.tilt;
+    o.push(ov(
+        "camera.perspective_tilt.enabled",
+        Value::Boolean(t.significant),
+        if t.significant {
+            format!("marker aspect {:.4}", t.aspect)
+        } else {
+            format!(
+                "tilt x {}°, y {}° (95 %) not distinguishable from 0 (marker aspect {:.4})",
+                t.tilt_x_deg, t.tilt_y_deg, t.aspect
+            )
+        },
+    ));
+    if t.significant {
+        o.push(ov(
+            "camera.perspective_tilt.tilt_x_deg",
+            fitted_value(&t.tilt_x_deg),
+            format!(
+                "± {:.*}° (95 %), with camera.distance_m = {} (the base's)",
+                significant_decimals(t.tilt_x_deg.u95),
+                t.tilt_x_deg.u95,
+                g.distance_m
+            ),
+        ));
+        o.push(ov(
+            "camera.perspective_tilt.tilt_y_deg",
+            fitted_value(&t.tilt_y_deg),
+            format!(
+                "± {:.*}° (95 %)",
+                significant_decimals(t.tilt_y_deg.u95),
+                t.tilt_y_deg.u95
+            ),
+        ));
+    }
+    o.push(ov(
+        "scene.marker.radius_mm",
+        fitted_value(&g.radius_mm),
+        format!(
+            "± {:.*} mm (95 %): pose fit",
+            significant_decimals(g.radius_mm.u95),
+            g.radius_mm.u95
+        ),
+    ));
+    o.push(ov(
+        "scene.marker.orientation_deg",
+        fitted_value(&g.orientation_deg),
+        format!(
+            "± {:.*}° (95 %): printed top side against the radius",
+            significant_decimals(g.orientation_deg.u95),
+            g.orientation_deg.u95
+        ),
+    ));
+    let angle = cal
+        .motion
+        .as_ref()
+        .map_or(g.angle_first_deg, |m| m.angle_first_deg);
+    o.push(ov(
+        "scene.marker.angle_on_disc_deg",
+        fitted_value(&angle),
+        format!(
+            "± {:.*}° (95 %): marker angle at the first frame",
+            significant_decimals(angle.u95),
+            angle.u95
+        ),
+    ));
+    // The marker's paper must lie on the drawn disc.
+    let mut placed = base.scene.marker.clone();
+    placed.radius_mm = g.radius_mm.value;
+    placed.orientation_deg = g.orientation_deg.value;
+    let extent = placed.paper_extent_mm();
+    if extent > base.scene.disc_radius_mm {
+        o.push(ov(
+            "scene.disc_radius_mm",
+            num(extent.ceil() + 1.0, 1),
+            "enlarged to hold the measured marker radius",
+        ));
+    }
+    if let Some(m) = &cal.motion {
+        o.push(ov(
+            "mechanism.theta1_start_rad",
+            fitted_value(&m.theta1_start_rad),
+            format!(
+                "± {:.*} rad (95 %): crank angle at the first frame, kinematic fit of the marker angle over {} engagement(s), RMS {:.2e} rad",
+                significant_decimals(m.theta1_start_rad.u95),
+                m.theta1_start_rad.u95,
+                m.engagements,
+                m.rms_residual_rad
+            ),
+        ));
+        match &m.polynomial {
+            Some((end, mid)) => {
+                o.push(ov(
+                    "drive_speed.kind",
+                    Value::String("polynomial_per_engagement".into()),
+                    "the per-engagement speed variation is resolved",
+                ));
+                o.push(ov(
+                    "drive_speed.end_rad_s",
+                    fitted_value(end),
+                    format!(
+                        "± {:.*} rad/s (95 %)",
+                        significant_decimals(end.u95),
+                        end.u95
+                    ),
+                ));
+                o.push(ov(
+                    "drive_speed.mid_rad_s",
+                    fitted_value(mid),
+                    format!(
+                        "± {:.*} rad/s (95 %)",
+                        significant_decimals(mid.u95),
+                        mid.u95
+                    ),
+                ));
+            }
+            None => {
+                o.push(ov("drive_speed.kind", Value::String("constant".into()), ""));
+                o.push(ov(
+                    "drive_speed.omega1_rad_s",
+                    fitted_value(&m.omega1_rad_s),
+                    format!(
+                        "± {:.*} rad/s (95 %): mean crank speed",
+                        significant_decimals(m.omega1_rad_s.u95),
+                        m.omega1_rad_s.u95
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some(file) = &ctx.timestamps_file {
+        o.push(ov(
+            "frame_timing.fps",
+            num(fps, 6),
+            "fitted mean rate (geneva timing fit)",
+        ));
+        o.push(ov(
+            "frame_timing.model.kind",
+            Value::String("log".into()),
+            "the footage's own timestamps",
+        ));
+        o.push(ov(
+            "frame_timing.model.file",
+            Value::String(file.clone()),
+            "",
+        ));
+        o.push(ov(
+            "frame_timing.model.format",
+            Value::String("frames_csv".into()),
+            "",
+        ));
+    }
+    o.push(ov("effects.lighting.enabled", Value::Boolean(true), ""));
+    o.push(ov(
+        "effects.lighting.black_level_dn",
+        num(im.black_level_dn, 3),
+        if im.ink_radiance == 0.0 {
+            "the ink's clipping level"
+        } else {
+            "ink level − 5σ of its noise (room for the noise below the ink)"
+        },
+    ));
+    o.push(ov(
+        "effects.lighting.white_level_dn",
+        num(im.white_level_dn, 3),
+        if im.paper_radiance == 1.0 {
+            "the paper's clipping level"
+        } else {
+            "paper level + 5σ of its noise"
+        },
+    ));
+    o.push(ov(
+        "effects.lighting.gamma",
+        num(1.0, 1),
+        "levels are mapped linearly",
+    ));
+    o.push(ov(
+        "scene.ink_radiance",
+        num(im.ink_radiance, 5),
+        format!("ink {} DN (95 %, {} frames)", im.ink_dn, im.level_frames),
+    ));
+    o.push(ov(
+        "scene.paper_radiance",
+        num(im.paper_radiance, 5),
+        format!("paper {} DN (95 %)", im.paper_dn),
+    ));
+    if let (Some(r), Some(d)) = (im.disc_radiance, im.disc_dn) {
+        o.push(ov(
+            "scene.disc_radiance",
+            num(r, 5),
+            format!("disc around the marker's paper {d} DN (95 %)"),
+        ));
+    }
+    if let (Some(b), Some(p)) = (im.blur_sigma_px, im.blur_sigma_param_px) {
+        o.push(ov("effects.optical_blur.enabled", Value::Boolean(true), ""));
+        o.push(ov(
+            "effects.optical_blur.sigma_px",
+            fitted_value(&p),
+            format!(
+                "± {:.*} (95 %): PSF σ {} px from {} edge fits (the renderer's kernel is sampled at whole pixels)",
+                significant_decimals(p.u95),
+                p.u95,
+                b,
+                im.blur_edges
+            ),
+        ));
+    }
+    let n = &im.noise;
+    o.push(ov("effects.pixel_noise.enabled", Value::Boolean(true), ""));
+    o.push(ov(
+        "effects.pixel_noise.full_well_e",
+        num(n.full_well_e, 1),
+        format!(
+            "σ {} DN at the ink, {} DN at the paper (95 %){}",
+            n.ink_sigma_dn,
+            n.paper_sigma_dn,
+            if n.shot_resolved {
+                ""
+            } else {
+                "; no measurable shot noise"
+            }
+        ),
+    ));
+    o.push(ov(
+        "effects.pixel_noise.read_noise_e",
+        num(n.read_noise_e, 2),
+        n.source.clone(),
+    ));
+    match im.jpeg_quality {
+        Some((q, (lo, hi), k)) => {
+            o.push(ov("effects.compression.enabled", Value::Boolean(true), ""));
+            o.push(ov(
+                "effects.compression.quality",
+                Value::Integer(q as i64),
+                format!("IJG quality {lo}–{hi} from the DCT quantiser ({k} frames)"),
+            ));
+        }
+        None => o.push(ov(
+            "effects.compression.enabled",
+            Value::Boolean(false),
+            match im.blockiness {
+                Some(b) => format!("no JPEG quantiser found (blockiness {b:.2})"),
+                None => "not measured".into(),
+            },
+        )),
+    }
+    o
+}
+
+/// Marker-angle offset that the base's wheel dynamics add to the ideal kinematics over the
+/// footage's frames (mean actual − ideal θ2), rad; `None` without dynamics.
+pub fn dynamics_offset_rad(scenario: &Scenario, times_s: &[f64]) -> Option<f64> {
+    if !scenario.dynamics.enabled || times_s.is_empty() {
+        return None;
+    }
+    let m = Mechanism::new(
+        &scenario.mechanism,
+        &scenario.drive_speed,
+        &scenario.dynamics,
+        scenario.duration_s,
+    )
+    .ok()?;
+    let d: f64 = times_s
+        .iter()
+        .map(|&t| m.actual(t).theta2_rad - m.ideal(t).theta2_rad)
+        .sum();
+    Some(d / times_s.len() as f64)
+}
+
+/// The scenario file: a header, `extend`, then the fields grouped by table with comments.
+pub fn scenario_toml(overrides: &[Override], ctx: &OutputContext, cal: &Calibration) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Calibrated by `geneva calibrate` from {} ({} frames, marker in {}).",
+        ctx.footage, cal.frames, cal.detected_frames
+    );
+    let _ = writeln!(
+        s,
+        "# Uncertainties are expanded (≈ 95 %); calibration.md says how each value was measured."
+    );
+    let _ = writeln!(s, "extend = {}", Value::String(ctx.extend.clone()));
+    let mut sections: Vec<(String, Vec<&Override>)> = Vec::new();
+    for o in overrides {
+        let (sec, _) = o.path.rsplit_once('.').unwrap_or(("", &o.path));
+        match sections.iter_mut().find(|(k, _)| k == sec) {
+            Some((_, v)) => v.push(o),
+            None => sections.push((sec.to_string(), vec![o])),
+        }
+    }
+    sections.sort_by_key(|(k, _)| !k.is_empty());
+    for (sec, items) in &sections {
+        if !sec.is_empty() {
+            let _ = writeln!(s, "\n[{sec}]");
+        }
+        for o in items {
+            let key = o.path.rsplit('.').next().unwrap_or(&o.path);
+            if o.comment.is_empty() {
+                let _ = writeln!(s, "{key} = {}", o.value);
+            } else {
+                let _ = writeln!(s, "{key} = {}  # {}", o.value, o.comment);
+            }
+        }
+        if sec == "frame_timing.model" {
+            if let Some(t) = &cal.timing {
+                let _ = writeln!(
+                    s,
+                    "# Fitted VFR model (geneva timing fit), for a synthetic schedule instead of the log:\n\
+                     # kind = \"vfr\", first_interval_s = {:.6}, pair_alternation_s = {:.6}, jitter_s = {:.3e}, \
+                     drop_probability = {:.5}, rate_error_ppm = 0 (fps above)",
+                    t.first_interval_s,
+                    t.pair_alternation_s.abs(),
+                    t.jitter_s,
+                    t.drop_probability
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The calibration report (markdown).
+pub fn calibration_markdown(
+    cal: &Calibration,
+    ctx: &OutputContext,
+    check: Option<&ReRenderCheck>,
+) -> String {
+    let g = &cal.geometry;
+    let im = &cal.imaging;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Calibration of {}\n", ctx.footage);
+    let _ = writeln!(
+        s,
+        "{} frames ({}×{} px), marker detected in {}. Every value is given with its expanded \
+         uncertainty (≈ 95 % coverage, k = 2 on the fit's standard error plus a small floor). \
+         Pixel coordinates follow OpenCV's convention (the centre of pixel (i, j) is at (i, j)).\n",
+        cal.frames, ctx.width_px, ctx.height_px, cal.detected_frames
+    );
+    let _ = writeln!(
+        s,
+        "| quantity | value (± 95 %) | unit | how it was measured |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|");
+    let mut row = |q: &str, v: String, u: &str, how: String| {
+        let _ = writeln!(s, "| {q} | {v} | {u} | {how} |");
+    };
+    row(
+        "image scale",
+        g.mm_per_px.to_string(),
+        "mm/px",
+        format!(
+            "pose fit with the project's camera model: {} poses ({}), marker side ≈ {:.2} px, RMS {:.3} px",
+            g.poses,
+            if g.from_edges {
+                "corners from edge-profile fits of the four sides"
+            } else {
+                "OpenCV corners with a fitted inset"
+            },
+            g.side_px,
+            g.rms_residual_px
+        ),
+    );
+    if let Some([cx, cy]) = g.centre_px {
+        row(
+            "rotation centre x, y",
+            format!("{cx}, {cy}"),
+            "px",
+            format!("pose fit over {:.0}° of rotation", g.arc_deg),
+        );
+    } else {
+        row(
+            "rotation centre x, y",
+            format!("{:.2}, {:.2}", g.centre_used_px[0], g.centre_used_px[1]),
+            "px",
+            "the base's (single frame: not measured)".into(),
+        );
+    }
+    row(
+        "marker radius",
+        g.radius_mm.to_string(),
+        "mm",
+        "pose fit".into(),
+    );
+    row(
+        "marker orientation on the disc",
+        g.orientation_deg.to_string(),
+        "deg",
+        "printed right axis against the radial direction, pose fit".into(),
+    );
+    let tilt = &g.tilt;
+    row(
+        "perspective tilt x, y",
+        format!("{}, {}", tilt.tilt_x_deg, tilt.tilt_y_deg),
+        "deg",
+        format!(
+            "pose fit with camera.distance_m = {} m (the base's; sets the focal length with the scale); marker aspect {:.4}; {}",
+            g.distance_m,
+            tilt.aspect,
+            if tilt.significant { "enabled" } else { "not distinguishable from 0: disabled" }
+        ),
+    );
+    if let Some(m) = &cal.motion {
+        row(
+            "sense of rotation",
+            if m.sense > 0.0 {
+                "clockwise on screen".into()
+            } else {
+                "counter-clockwise on screen".into()
+            },
+            "–",
+            "sign of the marker's total turn".into(),
+        );
+        row(
+            "marker angle at the first frame",
+            m.angle_first_deg.to_string(),
+            "deg",
+            "kinematic fit (scene.marker.angle_on_disc_deg)".into(),
+        );
+        row(
+            "crank angle at the first frame",
+            m.theta1_start_rad.to_string(),
+            "rad",
+            format!(
+                "least squares of the exact Geneva kinematics to the unwrapped marker angle ({} engagement(s), {} moving frames, RMS {:.2e} rad, angle noise {:.2e} rad)",
+                m.engagements, m.moving_frames, m.rms_residual_rad, m.angle_noise_rad
+            ),
+        );
+        row(
+            "mean crank speed",
+            m.omega1_rad_s.to_string(),
+            "rad/s",
+            "constant-speed fit".into(),
+        );
+        match (&m.polynomial, &m.polynomial_difference) {
+            (Some((e, mi)), _) => row(
+                "crank speed at engagement ends / middle",
+                format!("{e} / {mi}"),
+                "rad/s",
+                "per-engagement polynomial fit (resolved)".into(),
+            ),
+            (None, Some(d)) => row(
+                "per-engagement speed variation (mid − end)",
+                d.to_string(),
+                "rad/s",
+                "not resolved: the constant speed is used".into(),
+            ),
+            _ => {}
+        }
+    }
+    if let Some(t) = &cal.timing {
+        row(
+            "frame rate",
+            format!("{:.4} ± {:.4}", t.fps, 2.0 * t.fps_stderr),
+            "fps",
+            format!(
+                "VFR fit of the footage's timestamps (first interval {:.2} ms, jitter {:.3} ms, {} dropped); the scenario replays the timestamps themselves",
+                t.first_interval_s * 1e3,
+                t.jitter_s * 1e3,
+                t.dropped_frames
+            ),
+        );
+    }
+    row(
+        "ink level",
+        im.ink_dn.to_string(),
+        "DN",
+        format!(
+            "trimmed mean of well-inside pixels, median over {} frames",
+            im.level_frames
+        ),
+    );
+    row(
+        "paper level",
+        im.paper_dn.to_string(),
+        "DN",
+        "white cells and margin, same way".into(),
+    );
+    if let Some(d) = im.disc_dn {
+        row(
+            "disc level",
+            d.to_string(),
+            "DN",
+            "ring beyond the marker's paper".into(),
+        );
+    }
+    if let Some(b) = im.blur_sigma_px {
+        row(
+            "optical blur σ (PSF)",
+            b.to_string(),
+            "px",
+            format!(
+                "erf edge-profile fits with free levels, median over {} edges of static frames; scenario sigma_px {}",
+                im.blur_edges,
+                im.blur_sigma_param_px.map_or("–".into(), |p| p.to_string())
+            ),
+        );
+    }
+    let n = &im.noise;
+    row(
+        "noise σ at the ink",
+        n.ink_sigma_dn.to_string(),
+        "DN",
+        n.source.clone(),
+    );
+    row(
+        "noise σ at the paper",
+        n.paper_sigma_dn.to_string(),
+        "DN",
+        n.source.clone(),
+    );
+    row(
+        "shot + read noise",
+        format!(
+            "full well {:.0} e⁻, read {:.1} e⁻",
+            n.full_well_e, n.read_noise_e
+        ),
+        "e⁻",
+        if n.shot_resolved {
+            "σ² = α + β·(DN − black) through the ink and paper points".into()
+        } else {
+            "σ does not grow with the level: read noise only".into()
+        },
+    );
+    match im.jpeg_quality {
+        Some((q, (lo, hi), k)) => row(
+            "JPEG quality",
+            format!("{q} ({lo}–{hi})"),
+            "–",
+            format!("maximum likelihood of the IJG table on block-DCT coefficients (Fan & de Queiroz 2003), {k} of {} frames", im.compression_frames),
+        ),
+        None => row("JPEG quality", "none found".into(), "–", format!("{} frames examined", im.compression_frames)),
+    }
+    if let Some(b) = im.blockiness {
+        row(
+            "8-px blockiness B/A",
+            format!("{b:.3}"),
+            "–",
+            "Wang, Sheikh & Bovik 2002 (≈ 1 without block coding)".into(),
+        );
+    }
+    if let (Some(i), Some(p)) = (im.reference_ink_dn, im.reference_paper_dn) {
+        row(
+            "reference marker ink / paper",
+            format!("{i} / {p}"),
+            "DN",
+            "the static marker's well-inside pixels".into(),
+        );
+    }
+    if let Some(b) = im.reference_blur_sigma_px {
+        row(
+            "reference marker blur σ",
+            b.to_string(),
+            "px",
+            "its four sides".into(),
+        );
+    }
+    if let Some(c) = check {
+        let _ = writeln!(
+            s,
+            "\n## Re-rendering check\n\nFrame {} (t = {:.4} s) rendered from the calibrated scenario without noise: RMS of \
+             footage − render over the marker window ({}×{} px at {}, {}) is {:.3} DN, against {:.3} DN of noise the \
+             fitted model predicts there: ratio {:.3} (≤ 1.2 means the scenario reproduces the footage down to its noise).",
+            c.frame,
+            c.t_s,
+            c.window.2,
+            c.window.3,
+            c.window.0,
+            c.window.1,
+            c.residual_rms_dn,
+            c.expected_noise_dn,
+            c.ratio()
+        );
+    }
+    if let Some(t) = &cal.timing {
+        let _ = writeln!(s, "\n## Frame timing\n\n```\n{t}\n```");
+    }
+    if !cal.notes.is_empty() {
+        let _ = writeln!(s, "\n## Notes\n");
+        for n in &cal.notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
+    s
+}

@@ -1,0 +1,96 @@
+//! `geneva calibrate (--video F | --frames DIR --timestamps F | --image F) --base SCENARIO --out DIR
+//! [--single-frame]`.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use geneva_vision::pipeline::calibrate::{calibrate_footage, Footage};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct CalibrateArgs {
+    /// A video file (decoded with ffmpeg; timestamps from ffprobe).
+    #[arg(long, conflicts_with_all = ["frames", "image"])]
+    video: Option<PathBuf>,
+    /// A folder of image files (PNG/JPEG), taken in natural name order.
+    #[arg(long, requires = "timestamps", conflicts_with = "image")]
+    frames: Option<PathBuf>,
+    /// `frame, t_s` CSV (or any timing log) for --frames.
+    #[arg(long)]
+    timestamps: Option<PathBuf>,
+    /// One still image: image formation only (implies --single-frame).
+    #[arg(long)]
+    image: Option<PathBuf>,
+    /// What you know about the rig: a scenario (file or built-in name) that states at least the
+    /// marker's side `scene.marker.size_mm`, and the mechanism, marker dictionary and id.
+    #[arg(long)]
+    base: String,
+    /// Calibrate the image formation and the marker's pose from the first frame only (no motion).
+    #[arg(long)]
+    single_frame: bool,
+    #[arg(long, default_value = "out/calibrate")]
+    out: PathBuf,
+}
+
+pub fn run(a: CalibrateArgs) -> Result<()> {
+    let footage = match (&a.video, &a.frames, &a.image) {
+        (Some(v), None, None) => Footage::Video(v.clone()),
+        (None, Some(d), None) => Footage::Frames {
+            dir: d.clone(),
+            timestamps: a
+                .timestamps
+                .clone()
+                .context("--frames needs --timestamps")?,
+        },
+        (None, None, Some(i)) => Footage::Image(i.clone()),
+        _ => bail!("give exactly one of --video, --frames (with --timestamps) or --image"),
+    };
+    let bar = super::run_cmd::progress_bar(0, "measure");
+    let out = calibrate_footage(&footage, &a.base, &a.out, a.single_frame, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    let c = &out.calibration;
+    let g = &c.geometry;
+    println!(
+        "{} frames, marker in {}; image scale {} mm/px, marker side {} px",
+        c.frames, c.detected_frames, g.mm_per_px, g.side_px
+    );
+    if let Some([x, y]) = g.centre_px {
+        println!(
+            "rotation centre ({x}, {y}) px, marker radius {} mm",
+            g.radius_mm
+        );
+    }
+    if let Some(m) = &c.motion {
+        println!(
+            "crank speed {} rad/s, crank angle at the first frame {} rad",
+            m.omega1_rad_s, m.theta1_start_rad
+        );
+    }
+    let im = &c.imaging;
+    println!(
+        "levels ink {} / paper {} DN, noise {} / {} DN, blur σ {}",
+        im.ink_dn,
+        im.paper_dn,
+        im.noise.ink_sigma_dn,
+        im.noise.paper_sigma_dn,
+        im.blur_sigma_px
+            .map_or("not measured".into(), |b| format!("{b} px"))
+    );
+    if let Some(k) = &out.check {
+        println!(
+            "re-render residual {:.3} DN vs noise {:.3} DN (ratio {:.3})",
+            k.residual_rms_dn,
+            k.expected_noise_dn,
+            k.ratio()
+        );
+    }
+    for n in &c.notes {
+        println!("note: {n}");
+    }
+    for f in &out.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,1148 @@
+//! `geneva calibrate`: footage in, a scenario that reproduces it out. Reads the frames once
+//! (video through ffmpeg, or a folder of images with a timestamps file), detects the marker
+//! (whole frame until found, then in a window around its last position), measures each frame
+//! with [`crate::imagestats`] (levels on every frame, edge fits on up to [`EDGE_FRAMES`] static
+//! frames in parallel, temporal noise on the longest static run, JPEG traces on three frames),
+//! fits the rig with [`crate::calibrate`], and writes `scenario.toml`, `timestamps.csv`,
+//! `calibration.md` and `overlay.png` (footage | calibrated render at the same instant |
+//! difference ×4 around mid-grey).
+//!
+//! [`measure_footage`] and [`calibrate_footage`] are the library entry points
+//! (`geneva diagnose` starts from them); nothing here is maths.
+
+use crate::calibrate::output::{
+    calibration_markdown, dynamics_offset_rad, overrides, scenario_toml, OutputContext, Override,
+    ReRenderCheck,
+};
+use crate::calibrate::{
+    calibrate, noise_electrons, CalibrateError, CalibrateOptions, Calibration, FootageStats,
+    FrameObservation, TemporalSample,
+};
+use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
+use crate::imagestats::{
+    blockiness, jpeg_quality, marker_levels, marker_regions, motion_ratio, outer_edge_profiles,
+    refined_corners, temporal_noise, EdgeOptions, EdgeProfile, LevelOptions, MarkerLayout,
+};
+use crate::io::png_out::write_gray_png;
+use crate::render::{render_frame, FrameRequest, PixelRect};
+use crate::scenario::Scenario;
+use crate::timing::fit_vfr;
+use crate::timing::Timestamps;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use toml::Value;
+
+/// At most this many static poses, and as many moving frames, get their marker edges fitted.
+pub const EDGE_FRAMES: usize = 96;
+/// Frames of the longest static run kept for the temporal noise and the overlay.
+const RUN_FRAMES: usize = 12;
+/// A marker whose centre moves less than this between frames may be static, px.
+const STATIC_PX: f64 = 0.6;
+/// …and is when its edges change no more than its flat regions (noise alone: ≈ 1).
+const MOTION_RATIO: f64 = 1.25;
+
+/// Where the footage comes from.
+#[derive(Debug, Clone)]
+pub enum Footage {
+    Video(PathBuf),
+    Frames {
+        dir: PathBuf,
+        timestamps: PathBuf,
+    },
+    /// One still image (single-frame mode, t = 0).
+    Image(PathBuf),
+}
+
+impl Footage {
+    fn describe(&self) -> String {
+        match self {
+            Footage::Video(p) | Footage::Image(p) => p.display().to_string(),
+            Footage::Frames { dir, .. } => dir.display().to_string(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateJobError {
+    #[error("--base {spec}: {message}")]
+    Base { spec: String, message: String },
+    #[error("{0}")]
+    Input(String),
+    #[error("{file}: frame {frame}: {message}")]
+    Frame {
+        file: PathBuf,
+        frame: usize,
+        message: String,
+    },
+    #[error("{0}")]
+    Calibrate(#[from] CalibrateError),
+    #[error("{path}: {message}")]
+    Output { path: PathBuf, message: String },
+}
+
+/// The calibration and what was written.
+#[derive(Debug, Clone)]
+pub struct CalibrateOutput {
+    pub calibration: Calibration,
+    /// The calibrated scenario as loaded back from `scenario.toml`.
+    pub scenario: Scenario,
+    pub check: Option<ReRenderCheck>,
+    pub files: Vec<PathBuf>,
+}
+
+/// A copied window of a frame (absolute origin).
+#[derive(Debug, Clone)]
+struct Crop {
+    rect: PixelRect,
+    data: Vec<u8>,
+}
+
+impl Crop {
+    fn of(data: &[u8], width: usize, height: usize, rect: PixelRect) -> Crop {
+        let r = rect.intersect(&PixelRect::new(0, 0, width, height));
+        let mut out = Vec::with_capacity(r.len());
+        for y in r.y0..r.y1() {
+            let start = y as usize * width + r.x0 as usize;
+            out.extend_from_slice(&data[start..start + r.width]);
+        }
+        Crop { rect: r, data: out }
+    }
+
+    fn view(&self) -> GrayView<'_> {
+        GrayView {
+            data: &self.data,
+            width: self.rect.width,
+            height: self.rect.height,
+            origin_px: (self.rect.x0 as i32, self.rect.y0 as i32),
+        }
+    }
+}
+
+type Corners = [[f64; 2]; 4];
+
+fn centre(c: &Corners) -> [f64; 2] {
+    [
+        c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
+        c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
+    ]
+}
+
+/// The marker's window: its corners' box grown for the margin, the surround ring and the edge
+/// band.
+fn window(c: &Corners, layout: &MarkerLayout) -> PixelRect {
+    let (x0, y0, x1, y1) = corners_bbox_px(c);
+    let side = ((x1 - x0) + (y1 - y0)) / 2.0;
+    let grow = side * (layout.margin_frac.unwrap_or(0.1) + 1.5 / layout.side_cells() as f64) + 24.0;
+    let (x0, y0) = ((x0 - grow).floor() as i64, (y0 - grow).floor() as i64);
+    let (x1, y1) = ((x1 + grow).ceil() as i64, (y1 + grow).ceil() as i64);
+    PixelRect::new(x0, y0, (x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize)
+}
+
+/// Per-footage measurement state.
+struct Measurer {
+    detector: ArucoDetector,
+    marker_id: i32,
+    reference_id: Option<i32>,
+    layout: MarkerLayout,
+    ref_layout: Option<MarkerLayout>,
+    level_opts: LevelOptions,
+    stats: FootageStats,
+    last: Option<Corners>,
+    last_ref: Option<Corners>,
+    edge_jobs: Vec<(usize, Crop, Corners, bool)>,
+    ref_edge_jobs: Vec<(Crop, Corners)>,
+    ref_crops: Vec<(Crop, Corners)>,
+    run: Vec<(usize, Crop, Corners)>,
+    best_run: Vec<(usize, Crop, Corners)>,
+    first: Option<(usize, Crop, Corners)>,
+    prev_crop: Option<(usize, Crop, Corners)>,
+    stride: usize,
+    prev_static: bool,
+    jpeg_frames: Vec<usize>,
+    single_frame: bool,
+}
+
+fn layout_of(
+    dict: crate::marker::Dictionary,
+    id: usize,
+    bits: usize,
+    size_mm: f64,
+    margin_mm: f64,
+) -> Result<MarkerLayout, CalibrateJobError> {
+    MarkerLayout::new(dict, id, bits, Some(margin_mm / size_mm))
+        .map_err(|e| CalibrateJobError::Input(format!("marker layout: {e}")))
+}
+
+impl Measurer {
+    fn new(
+        base: &Scenario,
+        frames_hint: usize,
+        single_frame: bool,
+    ) -> Result<Self, CalibrateJobError> {
+        let m = &base.scene.marker;
+        let layout = layout_of(
+            m.dictionary,
+            m.id,
+            m.border_bits,
+            m.size_mm,
+            m.white_margin_mm,
+        )?;
+        let r = &base.scene.reference_marker;
+        let reference_id = base.detector.reference_marker_id;
+        let ref_layout = if reference_id.is_some() {
+            Some(layout_of(
+                r.dictionary,
+                r.id,
+                r.border_bits,
+                r.size_mm,
+                r.white_margin_mm,
+            )?)
+        } else {
+            None
+        };
+        let detector = ArucoDetector::new(&base.detector)
+            .map_err(|e| CalibrateJobError::Input(format!("detector: {e}")))?;
+        let n = frames_hint.max(1);
+        Ok(Self {
+            detector,
+            marker_id: base.detector.marker_id as i32,
+            reference_id: reference_id.map(|v| v as i32),
+            layout,
+            ref_layout,
+            level_opts: LevelOptions::default(),
+            stats: FootageStats::default(),
+            last: None,
+            last_ref: None,
+            edge_jobs: Vec::new(),
+            ref_edge_jobs: Vec::new(),
+            ref_crops: Vec::new(),
+            run: Vec::new(),
+            best_run: Vec::new(),
+            first: None,
+            prev_crop: None,
+            stride: n.div_ceil(EDGE_FRAMES).max(1),
+            prev_static: false,
+            jpeg_frames: vec![0, n / 2, n.saturating_sub(1)],
+            single_frame,
+        })
+    }
+
+    fn observe(
+        &mut self,
+        index: usize,
+        t_s: f64,
+        data: &[u8],
+        w: usize,
+        h: usize,
+    ) -> Result<(), String> {
+        self.stats.width_px = w;
+        self.stats.height_px = h;
+        let view = GrayView::full(data, w, h);
+        let det = self
+            .detector
+            .detect_marker(
+                view,
+                self.marker_id,
+                self.last.as_ref().map(corners_bbox_px),
+            )
+            .map_err(|e| e.to_string())?
+            .detection
+            .map(|d| d.corners_px);
+        let mut obs = FrameObservation {
+            frame: index,
+            t_s,
+            corners_px: det,
+            ..Default::default()
+        };
+        if let Some(c) = det {
+            let moved = self
+                .last
+                .map(|p| {
+                    let (a, b) = (centre(&p), centre(&c));
+                    (a[0] - b[0]).hypot(a[1] - b[1])
+                })
+                .unwrap_or(f64::INFINITY);
+            // Static: OpenCV's (quantised) corners did not move, and neither did the image at
+            // the marker's edges (sub-pixel motion shows there first).
+            let crop_now = Crop::of(data, w, h, window(&c, &self.layout));
+            obs.static_pose = moved < STATIC_PX
+                && self.prev_crop.as_ref().is_some_and(|p| {
+                    p.0 + 1 == index
+                        && motion_ratio(&p.1.view(), &crop_now.view())
+                            .is_some_and(|r| r < MOTION_RATIO)
+                });
+            obs.levels = marker_levels(&view, &c, &self.layout, &self.level_opts).ok();
+            let crop = crop_now;
+            if self.first.is_none() {
+                self.first = Some((index, crop.clone(), c));
+            }
+            // Edge fits (sub-pixel corners, blur): the first frame of every static run (one
+            // per distinct pose) and every stride-th moving frame, each capped.
+            let run_start = obs.static_pose && !self.prev_static;
+            let (n_static, n_moving) = self.edge_jobs.iter().fold((0, 0), |a, j| {
+                if j.3 {
+                    (a.0 + 1, a.1)
+                } else {
+                    (a.0, a.1 + 1)
+                }
+            });
+            if self.single_frame
+                || (run_start && n_static < EDGE_FRAMES)
+                || (!obs.static_pose && index % self.stride == 0 && n_moving < EDGE_FRAMES)
+            {
+                self.edge_jobs.push((
+                    self.stats.frames.len(),
+                    crop.clone(),
+                    c,
+                    obs.static_pose || self.single_frame,
+                ));
+            }
+            if obs.static_pose {
+                if self.run.is_empty() {
+                    if let Some(p) = self.prev_crop.take() {
+                        self.run.push(p);
+                    }
+                }
+                if self.run.len() < RUN_FRAMES {
+                    self.run.push((index, crop.clone(), c));
+                }
+            } else {
+                self.close_run();
+            }
+            self.prev_crop = Some((index, crop, c));
+            self.last = Some(c);
+            self.prev_static = obs.static_pose;
+        } else {
+            self.close_run();
+            self.prev_crop = None;
+            self.prev_static = false;
+        }
+        if let (Some(id), Some(layout)) = (self.reference_id, &self.ref_layout) {
+            let r = self
+                .detector
+                .detect_marker(view, id, self.last_ref.as_ref().map(corners_bbox_px))
+                .map_err(|e| e.to_string())?
+                .detection
+                .map(|d| d.corners_px);
+            if let Some(c) = r {
+                obs.reference_px = Some(c);
+                if let Ok(l) = marker_levels(&view, &c, layout, &self.level_opts) {
+                    self.stats.reference_levels.push(l);
+                }
+                if self.ref_crops.len() < RUN_FRAMES || self.ref_edge_jobs.len() < 8 {
+                    let crop = Crop::of(data, w, h, window(&c, layout));
+                    if self.ref_edge_jobs.len() < 8 && index % self.stride == 0 {
+                        self.ref_edge_jobs.push((crop.clone(), c));
+                    }
+                    // The reference marker is static: the same pixels over frames (ROI windows
+                    // of the first detection).
+                    if self.ref_crops.len() < RUN_FRAMES {
+                        let rect = self.ref_crops.first().map_or(crop.rect, |f| f.0.rect);
+                        self.ref_crops.push((Crop::of(data, w, h, rect), c));
+                    }
+                }
+                self.last_ref = Some(c);
+            }
+        }
+        if self.jpeg_frames.contains(&index) {
+            if let Ok(b) = blockiness(&view, None) {
+                self.stats.blockiness.push(b);
+                self.stats
+                    .jpeg
+                    .push(jpeg_quality(&view, None, 1024).ok().flatten());
+            }
+            self.jpeg_frames.retain(|&f| f != index);
+        }
+        self.stats.frames.push(obs);
+        Ok(())
+    }
+
+    fn close_run(&mut self) {
+        if self.run.len() > self.best_run.len() {
+            self.best_run = std::mem::take(&mut self.run);
+        }
+        self.run.clear();
+    }
+
+    /// Parallel edge fits, temporal noise, timing fit.
+    fn finish(mut self, times: &[f64]) -> (FootageStats, Option<(usize, Crop, Corners)>) {
+        self.close_run();
+        let edge_opts = EdgeOptions {
+            max_samples: 2500,
+            ..Default::default()
+        };
+        let jobs: Vec<&(usize, Crop, Corners, bool)> = self.edge_jobs.iter().collect();
+        let layout = &self.layout;
+        let results: Vec<(usize, Vec<EdgeProfile>)> = jobs
+            .par_iter()
+            .map(|(k, crop, c, _)| {
+                let fits: Vec<EdgeProfile> =
+                    outer_edge_profiles(&crop.view(), c, layout, &edge_opts)
+                        .into_iter()
+                        .filter_map(Result::ok)
+                        .collect();
+                (*k, fits)
+            })
+            .collect();
+        let n = layout.side_cells();
+        for (k, fits) in results {
+            let f = &mut self.stats.frames[k];
+            f.refined_px = refined_corners(&fits, n);
+            f.edges = fits;
+        }
+        if let Some(rl) = &self.ref_layout {
+            self.stats.reference_edges = self
+                .ref_edge_jobs
+                .par_iter()
+                .flat_map_iter(|(crop, c)| {
+                    outer_edge_profiles(&crop.view(), c, rl, &edge_opts)
+                        .into_iter()
+                        .filter_map(Result::ok)
+                })
+                .collect();
+        }
+        // Temporal noise: the longest static run of the disc marker, and the reference marker.
+        let mut temporal = Vec::new();
+        let mut add = |what: &str, crops: &[(Crop, Corners)], layout: &MarkerLayout| {
+            if crops.len() < 3 {
+                return;
+            }
+            let views: Vec<GrayView<'_>> = crops.iter().map(|c| c.0.view()).collect();
+            let Ok(regions) = marker_regions(&views[0], &crops[0].1, layout, &self.level_opts)
+            else {
+                return;
+            };
+            for (name, px) in [
+                ("ink", &regions.ink),
+                ("paper", &regions.paper),
+                ("surround", &regions.surround),
+            ] {
+                if let Ok(noise) = temporal_noise(&views, px) {
+                    if noise.pixels >= 30 {
+                        temporal.push(TemporalSample {
+                            what: format!("{what} {name}"),
+                            noise,
+                        });
+                    }
+                }
+            }
+        };
+        let run: Vec<(Crop, Corners)> = self
+            .best_run
+            .iter()
+            .map(|(_, c, k)| (c.clone(), *k))
+            .collect();
+        // The crops of a run differ in window only when the detection moved: use the first's.
+        let rect = run.first().map(|r| r.0.rect);
+        let same: Vec<(Crop, Corners)> =
+            run.into_iter().filter(|r| Some(r.0.rect) == rect).collect();
+        add("disc", &same, &self.layout);
+        if let Some(rl) = self.ref_layout.clone() {
+            let crops = self.ref_crops.clone();
+            add("reference", &crops, &rl);
+        }
+        self.stats.temporal = temporal;
+        if times.len() >= 5 {
+            if let Ok(ts) = Timestamps::new(times.to_vec()) {
+                self.stats.timing = fit_vfr(&ts).ok();
+            }
+        }
+        let overlay = if self.best_run.len() >= 2 {
+            let mid = self.best_run.len() / 2;
+            self.best_run.get(mid).cloned()
+        } else {
+            self.first.clone()
+        };
+        (self.stats, overlay)
+    }
+}
+
+/// Reads the timestamps of a frame folder.
+fn read_times(path: &Path) -> Result<Vec<f64>, CalibrateJobError> {
+    crate::io::timing_log::read_timing_log(path, None)
+        .map(|t| t.into_vec())
+        .map_err(|e| CalibrateJobError::Input(e.to_string()))
+}
+
+/// Reads the footage frame by frame into `measurer`; returns the timestamps (from the first).
+fn read_footage(
+    footage: &Footage,
+    measurer: &mut Measurer,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Vec<f64>, CalibrateJobError> {
+    let mut times = Vec::new();
+    match footage {
+        Footage::Image(path) => {
+            let img = crate::io::images::read_gray(path)
+                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            measurer
+                .observe(0, 0.0, &img.data, img.width, img.height)
+                .map_err(|message| CalibrateJobError::Frame {
+                    file: path.clone(),
+                    frame: 0,
+                    message,
+                })?;
+            times.push(0.0);
+            progress(1, 1);
+        }
+        Footage::Frames { dir, timestamps } => {
+            let files = crate::io::images::list_image_files(dir)
+                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            let t = read_times(timestamps)?;
+            if files.len() != t.len() {
+                return Err(CalibrateJobError::Input(format!(
+                    "{} holds {} image files but {} has {} timestamps",
+                    dir.display(),
+                    files.len(),
+                    timestamps.display(),
+                    t.len()
+                )));
+            }
+            let t0 = t.first().copied().unwrap_or(0.0);
+            // Decode a few frames in parallel, measure them in order (each predicts the next).
+            for (chunk_i, chunk) in files.chunks(4).enumerate() {
+                let imgs: Vec<_> = chunk
+                    .par_iter()
+                    .map(|f| crate::io::images::read_gray(f))
+                    .collect();
+                for (k, img) in imgs.into_iter().enumerate() {
+                    let i = chunk_i * 4 + k;
+                    let file = &files[i];
+                    let img = img.map_err(|e| CalibrateJobError::Frame {
+                        file: file.clone(),
+                        frame: i,
+                        message: e.to_string(),
+                    })?;
+                    if i > 0
+                        && (img.width, img.height)
+                            != (measurer.stats.width_px, measurer.stats.height_px)
+                    {
+                        return Err(CalibrateJobError::Frame {
+                            file: file.clone(),
+                            frame: i,
+                            message: format!(
+                                "{}×{} px, but the first frame is {}×{}",
+                                img.width,
+                                img.height,
+                                measurer.stats.width_px,
+                                measurer.stats.height_px
+                            ),
+                        });
+                    }
+                    measurer
+                        .observe(i, t[i] - t0, &img.data, img.width, img.height)
+                        .map_err(|message| CalibrateJobError::Frame {
+                            file: file.clone(),
+                            frame: i,
+                            message,
+                        })?;
+                    times.push(t[i] - t0);
+                    progress(i + 1, files.len());
+                }
+            }
+        }
+        Footage::Video(path) => {
+            let mut frames = crate::io::video::VideoFrames::open(path)
+                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            let (w, h, total) = (
+                frames.info().width_px,
+                frames.info().height_px,
+                frames.info().frame_count(),
+            );
+            let mut t0 = None;
+            loop {
+                match frames.next_frame() {
+                    Ok(Some(f)) => {
+                        let t_first = *t0.get_or_insert(f.t_s);
+                        measurer
+                            .observe(f.index, f.t_s - t_first, &f.data, w, h)
+                            .map_err(|message| CalibrateJobError::Frame {
+                                file: path.clone(),
+                                frame: f.index,
+                                message,
+                            })?;
+                        times.push(f.t_s - t_first);
+                        progress(f.index + 1, total);
+                    }
+                    Ok(None) => break,
+                    Err(e) => return Err(CalibrateJobError::Input(e.to_string())),
+                }
+            }
+        }
+    }
+    if times.is_empty() {
+        return Err(CalibrateJobError::Input(format!(
+            "{}: no frames",
+            footage.describe()
+        )));
+    }
+    Ok(times)
+}
+
+fn frames_hint(footage: &Footage) -> usize {
+    match footage {
+        Footage::Image(_) => 1,
+        Footage::Frames { dir, .. } => crate::io::images::list_image_files(dir)
+            .map(|f| f.len())
+            .unwrap_or(1),
+        Footage::Video(p) => crate::io::video::probe(p)
+            .map(|i| i.frame_count())
+            .unwrap_or(300),
+    }
+}
+
+/// Loads the base scenario and checks that it states what the footage cannot tell.
+pub fn load_base(spec: &str) -> Result<Scenario, CalibrateJobError> {
+    let err = |message: String| CalibrateJobError::Base {
+        spec: spec.to_string(),
+        message,
+    };
+    let stated = crate::scenario::stated_fields(spec).map_err(|e| err(e.to_string()))?;
+    let side = stated
+        .get("scene")
+        .and_then(|s| s.get("marker"))
+        .and_then(|m| m.get("size_mm"));
+    if side.is_none() {
+        return Err(err(
+            "does not state the marker's side `scene.marker.size_mm` (the printed black square, \
+             mm): the image scale is measured against it, so calibrate needs it from you"
+                .into(),
+        ));
+    }
+    crate::scenario::load_any(spec).map_err(|e| err(e.to_string()))
+}
+
+/// Measures the footage: every frame's observation plus the footage-wide statistics.
+pub fn measure_footage(
+    footage: &Footage,
+    base: &Scenario,
+    single_frame: bool,
+    progress: &dyn Fn(usize, usize),
+) -> Result<FootageStats, CalibrateJobError> {
+    Ok(measure(footage, base, single_frame, progress)?.0)
+}
+
+type Measured = (FootageStats, Vec<f64>, Option<(usize, Crop, Corners)>);
+
+fn measure(
+    footage: &Footage,
+    base: &Scenario,
+    single_frame: bool,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Measured, CalibrateJobError> {
+    let mut m = Measurer::new(base, frames_hint(footage), single_frame)?;
+    let times = read_footage(footage, &mut m, progress)?;
+    let (stats, overlay) = m.finish(&times);
+    Ok((stats, times, overlay))
+}
+
+fn out_err(path: &Path, e: impl std::fmt::Display) -> CalibrateJobError {
+    CalibrateJobError::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// The whole job: measure, fit, write `scenario.toml`, `timestamps.csv`, `calibration.md` and
+/// `overlay.png` into `out_dir`.
+pub fn calibrate_footage(
+    footage: &Footage,
+    base_spec: &str,
+    out_dir: &Path,
+    single_frame: bool,
+    progress: &dyn Fn(usize, usize),
+) -> Result<CalibrateOutput, CalibrateJobError> {
+    let base = load_base(base_spec)?;
+    let single_frame = single_frame || matches!(footage, Footage::Image(_));
+    std::fs::create_dir_all(out_dir).map_err(|e| out_err(out_dir, e))?;
+    let (stats, times, overlay) = measure(footage, &base, single_frame, progress)?;
+    let cal = calibrate(&base, &stats, &CalibrateOptions { single_frame })?;
+    let mut files = Vec::new();
+    let ts_name = "timestamps.csv";
+    let ts_path = out_dir.join(ts_name);
+    let with_times = !single_frame;
+    if with_times {
+        let ts = Timestamps::new(times.clone()).map_err(|e| {
+            CalibrateJobError::Input(format!("{}: timestamps: {e}", footage.describe()))
+        })?;
+        std::fs::write(&ts_path, crate::timing::to_frames_csv(&ts))
+            .map_err(|e| out_err(&ts_path, e))?;
+        files.push(ts_path.clone());
+    }
+    let extend = {
+        let p = Path::new(base_spec);
+        if p.exists() {
+            p.canonicalize()
+                .map(|c| c.display().to_string())
+                .unwrap_or_else(|_| base_spec.to_string())
+        } else {
+            base_spec.to_string()
+        }
+    };
+    let ctx = OutputContext {
+        extend,
+        footage: footage.describe(),
+        timestamps_file: with_times.then(|| ts_name.to_string()),
+        width_px: stats.width_px,
+        height_px: stats.height_px,
+        last_t_s: times.last().copied().unwrap_or(0.0),
+    };
+    let scenario_path = out_dir.join("scenario.toml");
+    let mut ovs = overrides(&cal, &ctx, &base);
+    let mut notes = cal.notes.clone();
+    // The base's wheel dynamics displace the wheel from the ideal kinematics: shift the marker
+    // angle so the rendered marker sits where the footage shows it.
+    let typed = |o: &[Override]| -> Result<Scenario, CalibrateJobError> {
+        // Overrides are not anchored to a file: name the timestamps by their full path here.
+        // A `kind` selects a variant: like `extend` in a file, it replaces the base's table.
+        let mut pairs: Vec<(String, Value)> = Vec::new();
+        for x in o {
+            if let Some(table) = x.path.strip_suffix(".kind") {
+                pairs.push((table.to_string(), Value::Table(Default::default())));
+            }
+            let v = if x.path == "frame_timing.model.file" {
+                Value::String(ts_path.display().to_string())
+            } else {
+                x.value.clone()
+            };
+            pairs.push((x.path.clone(), v));
+        }
+        crate::scenario::with_overrides(&base, &pairs, &scenario_path)
+            .map_err(|e| out_err(&scenario_path, e))
+    };
+    let first = typed(&ovs)?;
+    if let Some(d) = dynamics_offset_rad(&first, &times) {
+        if let Some(o) = ovs
+            .iter_mut()
+            .find(|o| o.path == "scene.marker.angle_on_disc_deg")
+        {
+            if let Some(v) = o.value.as_float() {
+                o.value = Value::Float(v - d.to_degrees());
+                o.comment.push_str(&format!(
+                    "; minus {:.4}° that the base's wheel dynamics add on average",
+                    d.to_degrees()
+                ));
+                notes.push(format!(
+                    "the base's wheel dynamics turn the wheel {:.4}° from the ideal kinematics on average over the footage; the marker angle is corrected for it",
+                    d.to_degrees()
+                ));
+            }
+        }
+    }
+    let mut cal = cal;
+    cal.notes = notes;
+    if let Some((frame, crop, corners)) = &overlay {
+        let layout = layout_of(
+            base.scene.marker.dictionary,
+            base.scene.marker.id,
+            base.scene.marker.border_bits,
+            base.scene.marker.size_mm,
+            base.scene.marker.white_margin_mm,
+        )?;
+        match_by_simulation(
+            &stats, *frame, crop, corners, &layout, &mut ovs, &mut cal, &typed,
+        );
+    }
+    let text = scenario_toml(&ovs, &ctx, &cal);
+    std::fs::write(&scenario_path, &text).map_err(|e| out_err(&scenario_path, e))?;
+    files.push(scenario_path.clone());
+    let scenario = crate::scenario::load(&scenario_path).map_err(|e| out_err(&scenario_path, e))?;
+    let check = match &overlay {
+        Some((frame, crop, corners)) => Some(render_check(
+            &scenario,
+            &cal,
+            *frame,
+            crop,
+            corners,
+            &out_dir.join("overlay.png"),
+            &base,
+        )?),
+        None => None,
+    };
+    if check.is_some() {
+        files.push(out_dir.join("overlay.png"));
+    }
+    let md_path = out_dir.join("calibration.md");
+    std::fs::write(&md_path, calibration_markdown(&cal, &ctx, check.as_ref()))
+        .map_err(|e| out_err(&md_path, e))?;
+    files.push(md_path);
+    Ok(CalibrateOutput {
+        calibration: cal,
+        scenario,
+        check,
+        files,
+    })
+}
+
+/// The footage's level and noise statistics, measured the way [`simulated_stats`] measures the
+/// render: trimmed means (median over frames) and the noise σ (temporal on the disc marker's
+/// static run when there is one, else spatial, median over frames).
+fn footage_stats(stats: &FootageStats) -> Option<([f64; 3], [f64; 2], bool)> {
+    let med = |mut v: Vec<f64>| -> Option<f64> {
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        Some(v[v.len() / 2])
+    };
+    let lv: Vec<_> = stats
+        .frames
+        .iter()
+        .filter_map(|f| f.levels.as_ref())
+        .collect();
+    let ink = med(lv.iter().map(|l| l.ink.trimmed_mean_dn).collect())?;
+    let paper = med(lv.iter().map(|l| l.paper.trimmed_mean_dn).collect())?;
+    let disc = med(lv
+        .iter()
+        .filter_map(|l| l.surround.as_ref().map(|s| s.trimmed_mean_dn))
+        .collect())
+    .unwrap_or(f64::NAN);
+    let temporal = |w: &str| {
+        stats
+            .temporal
+            .iter()
+            .find(|t| t.what == w)
+            .map(|t| t.noise.sigma_dn)
+    };
+    match (temporal("disc ink"), temporal("disc paper")) {
+        (Some(i), Some(p)) => Some(([ink, paper, disc], [i, p], true)),
+        _ => Some((
+            [ink, paper, disc],
+            [
+                med(lv.iter().map(|l| l.ink.noise_sigma_dn).collect())?,
+                med(lv.iter().map(|l| l.paper.noise_sigma_dn).collect())?,
+            ],
+            false,
+        )),
+    }
+}
+
+/// The same statistics on renders of `scenario` at footage frame `frame` over the crop.
+fn simulated_stats(
+    scenario: &Scenario,
+    frame: usize,
+    crop: &Crop,
+    corners: &Corners,
+    layout: &MarkerLayout,
+    temporal: bool,
+) -> Option<([f64; 3], [f64; 2])> {
+    let rig = crate::pipeline::rig::Rig::new(scenario).ok()?;
+    let times = rig.frame_times.as_slice();
+    let k = frame.min(times.len().checked_sub(1)?);
+    let scene = rig.animated();
+    let renders: Vec<_> = (0..if temporal { 6 } else { 1 })
+        .into_par_iter()
+        .map(|j| {
+            render_frame(
+                &scene,
+                &rig.settings,
+                &FrameRequest {
+                    index: (k + 7919 * j) as u64,
+                    t_s: times[k],
+                    window: crop.rect,
+                },
+            )
+        })
+        .collect();
+    let views: Vec<GrayView<'_>> = renders
+        .iter()
+        .map(|r| GrayView {
+            data: &r.data,
+            width: r.window.width,
+            height: r.window.height,
+            origin_px: (r.window.x0 as i32, r.window.y0 as i32),
+        })
+        .collect();
+    let opts = LevelOptions::default();
+    let lv = marker_levels(&views[0], corners, layout, &opts).ok()?;
+    let means = [
+        lv.ink.trimmed_mean_dn,
+        lv.paper.trimmed_mean_dn,
+        lv.surround.as_ref().map_or(f64::NAN, |s| s.trimmed_mean_dn),
+    ];
+    let sigmas = if temporal {
+        let regions = marker_regions(&views[0], corners, layout, &opts).ok()?;
+        [
+            temporal_noise(&views, &regions.ink).ok()?.sigma_dn,
+            temporal_noise(&views, &regions.paper).ok()?.sigma_dn,
+        ]
+    } else {
+        [lv.ink.noise_sigma_dn, lv.paper.noise_sigma_dn]
+    };
+    Some((means, sigmas))
+}
+
+fn set_override(ovs: &mut [Override], path: &str, value: Value) {
+    if let Some(o) = ovs.iter_mut().find(|o| o.path == path) {
+        o.value = value;
+    }
+}
+
+fn float_of(ovs: &[Override], path: &str) -> Option<f64> {
+    ovs.iter()
+        .find(|o| o.path == path)
+        .and_then(|o| o.value.as_float())
+}
+
+/// Forward-model matching of levels and noise: renders the calibrated scenario where the
+/// footage shows a static marker, measures it exactly like the footage and corrects the
+/// radiances and the noise electrons until both agree (three rounds). This takes care of what
+/// the direct estimates cannot: JPEG smoothing the noise, noise clipped at the white or black
+/// level, blur mixing levels near edges.
+#[allow(clippy::too_many_arguments)]
+fn match_by_simulation(
+    stats: &FootageStats,
+    frame: usize,
+    crop: &Crop,
+    corners: &Corners,
+    layout: &MarkerLayout,
+    ovs: &mut [Override],
+    cal: &mut Calibration,
+    typed: &dyn Fn(&[Override]) -> Result<Scenario, CalibrateJobError>,
+) {
+    let Some((target_means, target_sigmas, temporal)) = footage_stats(stats) else {
+        return;
+    };
+    let im = &cal.imaging;
+    let (mut black, mut white) = (im.black_level_dn, im.white_level_dn);
+    let (ink_clipped, paper_clipped) = (im.ink_radiance == 0.0, im.paper_radiance == 1.0);
+    let span0 = white - black;
+    let (Some(mut fw), Some(mut read)) = (
+        float_of(ovs, "effects.pixel_noise.full_well_e"),
+        float_of(ovs, "effects.pixel_noise.read_noise_e"),
+    ) else {
+        return;
+    };
+    let rad = |path: &str| float_of(ovs, path);
+    let mut levels = [
+        rad("scene.ink_radiance").map(|r| black + span0 * r),
+        rad("scene.paper_radiance").map(|r| black + span0 * r),
+        rad("scene.disc_radiance").map(|r| black + span0 * r),
+    ];
+    let sigma_pre = |l: f64, fw: f64, read: f64| {
+        let s = ((l - black) / span0).max(0.0);
+        span0 * (s * fw + read * read).sqrt() / fw
+    };
+    let (Some(li), Some(lp)) = (levels[0], levels[1]) else {
+        return;
+    };
+    let mut pre = [sigma_pre(li, fw, read), sigma_pre(lp, fw, read)];
+    // Shot noise is resolved when the paper's variance exceeds the ink's by more than the
+    // measured σ's uncertainties allow.
+    let (si, sp) = (&im.noise.ink_sigma_dn, &im.noise.paper_sigma_dn);
+    let resolvable = (2.0 * sp.value * sp.u95).hypot(2.0 * si.value * si.u95);
+    let mut resolved = im.noise.shot_resolved;
+    let mut last: [Option<(f64, f64)>; 2] = [None, None];
+    for _ in 0..6 {
+        let Ok(s) = typed(ovs) else {
+            return;
+        };
+        let Some((means, sigmas)) = simulated_stats(&s, frame, crop, corners, layout, temporal)
+        else {
+            return;
+        };
+        for m in 0..3 {
+            if !(means[m].is_finite() && target_means[m].is_finite()) {
+                continue;
+            }
+            let d = target_means[m] - means[m];
+            // A clipped level is the tone curve's end: move that end with it.
+            if m == 0 && ink_clipped {
+                black = (black + d).clamp(0.0, white - 10.0);
+                levels[0] = Some(black);
+            } else if m == 1 && paper_clipped {
+                white = (white + d).clamp(black + 10.0, 255.0);
+                levels[1] = Some(white);
+            } else if let Some(l) = levels[m].as_mut() {
+                *l += d;
+            }
+        }
+        if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
+            eprintln!("match: means {means:?} targets {target_means:?} sigmas {sigmas:?} targets {target_sigmas:?} temporal {temporal} pre {pre:?} black {black} white {white} fw {fw} read {read} resolvable {resolvable}");
+        }
+        // Secant steps on σ_pre → measured σ (JPEG and clipping make it far from the
+        // identity); a ratio step first.
+        for m in 0..2 {
+            if !(sigmas[m] > 1e-3 && target_sigmas[m] > 0.0) {
+                continue;
+            }
+            let next = match last[m] {
+                Some((p0, s0)) if (sigmas[m] - s0).abs() > 1e-4 && (pre[m] - p0).abs() > 1e-6 => {
+                    let slope = ((sigmas[m] - s0) / (pre[m] - p0)).clamp(0.3, 2.0);
+                    pre[m] + (target_sigmas[m] - sigmas[m]) / slope
+                }
+                _ => pre[m] * target_sigmas[m] / sigmas[m],
+            };
+            last[m] = Some((pre[m], sigmas[m]));
+            pre[m] = next.clamp(pre[m] / 1.5, 1.5 * pre[m]).clamp(0.05, 50.0);
+        }
+        let (Some(li), Some(lp)) = (levels[0], levels[1]) else {
+            return;
+        };
+        let (f, r, res) = noise_electrons(
+            [li, lp],
+            [pre[0] * pre[0], pre[1] * pre[1]],
+            black,
+            white,
+            resolvable,
+        );
+        fw = f;
+        read = r;
+        resolved = res;
+        let span = white - black;
+        let radiance = |l: f64| ((l - black) / span).clamp(0.0, 1.0);
+        set_override(
+            ovs,
+            "effects.lighting.black_level_dn",
+            Value::Float(round6(black)),
+        );
+        set_override(
+            ovs,
+            "effects.lighting.white_level_dn",
+            Value::Float(round6(white)),
+        );
+        set_override(
+            ovs,
+            "scene.ink_radiance",
+            Value::Float(round6(radiance(li))),
+        );
+        set_override(
+            ovs,
+            "scene.paper_radiance",
+            Value::Float(round6(radiance(lp))),
+        );
+        if let Some(ld) = levels[2] {
+            set_override(
+                ovs,
+                "scene.disc_radiance",
+                Value::Float(round6(radiance(ld))),
+            );
+        }
+        set_override(
+            ovs,
+            "effects.pixel_noise.full_well_e",
+            Value::Float(fw.round().max(1.0)),
+        );
+        set_override(
+            ovs,
+            "effects.pixel_noise.read_noise_e",
+            Value::Float((read * 100.0).round() / 100.0),
+        );
+    }
+    let span = white - black;
+    let im = &mut cal.imaging;
+    im.black_level_dn = black;
+    im.white_level_dn = white;
+    im.noise.full_well_e = fw;
+    im.noise.read_noise_e = read;
+    im.noise.shot_resolved = resolved;
+    im.noise.source.push_str(
+        "; levels and electrons matched by rendering the calibrated scenario at a static frame and measuring it the same way",
+    );
+    if let (Some(li), Some(lp)) = (levels[0], levels[1]) {
+        im.ink_radiance = ((li - black) / span).clamp(0.0, 1.0);
+        im.paper_radiance = ((lp - black) / span).clamp(0.0, 1.0);
+    }
+    if let Some(ld) = levels[2] {
+        im.disc_radiance = Some(((ld - black) / span).clamp(0.0, 1.0));
+    }
+}
+
+fn round6(v: f64) -> f64 {
+    (v * 1e6).round() / 1e6
+}
+
+/// Renders the calibrated scenario at the footage frame `frame` over the crop's window, writes
+/// the overlay and returns the residual check.
+fn render_check(
+    scenario: &Scenario,
+    cal: &Calibration,
+    frame: usize,
+    crop: &Crop,
+    corners: &Corners,
+    path: &Path,
+    base: &Scenario,
+) -> Result<ReRenderCheck, CalibrateJobError> {
+    let rig = crate::pipeline::rig::Rig::new(scenario).map_err(|e| out_err(path, e))?;
+    let times = rig.frame_times.as_slice();
+    let k = frame.min(times.len().saturating_sub(1));
+    let t_s = times.get(k).copied().unwrap_or(0.0);
+    let scene = rig.animated();
+    let req = FrameRequest {
+        index: k as u64,
+        t_s,
+        window: crop.rect,
+    };
+    let full = render_frame(&scene, &rig.settings, &req);
+    let mut clean_settings = rig.settings.clone();
+    clean_settings.effects.pixel_noise.enabled = false;
+    clean_settings.effects.compression.enabled = false;
+    let clean = render_frame(&scene, &clean_settings, &req);
+    // Compare over the black square and half its white margin.
+    let m = &base.scene.marker;
+    let (x0, y0, x1, y1) = corners_bbox_px(corners);
+    let side = ((x1 - x0) + (y1 - y0)) / 2.0;
+    let grow = 0.5 * side * m.white_margin_mm / m.size_mm;
+    let win = PixelRect::new(
+        (x0 - grow).floor() as i64,
+        (y0 - grow).floor() as i64,
+        ((x1 - x0) + 2.0 * grow).ceil() as usize + 1,
+        ((y1 - y0) + 2.0 * grow).ceil() as usize + 1,
+    )
+    .intersect(&crop.rect)
+    .intersect(&clean.window);
+    let n = &cal.imaging.noise;
+    let (li, lp) = (cal.imaging.ink_dn.value, cal.imaging.paper_dn.value);
+    let (vi, vp) = (n.ink_sigma_dn.value.powi(2), n.paper_sigma_dn.value.powi(2));
+    let var_at = |v: f64| {
+        let f = if lp > li {
+            ((v - li) / (lp - li)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        vi + f * (vp - vi)
+    };
+    let (mut ss, mut vs, mut count) = (0.0, 0.0, 0usize);
+    for y in win.y0..win.y1() {
+        for x in win.x0..win.x1() {
+            let (Some(a), Some(b)) = (
+                crate::imagestats::pixel_at(&crop.view(), x, y),
+                clean.get(x, y),
+            ) else {
+                continue;
+            };
+            let d = a as f64 - b as f64;
+            ss += d * d;
+            vs += var_at(b as f64);
+            count += 1;
+        }
+    }
+    let count = count.max(1) as f64;
+    let check = ReRenderCheck {
+        frame,
+        t_s,
+        window: (win.x0, win.y0, win.width, win.height),
+        residual_rms_dn: (ss / count).sqrt(),
+        expected_noise_dn: (vs / count).sqrt(),
+    };
+    // Overlay: footage | render | 128 + 4·(footage − clean render).
+    let (w, h) = (crop.rect.width, crop.rect.height);
+    let gap = 8;
+    let ow = 3 * w + 2 * gap;
+    let mut img = vec![255u8; ow * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (ax, ay) = (crop.rect.x0 + x as i64, crop.rect.y0 + y as i64);
+            let a = crop.data[y * w + x];
+            let b = full.get(ax, ay).unwrap_or(0);
+            let c = clean.get(ax, ay).unwrap_or(0);
+            img[y * ow + x] = a;
+            img[y * ow + w + gap + x] = b;
+            img[y * ow + 2 * (w + gap) + x] = (128.0 + 4.0 * (a as f64 - c as f64))
+                .round()
+                .clamp(0.0, 255.0) as u8;
+        }
+    }
+    write_gray_png(path, ow as u32, h as u32, &img).map_err(|e| out_err(path, e))?;
+    Ok(check)
+}

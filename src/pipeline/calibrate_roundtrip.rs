@@ -1,0 +1,392 @@
+//! Round-trip validation of `geneva calibrate`: footage rendered by `geneva render` from random
+//! scenarios with known parameters (scale, rotation centre, levels, blur 0.3–2.5 px, noise,
+//! tilt, phase, speed, compression) is calibrated, and every fitted value is compared with the
+//! truth: inside its reported 95 % interval or not, and its error against the accuracy targets
+//! (scale 0.5 %, rotation centre 0.5 px, blur σ and noise σ 10 %). The test suite runs a few
+//! cases, `cargo xtask bench` many.
+
+use super::calibrate::{calibrate_footage, CalibrateJobError, Footage};
+use super::render_job::{render_job, RenderJob};
+use crate::calibrate::Fitted;
+use crate::rng::{stream, Stream};
+use crate::scenario::Scenario;
+use rand::Rng;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// One compared parameter of one case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Check {
+    pub parameter: &'static str,
+    pub truth: f64,
+    pub fitted: Fitted,
+    /// |fitted − truth| ≤ U.
+    pub within: bool,
+    /// Error in the parameter's unit, and relative to the truth where that is the target.
+    pub error: f64,
+    /// The accuracy target this parameter has (None: none stated), and whether it was met.
+    pub target_met: Option<bool>,
+}
+
+/// A drawn case and its checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseResult {
+    pub index: usize,
+    /// The truth scenario's text.
+    pub truth_toml: String,
+    pub checks: Vec<Check>,
+    /// Re-render residual over noise.
+    pub rerender_ratio: Option<f64>,
+}
+
+/// Scenario text of round-trip case `index` under `seed`: 640×480 footage of 3 s.
+pub fn case_toml(seed: u64, index: usize) -> String {
+    let mut r = stream(seed, Stream::MonteCarlo, 0x10_0000 + index as u64);
+    let internal = r.gen_bool(0.5);
+    let slots = if internal {
+        r.gen_range(4..=6)
+    } else {
+        r.gen_range(4..=6)
+    };
+    let speed = r.gen_range(1.8..4.0) * if r.gen_bool(0.5) { 1.0 } else { -1.0 };
+    let scale = r.gen_range(0.36..0.55);
+    let r_px = r.gen_range(105.0..135.0);
+    let (cx, cy) = (r.gen_range(290.0..350.0), r.gen_range(220.0..260.0));
+    let black = r.gen_range(20.0..70.0);
+    let white = r.gen_range(170.0..235.0);
+    let paper = if r.gen_bool(0.5) {
+        1.0
+    } else {
+        r.gen_range(0.85..0.95)
+    };
+    let blur = (r.gen_range(0.3f64.ln()..2.5f64.ln())).exp();
+    let full_well = r.gen_range(4000.0..40000.0);
+    let read = r.gen_range(40.0..300.0);
+    let tilt = r.gen_bool(0.4);
+    let (tx, ty) = (r.gen_range(-8.0..8.0), r.gen_range(-8.0..8.0));
+    let jpeg = r.gen_bool(0.3);
+    let quality: u32 = r.gen_range(70..=95);
+    let vfr = r.gen_bool(0.5);
+    let th0 = r.gen_range(-PI..PI);
+    let angle = r.gen_range(-180.0..180.0);
+    let orient = r.gen_range(-45.0..45.0);
+    let radius_mm = r_px * scale;
+    let timing = if vfr {
+        "[frame_timing.model]\nkind = \"vfr\"\nfirst_interval_s = 0.05\njitter_s = 0.0001\nrate_error_ppm = -4500.0\n"
+    } else {
+        ""
+    };
+    format!(
+        "extend = \"fast\"\nname = \"roundtrip-{index}\"\nseed = {}\nduration_s = 3.0\n\n\
+         [mechanism]\nkind = \"{}\"\nslots = {slots}\ntheta1_start_rad = {th0}\n\n\
+         [drive_speed]\nkind = \"constant\"\nomega1_rad_s = {speed}\n\n\
+         [scene]\ndisc_radius_mm = {}\npaper_radiance = {paper}\n\n\
+         [scene.marker]\nsize_mm = 32.0\nradius_mm = {radius_mm}\nangle_on_disc_deg = {angle}\norientation_deg = {orient}\n\n\
+         [camera]\nwidth_px = 640\nheight_px = 480\nrotation_centre_px = [{cx}, {cy}]\n\n\
+         [camera.focal]\nkind = \"image_scale\"\nmm_per_px = {scale}\n\n\
+         [camera.perspective_tilt]\nenabled = {tilt}\ntilt_x_deg = {tx}\ntilt_y_deg = {ty}\n\n\
+         [frame_timing]\nfps = 30.0\n{timing}\n\
+         [effects.lighting]\nblack_level_dn = {black}\nwhite_level_dn = {white}\n\n\
+         [effects.optical_blur]\nsigma_px = {blur}\n\n\
+         [effects.pixel_noise]\nfull_well_e = {full_well}\nread_noise_e = {read}\n\n\
+         [effects.compression]\nenabled = {jpeg}\nquality = {quality}\n",
+        1000 + index,
+        if internal { "internal" } else { "external" },
+        radius_mm + 40.0,
+    )
+}
+
+/// The base a user would write for the case: the mechanism and the marker, nothing measured.
+fn base_toml(truth: &Scenario) -> String {
+    format!(
+        "extend = \"fast\"\n[mechanism]\nkind = \"{}\"\nslots = {}\n[scene.marker]\nsize_mm = {}\n",
+        truth.mechanism.kind.as_str(),
+        truth.mechanism.slots,
+        truth.scene.marker.size_mm
+    )
+}
+
+fn wrap_deg(a: f64) -> f64 {
+    (a + 180.0).rem_euclid(360.0) - 180.0
+}
+
+fn check(
+    parameter: &'static str,
+    truth: f64,
+    fitted: Fitted,
+    error: f64,
+    target: Option<f64>,
+) -> Check {
+    Check {
+        parameter,
+        truth,
+        fitted,
+        within: error.abs() <= fitted.u95,
+        error,
+        target_met: target.map(|t| error.abs() <= t),
+    }
+}
+
+/// Renders case `index` into `dir`, calibrates it and compares.
+pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, CalibrateJobError> {
+    // Redraw until the scenario is valid and the marker stays in the frame.
+    let mut k = 0;
+    let (text, truth) = loop {
+        let text = case_toml(seed, index * 100 + k);
+        k += 1;
+        let path = dir.join("truth.toml");
+        std::fs::write(&path, &text).map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+        if let Ok(s) = crate::scenario::load(&path) {
+            if super::rig::Rig::new(&s).is_ok() {
+                break (text, s);
+            }
+        }
+        if k > 50 {
+            return Err(CalibrateJobError::Input(
+                "no valid round-trip case drawn".into(),
+            ));
+        }
+    };
+    let frames = dir.join("frames");
+    render_job(
+        &truth,
+        &frames,
+        &RenderJob {
+            png: true,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+    let base = dir.join("base.toml");
+    std::fs::write(&base, base_toml(&truth))
+        .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+    let out = calibrate_footage(
+        &Footage::Frames {
+            dir: frames.clone(),
+            timestamps: frames.join("timestamps.csv"),
+        },
+        &base.display().to_string(),
+        &dir.join("out"),
+        false,
+        &|_, _| {},
+    )?;
+    let cal = &out.calibration;
+    let g = &cal.geometry;
+    let mut c = Vec::new();
+    let scale = match truth.camera.focal {
+        crate::camera::FocalConfig::ImageScale { mm_per_px } => mm_per_px,
+        _ => f64::NAN,
+    };
+    c.push(check(
+        "image scale (mm/px)",
+        scale,
+        g.mm_per_px,
+        g.mm_per_px.value - scale,
+        Some(0.005 * scale),
+    ));
+    let tc = truth.camera.rotation_centre_px.unwrap_or([0.0, 0.0]);
+    if let Some([x, y]) = g.centre_px {
+        c.push(check(
+            "rotation centre x (px)",
+            tc[0],
+            x,
+            x.value - tc[0],
+            Some(0.5),
+        ));
+        c.push(check(
+            "rotation centre y (px)",
+            tc[1],
+            y,
+            y.value - tc[1],
+            Some(0.5),
+        ));
+    }
+    let m = &truth.scene.marker;
+    c.push(check(
+        "marker radius (mm)",
+        m.radius_mm,
+        g.radius_mm,
+        g.radius_mm.value - m.radius_mm,
+        None,
+    ));
+    c.push(check(
+        "marker orientation (deg)",
+        m.orientation_deg,
+        g.orientation_deg,
+        wrap_deg(g.orientation_deg.value - m.orientation_deg),
+        None,
+    ));
+    if let Some(mo) = &cal.motion {
+        c.push(check(
+            "marker angle at frame 0 (deg)",
+            m.angle_on_disc_deg,
+            mo.angle_first_deg,
+            wrap_deg(mo.angle_first_deg.value - m.angle_on_disc_deg),
+            None,
+        ));
+        let th0 = truth.mechanism.theta1_start_rad.unwrap_or(0.0);
+        c.push(check(
+            "crank angle at frame 0 (rad)",
+            th0,
+            mo.theta1_start_rad,
+            wrap_deg((mo.theta1_start_rad.value - th0).to_degrees()).to_radians(),
+            None,
+        ));
+        let w = match truth.drive_speed {
+            crate::mechanism::DriveSpeedConfig::Constant { omega1_rad_s } => omega1_rad_s,
+            _ => f64::NAN,
+        };
+        c.push(check(
+            "crank speed (rad/s)",
+            w,
+            mo.omega1_rad_s,
+            mo.omega1_rad_s.value - w,
+            None,
+        ));
+    }
+    let im = &cal.imaging;
+    let l = &truth.effects.lighting;
+    let span = l.white_level_dn - l.black_level_dn;
+    let ink = l.black_level_dn + span * truth.scene.ink_radiance;
+    let paper = l.black_level_dn + span * truth.scene.paper_radiance;
+    // The calibrated scenario's levels (after matching by simulation) against the truth's.
+    let cal_span = im.white_level_dn - im.black_level_dn;
+    let cal_ink = im.black_level_dn + cal_span * im.ink_radiance;
+    let cal_paper = im.black_level_dn + cal_span * im.paper_radiance;
+    c.push(check(
+        "ink level (DN)",
+        ink,
+        Fitted::new(cal_ink, im.ink_dn.u95),
+        cal_ink - ink,
+        None,
+    ));
+    c.push(check(
+        "paper level (DN)",
+        paper,
+        Fitted::new(cal_paper, im.paper_dn.u95),
+        cal_paper - paper,
+        None,
+    ));
+    if let Some(b) = im.blur_sigma_param_px {
+        let s = truth.effects.optical_blur.sigma_px;
+        c.push(check("blur σ (px)", s, b, b.value - s, Some(0.1 * s)));
+    }
+    // Noise σ at the truth's ink and paper levels: the truth's model against the calibrated one
+    // (both before compression).
+    let p = &truth.effects.pixel_noise;
+    let sigma = |level: f64, black: f64, white: f64, fw: f64, read: f64| {
+        let sp = white - black;
+        let s = ((level - black) / sp).max(0.0);
+        (sp * sp * (s * fw + read * read) / (fw * fw) + 1.0 / 12.0).sqrt()
+    };
+    let n = &im.noise;
+    for (name, level, measured) in [
+        ("noise σ at the ink (DN)", ink, n.ink_sigma_dn),
+        ("noise σ at the paper (DN)", paper, n.paper_sigma_dn),
+    ] {
+        let t = sigma(
+            level,
+            l.black_level_dn,
+            l.white_level_dn,
+            p.full_well_e,
+            p.read_noise_e,
+        );
+        let model = sigma(
+            level,
+            im.black_level_dn,
+            im.white_level_dn,
+            n.full_well_e,
+            n.read_noise_e,
+        );
+        let f = Fitted::new(model, measured.u95 / measured.value.max(1e-9) * model);
+        c.push(check(name, t, f, model - t, Some(0.1 * t)));
+    }
+    let tilt = &truth.camera.perspective_tilt;
+    if tilt.enabled {
+        let gt = &g.tilt;
+        c.push(check(
+            "tilt x (deg)",
+            tilt.tilt_x_deg,
+            gt.tilt_x_deg,
+            gt.tilt_x_deg.value - tilt.tilt_x_deg,
+            None,
+        ));
+        c.push(check(
+            "tilt y (deg)",
+            tilt.tilt_y_deg,
+            gt.tilt_y_deg,
+            gt.tilt_y_deg.value - tilt.tilt_y_deg,
+            None,
+        ));
+    }
+    if truth.effects.compression.enabled {
+        let q = truth.effects.compression.quality as f64;
+        let (fq, u) = match im.jpeg_quality {
+            Some((v, (lo, hi), _)) => (
+                v as f64,
+                (v as f64 - lo as f64).max(hi as f64 - v as f64).max(1.0),
+            ),
+            None => (f64::NAN, 0.0),
+        };
+        c.push(check("JPEG quality", q, Fitted::new(fq, u), fq - q, None));
+    }
+    Ok(CaseResult {
+        index,
+        truth_toml: text,
+        checks: c,
+        rerender_ratio: out.check.as_ref().map(|k| k.ratio()),
+    })
+}
+
+/// Per parameter: cases, fraction within the reported interval, worst error, targets met.
+pub fn summary(results: &[CaseResult]) -> String {
+    let mut names: Vec<&'static str> = Vec::new();
+    for r in results {
+        for c in &r.checks {
+            if !names.contains(&c.parameter) {
+                names.push(c.parameter);
+            }
+        }
+    }
+    let mut s = String::from(
+        "| parameter | cases | within 95 % interval | worst error | accuracy target met |\n|---|---|---|---|---|\n",
+    );
+    for n in names {
+        let cs: Vec<&Check> = results
+            .iter()
+            .flat_map(|r| r.checks.iter().filter(|c| c.parameter == n))
+            .collect();
+        let within = cs.iter().filter(|c| c.within).count();
+        let worst = cs.iter().map(|c| c.error.abs()).fold(0.0, f64::max);
+        let targets: Vec<bool> = cs.iter().filter_map(|c| c.target_met).collect();
+        s.push_str(&format!(
+            "| {n} | {} | {}/{} ({:.0} %) | {:.4} | {} |\n",
+            cs.len(),
+            within,
+            cs.len(),
+            100.0 * within as f64 / cs.len().max(1) as f64,
+            worst,
+            if targets.is_empty() {
+                "–".to_string()
+            } else {
+                format!(
+                    "{}/{}",
+                    targets.iter().filter(|t| **t).count(),
+                    targets.len()
+                )
+            }
+        ));
+    }
+    let all: Vec<&Check> = results.iter().flat_map(|r| r.checks.iter()).collect();
+    let within = all.iter().filter(|c| c.within).count();
+    let ratios: Vec<f64> = results.iter().filter_map(|r| r.rerender_ratio).collect();
+    s.push_str(&format!(
+        "\nAll parameters: {within}/{} within their 95 % interval ({:.1} %). Re-render residual / noise: worst {:.3} over {} cases.\n",
+        all.len(),
+        100.0 * within as f64 / all.len().max(1) as f64,
+        ratios.iter().copied().fold(0.0, f64::max),
+        ratios.len()
+    ));
+    s
+}
