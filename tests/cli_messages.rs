@@ -2,20 +2,8 @@
 //! named like a built-in never shadows it, frame ranges say what they hold.
 #![cfg(feature = "opencv-detector")]
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn geneva(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_geneva"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{geneva, stderr};
 
 /// Segments of a message (split at ": ") longer than a few characters that occur twice.
 fn repeated(text: &str) -> Vec<String> {

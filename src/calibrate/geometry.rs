@@ -28,6 +28,9 @@ pub struct TiltFit {
     pub tilt_y_deg: Fitted,
     /// Either component exceeds its 95 % uncertainty: the tilt is enabled.
     pub significant: bool,
+    /// The tilt was fitted at all (it needs at least 8 poses; never in single-frame mode):
+    /// otherwise the base's tilt is kept and the values above mean nothing.
+    pub fitted: bool,
     /// √(λmin/λmax) of the marker's mean image-space metric (1 = square), for the report.
     pub aspect: f64,
 }
@@ -369,6 +372,7 @@ pub fn fit_geometry(
         tilt_x_deg: Fitted::new(0.0, 0.0),
         tilt_y_deg: Fitted::new(0.0, 0.0),
         significant: false,
+        fitted: false,
         aspect: mean_aspect(&poses),
     };
     if try_tilt {
@@ -381,6 +385,7 @@ pub fn fit_geometry(
             let u = |i: usize| Fitted::from_sigma(tf.params[i], se[i], 0.02);
             tilt_fit.tilt_x_deg = u(1);
             tilt_fit.tilt_y_deg = u(2);
+            tilt_fit.fitted = true;
             // Jointly beyond the 99 % χ² bound of two parameters (a 95 % test per component
             // would switch the tilt on by chance in one case of ten).
             let chi2 = (tx / se[1].max(1e-12)).powi(2) + (ty / se[2].max(1e-12)).powi(2);

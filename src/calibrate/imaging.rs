@@ -21,6 +21,10 @@ pub struct NoiseFit {
     pub shot_resolved: bool,
     /// Where the σ came from.
     pub source: String,
+    /// How much the measured σ moves per unit of the sensor's σ before compression and
+    /// clipping, at the ink and the paper (1 on plain footage; found while matching by
+    /// simulation, smaller under JPEG or clipping, where the measured σ tells less).
+    pub sensitivity: [f64; 2],
 }
 
 /// Image formation of the footage.
@@ -425,6 +429,7 @@ pub fn fit_imaging(
             read_noise_e,
             shot_resolved,
             source,
+            sensitivity: [1.0, 1.0],
         },
         blockiness,
         jpeg_quality,

@@ -141,18 +141,21 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
         ));
     }
     let t = &g.tilt;
-    o.push(ov(
-        "camera.perspective_tilt.enabled",
-        Value::Boolean(t.significant),
-        if t.significant {
-            format!("marker aspect {:.4}", t.aspect)
-        } else {
-            format!(
-                "tilt x {}°, y {}° (95 %) not distinguishable from 0 (marker aspect {:.4})",
-                t.tilt_x_deg, t.tilt_y_deg, t.aspect
-            )
-        },
-    ));
+    // Not fitted (too few poses): the base's tilt stands.
+    o.extend(t.fitted.then(|| {
+        ov(
+            "camera.perspective_tilt.enabled",
+            Value::Boolean(t.significant),
+            if t.significant {
+                format!("marker aspect {:.4}", t.aspect)
+            } else {
+                format!(
+                    "tilt x {}°, y {}° (95 %) not distinguishable from 0 (marker aspect {:.4})",
+                    t.tilt_x_deg, t.tilt_y_deg, t.aspect
+                )
+            },
+        )
+    }));
     if t.significant {
         o.push(ov(
             "camera.perspective_tilt.tilt_x_deg",
@@ -529,7 +532,18 @@ pub fn calibration_markdown(
         "printed right axis against the radial direction, pose fit".into(),
     );
     let tilt = &g.tilt;
-    row(
+    if !tilt.fitted {
+        row(
+            "perspective tilt x, y",
+            "not fitted".into(),
+            "deg",
+            format!(
+                "needs at least 8 marker poses (none in single-frame mode); the base's tilt is kept; marker aspect {:.4}",
+                tilt.aspect
+            ),
+        );
+    } else {
+        row(
         "perspective tilt x, y",
         format!("{}, {}", tilt.tilt_x_deg, tilt.tilt_y_deg),
         "deg",
@@ -540,6 +554,7 @@ pub fn calibration_markdown(
             if tilt.significant { "enabled" } else { "not distinguishable from 0: disabled" }
         ),
     );
+    }
     if let Some(m) = &cal.motion {
         row(
             "sense of rotation",

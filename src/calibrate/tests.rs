@@ -9,6 +9,7 @@ use crate::scenario::Scenario;
 use rand_distr::{Distribution, Normal};
 
 /// Marker-angle track of a constant-speed crank: φ = A + θ2(θ10 + ω t) − θ2(θ10), with noise.
+#[allow(clippy::too_many_arguments)]
 fn track(
     kind: GenevaKind,
     slots: u32,

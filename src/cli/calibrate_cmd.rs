@@ -3,7 +3,8 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use geneva_vision::pipeline::calibrate::{calibrate_footage, Footage};
+use geneva_vision::calibrate::CalibrateOptions;
+use geneva_vision::pipeline::calibrate::{calibrate, Footage};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -45,7 +46,10 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         _ => bail!("give exactly one of --video, --frames (with --timestamps) or --image"),
     };
     let bar = super::run_cmd::progress_bar(0, "measure");
-    let out = calibrate_footage(&footage, &a.base, &a.out, a.single_frame, &|done, total| {
+    let options = CalibrateOptions {
+        single_frame: a.single_frame,
+    };
+    let out = calibrate(&footage, &a.base, &a.out, &options, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;

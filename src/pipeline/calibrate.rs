@@ -7,7 +7,7 @@
 //! `calibration.md` and `overlay.png` (footage | calibrated render at the same instant |
 //! difference ×4 around mid-grey).
 //!
-//! [`measure_footage`] and [`calibrate_footage`] are the library entry points
+//! [`calibrate`] (and [`measure_footage`]) are the library entry points
 //! (`geneva diagnose` starts from them); nothing here is maths.
 
 use crate::calibrate::output::{
@@ -15,14 +15,15 @@ use crate::calibrate::output::{
     ReRenderCheck,
 };
 use crate::calibrate::{
-    calibrate, noise_electrons, CalibrateError, CalibrateOptions, Calibration, FootageStats,
-    FrameObservation, TemporalSample,
+    calibrate as fit_rig, noise_electrons, CalibrateError, CalibrateOptions, Calibration,
+    FootageStats, FrameObservation, TemporalSample,
 };
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
 use crate::imagestats::{
     blockiness, jpeg_quality, marker_levels, marker_regions, motion_ratio, outer_edge_profiles,
     refined_corners, temporal_noise, EdgeOptions, EdgeProfile, LevelOptions, MarkerLayout,
 };
+use crate::io::output_dir::OutputDir;
 use crate::io::png_out::write_gray_png;
 use crate::render::{render_frame, FrameRequest, PixelRect};
 use crate::scenario::Scenario;
@@ -205,8 +206,8 @@ impl Measurer {
         let n = frames_hint.max(1);
         Ok(Self {
             detector,
-            marker_id: base.detector.marker_id as i32,
-            reference_id: reference_id.map(|v| v as i32),
+            marker_id: base.detector.marker_id,
+            reference_id,
             layout,
             ref_layout,
             level_opts: LevelOptions::default(),
@@ -644,25 +645,63 @@ fn out_err(path: &Path, e: impl std::fmt::Display) -> CalibrateJobError {
 }
 
 /// The whole job: measure, fit, write `scenario.toml`, `timestamps.csv`, `calibration.md` and
-/// `overlay.png` into `out_dir`.
-pub fn calibrate_footage(
+/// `overlay.png` into `out_dir`, all at once ([`crate::io::output_dir`]: a folder that is not
+/// geneva's is refused before any work, and an error leaves the previous folder as it was).
+/// `options.single_frame` (implied by [`Footage::Image`]) calibrates the image formation and
+/// the marker's pose from the first frame, without the motion.
+pub fn calibrate(
     footage: &Footage,
     base_spec: &str,
     out_dir: &Path,
-    single_frame: bool,
+    options: &CalibrateOptions,
     progress: &dyn Fn(usize, usize),
 ) -> Result<CalibrateOutput, CalibrateJobError> {
     let base = load_base(base_spec)?;
-    let single_frame = single_frame || matches!(footage, Footage::Image(_));
-    std::fs::create_dir_all(out_dir).map_err(|e| out_err(out_dir, e))?;
+    let single_frame = options.single_frame || matches!(footage, Footage::Image(_));
+    let staged = OutputDir::create(out_dir).map_err(|e| out_err(out_dir, e))?;
     let (stats, times, overlay) = measure(footage, &base, single_frame, progress)?;
-    let cal = calibrate(&base, &stats, &CalibrateOptions { single_frame })?;
+    let cal = fit_rig(&base, &stats, &CalibrateOptions { single_frame })?;
+    let out = write_outputs(
+        footage,
+        base_spec,
+        &base,
+        staged.path(),
+        stats,
+        &times,
+        overlay,
+        cal,
+    )?;
+    let files = staged.commit().map_err(|e| out_err(out_dir, e))?;
+    // Loaded back from its final place: the timestamps file it names is beside it.
+    let scenario_path = out_dir.join("scenario.toml");
+    let scenario = crate::scenario::load(&scenario_path).map_err(|e| out_err(&scenario_path, e))?;
+    Ok(CalibrateOutput {
+        scenario,
+        files,
+        ..out
+    })
+}
+
+/// Fits what needs rendering (dynamics offset, levels and noise matched by simulation) and
+/// writes the files into `out_dir` (the staging folder).
+#[allow(clippy::too_many_arguments)]
+fn write_outputs(
+    footage: &Footage,
+    base_spec: &str,
+    base: &Scenario,
+    out_dir: &Path,
+    stats: FootageStats,
+    times: &[f64],
+    overlay: Option<(usize, Crop, Corners)>,
+    cal: Calibration,
+) -> Result<CalibrateOutput, CalibrateJobError> {
+    let single_frame = cal.motion.is_none();
     let mut files = Vec::new();
     let ts_name = "timestamps.csv";
     let ts_path = out_dir.join(ts_name);
     let with_times = !single_frame;
     if with_times {
-        let ts = Timestamps::new(times.clone()).map_err(|e| {
+        let ts = Timestamps::new(times.to_vec()).map_err(|e| {
             CalibrateJobError::Input(format!("{}: timestamps: {e}", footage.describe()))
         })?;
         std::fs::write(&ts_path, crate::timing::to_frames_csv(&ts))
@@ -688,7 +727,7 @@ pub fn calibrate_footage(
         last_t_s: times.last().copied().unwrap_or(0.0),
     };
     let scenario_path = out_dir.join("scenario.toml");
-    let mut ovs = overrides(&cal, &ctx, &base);
+    let mut ovs = overrides(&cal, &ctx, base);
     let mut notes = cal.notes.clone();
     // The base's wheel dynamics displace the wheel from the ideal kinematics: shift the marker
     // angle so the rendered marker sits where the footage shows it.
@@ -707,11 +746,12 @@ pub fn calibrate_footage(
             };
             pairs.push((x.path.clone(), v));
         }
-        crate::scenario::with_overrides(&base, &pairs, &scenario_path)
+        crate::scenario::with_overrides(base, &pairs, &scenario_path)
             .map_err(|e| out_err(&scenario_path, e))
     };
     let first = typed(&ovs)?;
-    if let Some(d) = dynamics_offset_rad(&first, &times) {
+    // Below the printed precision it is no correction worth a note.
+    if let Some(d) = dynamics_offset_rad(&first, times).filter(|d| d.to_degrees().abs() >= 5e-5) {
         if let Some(o) = ovs
             .iter_mut()
             .find(|o| o.path == "scene.marker.angle_on_disc_deg")
@@ -755,7 +795,7 @@ pub fn calibrate_footage(
             crop,
             corners,
             &out_dir.join("overlay.png"),
-            &base,
+            base,
         )?),
         None => None,
     };
@@ -1029,8 +1069,42 @@ fn match_by_simulation(
             Value::Float((read * 100.0).round() / 100.0),
         );
     }
+    // How the measured σ follows the sensor's: the final scenario against one with every σ
+    // 25 % larger (full well / c², read / c), rendered with the same noise streams.
+    let sim = |o: &[Override]| {
+        typed(o)
+            .ok()
+            .and_then(|s| simulated_stats(&s, frame, crop, corners, layout, temporal))
+    };
+    let c = 1.25;
+    let mut scaled = ovs.to_vec();
+    set_override(
+        &mut scaled,
+        "effects.pixel_noise.full_well_e",
+        Value::Float((fw / (c * c)).round().max(1.0)),
+    );
+    set_override(
+        &mut scaled,
+        "effects.pixel_noise.read_noise_e",
+        Value::Float((read / c * 100.0).round() / 100.0),
+    );
+    let mut sensitivity = [1.0, 1.0];
+    if let (Some((_, s1)), Some((_, s2)), Some(li), Some(lp)) =
+        (sim(ovs), sim(&scaled), levels[0], levels[1])
+    {
+        let span = white - black;
+        for (m, l) in [li, lp].into_iter().enumerate() {
+            let s = ((l - black) / span).max(0.0);
+            let pre_m = span * (s * fw + read * read).sqrt() / fw;
+            let slope = (s2[m] - s1[m]) / ((c - 1.0) * pre_m);
+            if slope.is_finite() {
+                sensitivity[m] = slope.clamp(0.05, 2.0);
+            }
+        }
+    }
     let span = white - black;
     let im = &mut cal.imaging;
+    im.noise.sensitivity = sensitivity;
     im.black_level_dn = black;
     im.white_level_dn = white;
     im.noise.full_well_e = fw;

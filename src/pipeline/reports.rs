@@ -1,6 +1,7 @@
 //! `geneva reports`: the committed reports under `reports/` — a quick Monte Carlo of `fast`
 //! (the reproducibility check), the seed study redone for the internal and external rigs with
-//! the phone's real frame timing, and a per-source decomposition at 1080p. Every number in the
+//! the phone's real frame timing, a per-source decomposition at 1080p, and the `geneva calibrate`
+//! round trip (`calibration/`). Every number in the
 //! markdown is formatted from computed results.
 
 use super::decompose::{decompose_effects, markdown_table, DecompositionError};
@@ -46,7 +47,12 @@ pub enum ReportsError {
     Write { file: PathBuf, message: String },
     #[error(transparent)]
     Output(#[from] crate::io::output_dir::OutputError),
+    #[error("calibration round trip: {0}")]
+    Calibration(String),
 }
+
+/// Round-trip cases of `reports/calibration/` (a few seconds each in release).
+pub const CALIBRATION_CASES: usize = 40;
 
 /// What to generate.
 #[derive(Debug, Clone)]
@@ -60,12 +66,13 @@ pub struct ReportsOptions {
 }
 
 /// The report folders `reports` writes, in the order it writes them.
-pub const REPORT_NAMES: [&str; 6] = [
+pub const REPORT_NAMES: [&str; 7] = [
     "fast",
     "seed-internal-4k",
     "seed-external-4k",
     "decomposition-1080p",
     "dynamics",
+    "calibration",
     "defaults",
 ];
 
@@ -764,8 +771,8 @@ fn staged(
 }
 
 /// Regenerates the reports under `out_root`: `fast/`, and unless `fast_only`,
-/// `seed-internal-4k/`, `seed-external-4k/`, `decomposition-1080p/`, `dynamics/` and
-/// `defaults/` — or only those named in `options.only` — each folder committed all at once.
+/// `seed-internal-4k/`, `seed-external-4k/`, `decomposition-1080p/`, `dynamics/`,
+/// `calibration/` and `defaults/` — or only those named in `options.only` — each folder committed all at once.
 pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>, ReportsError> {
     if let Some(unknown) = options
         .only
@@ -809,6 +816,18 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
     if wanted("dynamics") {
         files.extend(staged(&out_root.join("dynamics"), |d| {
             dynamics_report(d).map(|_| ()).map_err(ReportsError::from)
+        })?);
+    }
+    if wanted("calibration") {
+        files.extend(staged(&out_root.join("calibration"), |d| {
+            super::calibrate_roundtrip::calibration_report(
+                d,
+                20261123,
+                CALIBRATION_CASES,
+                &|_, _| {},
+            )
+            .map(|_| ())
+            .map_err(|e| ReportsError::Calibration(e.to_string()))
         })?);
     }
     if wanted("defaults") {
