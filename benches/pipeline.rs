@@ -13,22 +13,8 @@ use geneva_vision::scenario;
 use geneva_vision::sweep::{run_sweep, SweepSpec};
 use std::time::Instant;
 
-fn peak_rss_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .map(|l| l.to_string())
-        })
-        .and_then(|l| {
-            l.split_whitespace()
-                .nth(1)
-                .and_then(|v| v.parse::<f64>().ok())
-        })
-        .map(|kb| kb / 1024.0)
-        .unwrap_or(f64::NAN)
-}
+mod common;
+use common::peak_rss_mb;
 
 fn main() {
     // `cargo test --benches` runs this binary without `--bench`: do nothing then.
