@@ -2,8 +2,8 @@
 
 use anyhow::Result;
 use clap::{Subcommand, ValueEnum};
-use geneva_vision::io::timing_log::read_timing_log;
-use geneva_vision::timing::{fit_vfr, LogFormat, TimingStats};
+use geneva_vision::io::timing_log::{fit_timing_log, read_timing_log};
+use geneva_vision::timing::{LogFormat, TimingStats};
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -55,14 +55,11 @@ pub fn run(cmd: TimingCmd) -> Result<()> {
             Ok(())
         }
         TimingCmd::Fit { log, format } => {
-            let ts = read_timing_log(&log, format.map(Into::into))?;
-            let fit = fit_vfr(&ts).map_err(|e| anyhow::anyhow!("{}: {e}", log.display()))?;
+            // Streamed three times, never held whole: memory is flat in the log's length.
+            let fit = fit_timing_log(&log, format.map(Into::into))?;
             println!("{}", log.display());
             println!("{fit}");
-            println!(
-                "\n# as a scenario section:\n[frame_timing]\n{}",
-                toml::to_string_pretty(&fit.config)?
-            );
+            println!("\n# as a scenario section:\n{}", fit.scenario_toml());
             Ok(())
         }
     }

@@ -1,6 +1,10 @@
-//! Reading frame-timing logs from disk, with the format guessed from name and content.
+//! Reading frame-timing logs from disk, streamed line by line (memory flat in the log's length),
+//! with the format guessed from the name and the first megabyte.
 
-use crate::timing::{load_from_text, LogFormat, Timestamps, TimingError};
+use crate::timing::{
+    fit_vfr_passes, stream_frame_times, LogFormat, Streamed, Timestamps, TimingError, TimingFit,
+};
+use std::io::Read;
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +42,48 @@ pub fn guess_format(path: &Path, text: &str) -> LogFormat {
     }
 }
 
+/// Bytes from the start of a log that the format is guessed from.
+const GUESS_PREFIX_BYTES: u64 = 1 << 20;
+
+fn open(path: &Path) -> Result<std::io::BufReader<std::fs::File>, TimingLogError> {
+    std::fs::File::open(path)
+        .map(std::io::BufReader::new)
+        .map_err(|source| TimingLogError::Read {
+            file: path.display().to_string(),
+            source,
+        })
+}
+
+/// The given format, or the one guessed from the file's name and its first megabyte.
+fn format_of(path: &Path, format: Option<LogFormat>) -> Result<LogFormat, TimingLogError> {
+    if let Some(f) = format {
+        return Ok(f);
+    }
+    let mut prefix = Vec::new();
+    open(path)?
+        .take(GUESS_PREFIX_BYTES)
+        .read_to_end(&mut prefix)
+        .map_err(|source| TimingLogError::Read {
+            file: path.display().to_string(),
+            source,
+        })?;
+    Ok(guess_format(path, &String::from_utf8_lossy(&prefix)))
+}
+
+/// Streams the frame times of the log at `path` through `each` (see
+/// [`crate::timing::stream_frame_times`]): the file is read line by line, never whole.
+pub fn stream_timing_log(
+    path: &Path,
+    format: LogFormat,
+    each: &mut dyn FnMut(f64) -> Result<(), TimingError>,
+) -> Result<Streamed, TimingLogError> {
+    let reader = open(path)?;
+    stream_frame_times(reader, format, each).map_err(|source| TimingLogError::Parse {
+        file: path.display().to_string(),
+        source,
+    })
+}
+
 /// Reads and parses a timing log; `format` None means guess.
 pub fn read_timing_log(
     path: &Path,
@@ -52,22 +98,59 @@ pub fn read_frame_timestamps(
     path: &Path,
     format: Option<LogFormat>,
 ) -> Result<(usize, Timestamps), TimingLogError> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| TimingLogError::Read {
-        file: file.clone(),
-        source,
+    let format = format_of(path, format)?;
+    let mut times = Vec::new();
+    let streamed = stream_timing_log(path, format, &mut |t| {
+        times.push(t);
+        Ok(())
     })?;
-    // Logs written on Windows may contain stray non-UTF-8 bytes in metadata lines; they never
-    // matter for frame lines, so decode lossily.
-    let text = String::from_utf8_lossy(&bytes);
-    let format = format.unwrap_or_else(|| guess_format(path, &text));
-    let parsed = match format {
-        LogFormat::FramesCsv => {
-            crate::timing::parse_frames_csv_numbered(&text).map(|(first, ts)| (first as usize, ts))
-        }
-        other => load_from_text(other, &text).map(|ts| (0, ts)),
+    let parse = |source| TimingLogError::Parse {
+        file: path.display().to_string(),
+        source,
     };
-    parsed.map_err(|source| TimingLogError::Parse { file, source })
+    let first = usize::try_from(streamed.first_frame).map_err(|_| {
+        parse(TimingError::Content {
+            format: format.name(),
+            message: format!("first frame number {} is too large", streamed.first_frame),
+        })
+    })?;
+    Ok((first, Timestamps::new(times).map_err(parse)?))
+}
+
+/// Fits the VFR model to the log at `path` in constant memory, whatever its length: the file
+/// is streamed three times (see [`fit_vfr_passes`]).
+pub fn fit_timing_log(path: &Path, format: Option<LogFormat>) -> Result<TimingFit, TimingLogError> {
+    let format = format_of(path, format)?;
+    fit_vfr_passes(|each| {
+        stream_timing_log(path, format, each)
+            .map(|_| ())
+            .map_err(FitLogError::Log)
+    })
+    .map_err(|e: FitLogError| match e {
+        FitLogError::Log(e) => e,
+        FitLogError::Fit(source) => TimingLogError::Parse {
+            file: path.display().to_string(),
+            source,
+        },
+    })
+}
+
+/// A fit's own error, or one of reading its log.
+enum FitLogError {
+    Log(TimingLogError),
+    Fit(TimingError),
+}
+
+impl From<TimingError> for FitLogError {
+    fn from(e: TimingError) -> Self {
+        FitLogError::Fit(e)
+    }
+}
+
+impl From<TimingLogError> for FitLogError {
+    fn from(e: TimingLogError) -> Self {
+        FitLogError::Log(e)
+    }
 }
 
 #[cfg(test)]

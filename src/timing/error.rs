@@ -29,6 +29,9 @@ pub enum TimingError {
         line: usize,
         message: String,
     },
+    /// The log could not be read (an I/O error) at this 1-based line.
+    #[error("cannot read line {line}: {message}")]
+    Read { line: usize, message: String },
     /// The log held no frames, or frame numbering has gaps or duplicates.
     #[error("{format}: {message}")]
     Content {

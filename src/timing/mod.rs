@@ -4,10 +4,11 @@
 
 mod config;
 mod error;
-mod fit;
+pub(crate) mod fit;
 mod parse;
 mod schedule;
 pub(crate) mod stats;
+mod stream;
 mod timestamps;
 
 #[cfg(test)]
@@ -18,14 +19,17 @@ mod tests_parse;
 mod tests_real_logs;
 #[cfg(test)]
 mod tests_schedule;
+#[cfg(test)]
+mod tests_stream;
 
 pub use config::{FrameTimingConfig, LogModel, TimestampMark, TimingModel, VfrModel};
 pub use error::TimingError;
-pub use fit::{fit_vfr, TimingFit};
+pub use fit::{fit_vfr, fit_vfr_passes, TimingFit, MEDIAN_SAMPLE};
 pub use parse::{
     load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv,
     parse_frames_csv_numbered, parse_showinfo, parse_showinfo_pts, to_frames_csv, LogFormat,
 };
 pub use schedule::JITTER_TRUNCATION_SIGMA;
 pub use stats::{TimingStats, DROP_THRESHOLD};
+pub use stream::{stream_frame_times, Streamed, MAX_LINE_BYTES, REORDER_WINDOW};
 pub use timestamps::{timebase, Timestamps};

@@ -9,12 +9,21 @@ use super::*;
 const K: f64 = 5.0;
 
 fn check_recovery(fps: f64, v: &VfrModel, seed: u64) -> Result<(), TestCaseError> {
+    check_recovery_over(fps, v, seed, 20.0)
+}
+
+pub(super) fn check_recovery_over(
+    fps: f64,
+    v: &VfrModel,
+    seed: u64,
+    duration_s: f64,
+) -> Result<(), TestCaseError> {
     let c = FrameTimingConfig {
         fps,
         model: TimingModel::Vfr(v.clone()),
         ..FrameTimingConfig::default()
     };
-    let ts = c.schedule(20.0, seed, None).unwrap();
+    let ts = c.schedule(duration_s, seed, None).unwrap();
     let fit = fit_vfr(&ts).unwrap();
     let n = ts.len() as f64 - 1.0;
     let sigma = v.jitter_s;
@@ -63,15 +72,20 @@ fn check_recovery(fps: f64, v: &VfrModel, seed: u64) -> Result<(), TestCaseError
     Ok(())
 }
 
-#[test]
-fn fit_recovers_phone_like_parameters() {
-    let v = VfrModel {
+/// The seed phone's order of magnitude: 50 µs jitter, 0.1 ms alternation, 2 % drops.
+pub(super) fn phone_like() -> VfrModel {
+    VfrModel {
         jitter_s: 5e-5,
         pair_alternation_s: 1e-4,
         first_interval_s: 0.055,
         drop_probability: 0.02,
         rate_error_ppm: -4500.0,
-    };
+    }
+}
+
+#[test]
+fn fit_recovers_phone_like_parameters() {
+    let v = phone_like();
     check_recovery(30.0, &v, 11).unwrap();
     let fit = fit_vfr(
         &FrameTimingConfig {

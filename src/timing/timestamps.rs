@@ -12,26 +12,8 @@ impl Timestamps {
     /// Validates `times_s`: every value finite, each strictly greater than the one before.
     pub fn new(times_s: Vec<f64>) -> Result<Self, TimingError> {
         for (frame, &value_s) in times_s.iter().enumerate() {
-            if !value_s.is_finite() {
-                return Err(TimingError::NotFinite { frame, value_s });
-            }
-            if frame > 0 {
-                let previous_s = times_s[frame - 1];
-                if value_s == previous_s {
-                    return Err(TimingError::Repeated {
-                        frame,
-                        previous_s,
-                        value_s,
-                    });
-                }
-                if value_s < previous_s {
-                    return Err(TimingError::Backwards {
-                        frame,
-                        previous_s,
-                        value_s,
-                    });
-                }
-            }
+            let previous_s = frame.checked_sub(1).map(|p| times_s[p]);
+            check_next(frame, previous_s, value_s)?;
         }
         Ok(Self { times_s })
     }
@@ -69,6 +51,31 @@ impl Timestamps {
         Self {
             times_s: self.times_s[..n].to_vec(),
         }
+    }
+}
+
+/// The check of one frame time against the one before it (None for frame 0): finite and
+/// strictly later.
+pub(super) fn check_next(
+    frame: usize,
+    previous_s: Option<f64>,
+    value_s: f64,
+) -> Result<(), TimingError> {
+    if !value_s.is_finite() {
+        return Err(TimingError::NotFinite { frame, value_s });
+    }
+    match previous_s {
+        Some(previous_s) if value_s == previous_s => Err(TimingError::Repeated {
+            frame,
+            previous_s,
+            value_s,
+        }),
+        Some(previous_s) if value_s < previous_s => Err(TimingError::Backwards {
+            frame,
+            previous_s,
+            value_s,
+        }),
+        _ => Ok(()),
     }
 }
 
