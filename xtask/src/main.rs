@@ -2,8 +2,10 @@
 //!
 //! - `cargo xtask demo`    — install what is missing, then run the main job on the embedded
 //!   default scenario (output under `out/demo/`).
-//! - `cargo xtask test`    — install what is missing, then run the whole test suite and, as
-//!   root on Debian, the real-Slurm integration test (`slurm.rs`).
+//! - `cargo xtask test`    — install what is missing, then `cargo fmt --check`, clippy with
+//!   `-D warnings` (default features and `--no-default-features`), the whole test suite, the
+//!   library's tests without OpenCV and, as root on Debian, the real-Slurm integration test
+//!   (`slurm.rs`).
 //! - `cargo xtask bench`   — run the benchmarks and print their figures.
 //! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
 //! - `cargo xtask deps`    — only check/install the system packages.
@@ -79,6 +81,17 @@ fn demo(extra: &[String]) -> Result<(), String> {
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
+    // Formatting and lints first: they fail in seconds where the tests take minutes.
+    let mut fmt = cargo();
+    fmt.args(["fmt", "--all", "--check"]);
+    run(fmt)?;
+    for features in [&[][..], &["--no-default-features"][..]] {
+        let mut clippy = cargo();
+        clippy.args(["clippy", "--workspace", "--all-targets"]);
+        clippy.args(features);
+        clippy.args(["--", "-D", "warnings"]);
+        run(clippy)?;
+    }
     // Library, binaries, integration tests and doc tests; benchmarks run only under `xtask bench`.
     let mut command = cargo();
     command.args(["test", "--workspace"]);
@@ -90,6 +103,14 @@ fn test(extra: &[String]) -> Result<(), String> {
     }
     command.args(extra);
     run(command)?;
+    // The pure core without OpenCV, as Cargo.toml promises (the clippy pass above has built every
+    // target without it; the library holds the core's tests).
+    let mut core = cargo();
+    core.args(["test", "--no-default-features", "--lib"]);
+    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+        core.env("PROPTEST_RNG_SEED", "20261123");
+    }
+    run(core)?;
     // The real-Slurm test of `geneva slurm script` (skipped, saying why, unless root on Debian).
     if std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_some() {
         eprintln!("xtask: skipping the Slurm integration test: GENEVA_SKIP_SLURM_TEST is set");
