@@ -1,6 +1,7 @@
 //! `reports/defaults/`: the generator runs on a tiny spread and ranks its best first; the
 //! toolkit's default estimator is the best of the committed table (read from it, not restated
 //! here); `geneva analyze` says which estimator it used and why.
+#![cfg(feature = "opencv-detector")]
 
 use geneva_vision::estimate::EstimatorConfig;
 use geneva_vision::pipeline::defaults_study::{
