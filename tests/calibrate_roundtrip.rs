@@ -11,6 +11,7 @@
 //! little the measured σ says about the sensor's), so there the test only guards against a
 //! regression (within 35 %); likewise the re-render residual, which the issue wants ≤ 1.2 × the
 //! fitted noise and is not on every case, is guarded at ≤ 1.5 ×.
+#![cfg(feature = "opencv-detector")]
 
 use geneva_vision::pipeline::calibrate_roundtrip::{criteria_table, run_case, summary};
 
