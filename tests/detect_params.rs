@@ -132,11 +132,11 @@ fn every_field_reaches_opencv() {
         error_correction_rate: 0.5,
         april_tag_quad_decimate: 2.0,
         april_tag_quad_sigma_px: 0.8,
-        april_tag_min_cluster_pixels: 6,
+        april_tag_min_cluster_pixels: 12,
         april_tag_max_nmaxima: 11,
         april_tag_critical_rad: 0.2,
         april_tag_max_line_fit_mse_px2: 11.0,
-        april_tag_min_white_black_diff_dn: 6,
+        april_tag_min_white_black_diff_dn: 13,
         april_tag_deglitch: true,
         detect_inverted_marker: true,
         use_aruco3_detection: true,
@@ -148,5 +148,73 @@ fn every_field_reaches_opencv() {
     let defaults = fields(&opencv::aruco::DetectorParameters::create().unwrap());
     for (o, d) in ours.iter().zip(&defaults) {
         assert_ne!(o.1, d.1, "{} was not passed to OpenCV", o.0);
+    }
+    // Each OpenCV field holds the value configured for it (distinct values, so two setters
+    // swapped in `opencv_parameters` fail here; OpenCV's f32 fields hold the f32 of ours).
+    let f32_of = |x: f64| f64::from(x as f32);
+    let expected = [
+        5.0,
+        41.0,
+        6.0,
+        9.0,
+        0.02,
+        3.0,
+        0.04,
+        0.06,
+        4.0,
+        0.07,
+        f64::from(opencv::aruco::CORNER_REFINE_CONTOUR),
+        7.0,
+        40.0,
+        0.01,
+        2.0,
+        8.0,
+        0.2,
+        0.3,
+        4.0,
+        0.5,
+        f32_of(2.0),
+        f32_of(0.8),
+        12.0,
+        11.0,
+        f32_of(0.2),
+        f32_of(11.0),
+        13.0,
+        1.0,
+        1.0,
+        1.0,
+        33.0,
+        f32_of(0.1),
+    ];
+    assert_eq!(ours.len(), expected.len());
+    for ((name, got), want) in ours.iter().zip(expected) {
+        assert_eq!(*got, want, "{name}");
+    }
+}
+
+#[test]
+fn each_switch_reaches_its_own_opencv_field() {
+    // The three switches are all 1 above; set one at a time so that swapped ones fail.
+    let names = [
+        "aprilTagDeglitch",
+        "detectInvertedMarker",
+        "useAruco3Detection",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let cfg = DetectorConfig {
+            april_tag_deglitch: k == 0,
+            detect_inverted_marker: k == 1,
+            use_aruco3_detection: k == 2,
+            ..DetectorConfig::default()
+        };
+        let ours = fields(&opencv_parameters(&cfg).unwrap());
+        for other in names {
+            let value = ours.iter().find(|f| f.0 == other).unwrap().1;
+            assert_eq!(
+                value,
+                f64::from(u8::from(other == *name)),
+                "{other} with {name} set"
+            );
+        }
     }
 }
