@@ -1,58 +1,112 @@
-//! End-to-end per-source decomposition on `fast` with exactly two effects on (pixel noise and
-//! optical blur; lighting switched off in the base): every configuration runs, shares and the
-//! interaction sum to one, and the files are written.
+//! End-to-end per-source decomposition on a short `fast` run with its sources on and pixel noise
+//! ten times its normal σ: the
+//! dominant source must come out dominant with an interval that excludes every other row, no
+//! random source may lower the error beyond its interval (common random numbers), and the seeds
+//! must stop for a stated reason.
 
 #![cfg(feature = "opencv-detector")]
 
-use geneva_vision::pipeline::decompose::decompose_effects;
+use geneva_vision::budget::decompose::{SeedRule, StopReason, INTERACTION, QUANTISATION};
+use geneva_vision::pipeline::decompose::{decompose_effects, write_outputs, DecomposeOptions};
 use geneva_vision::scenario::{load_any, with_overrides};
 use std::path::Path;
 use toml::Value;
 
 #[test]
-fn decomposition_of_fast_with_two_effects() {
+fn a_large_single_effect_dominates_with_a_separated_interval() {
     let fast = load_any("fast").unwrap();
+    let noise = &fast.effects.pixel_noise;
     let base = with_overrides(
         &fast,
         &[
-            ("effects.lighting.enabled".into(), Value::Boolean(false)),
             ("duration_s".into(), Value::Float(2.0)),
+            // Ten times the noise σ at every level: σ/full well = √(e + r²)/w; with w/100 and
+            // r/10 (so e/100 too) it is √(e + r²)/10 / (w/100) = 10 √(e + r²)/w.
+            (
+                "effects.pixel_noise.read_noise_e".into(),
+                Value::Float(noise.read_noise_e / 10.0),
+            ),
+            (
+                "effects.pixel_noise.full_well_e".into(),
+                Value::Float(noise.full_well_e / 100.0),
+            ),
         ],
         Path::new("reports_decompose"),
     )
     .unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let d = decompose_effects(&base, 2, dir.path(), true).expect("decomposition");
-    assert_eq!(d.effects_on, vec!["pixel_noise", "optical_blur"]);
-    assert!(d.effects_off.contains(&"motion_blur".to_string()));
-    for dec in [&d.omega, &d.alpha] {
-        assert_eq!(dec.sources.len(), 2);
-        let total: f64 = dec.sources.iter().map(|s| s.share).sum::<f64>() + dec.interaction_share;
-        assert!((total - 1.0).abs() < 1e-9, "shares sum to {total}");
-    }
-    for runs in [&d.omega_runs, &d.alpha_runs] {
-        // Quantisation alone already gives a non-zero error variance.
-        assert!(runs.none > 0.0 && runs.all > 0.0);
-        assert!(runs
-            .alone
+    let options = DecomposeOptions {
+        rule: SeedRule {
+            initial: 4,
+            cap: 12,
+            target_half_width: 0.05,
+        },
+        roi: true,
+    };
+    let d = decompose_effects(&base, &options, &|_| {}).expect("decomposition");
+    assert!(
+        d.sources.contains(&"pixel_noise".to_string()),
+        "{:?}",
+        d.sources
+    );
+    assert!(d.sources.len() >= 2, "{:?}", d.sources);
+    assert!(matches!(d.stop, StopReason::Settled | StopReason::Capped));
+    assert!(d.seeds >= 4 && d.seeds <= 12);
+    let mut negative_exact = Vec::new();
+    for (symbol, dec) in [("ω2", &d.omega), ("α2", &d.alpha)] {
+        let noise = dec.row("pixel_noise").unwrap();
+        assert!(
+            noise.share.mean >= 0.9,
+            "{symbol}: pixel noise share {:?}",
+            noise.share
+        );
+        for r in dec.rows.iter().filter(|r| r.name != "pixel_noise") {
+            assert!(
+                r.share.ci95_high < noise.share.ci95_low,
+                "{symbol}: `{}` {:?} overlaps pixel noise {:?}",
+                r.name,
+                r.share,
+                noise.share
+            );
+        }
+        // Common random numbers: a random source's alone contribution is never negative beyond
+        // its interval (a new noise draw per configuration is what made them negative). A
+        // deterministic source (optical blur: no random draw, so every seed gives the same
+        // contribution and the interval has no width) may really lower the error — blur
+        // smooths the corners' pixel quantisation — and is then exactly known and annotated.
+        for r in dec
+            .rows
             .iter()
-            .chain(&runs.left_out)
-            .all(|(_, v)| v.is_finite() && *v > 0.0));
+            .filter(|r| r.name != QUANTISATION && r.name != INTERACTION)
+        {
+            let exact = r.variance.ci95_high == r.variance.ci95_low;
+            if exact {
+                negative_exact.push((symbol, r.name.clone(), r.variance.mean < 0.0));
+                continue;
+            }
+            assert!(
+                r.variance.ci95_high >= 0.0,
+                "{symbol}: random source `{}` alone lowers the error beyond its CI: {:?}",
+                r.name,
+                r.variance
+            );
+        }
+        if d.stop == StopReason::Settled {
+            assert!(dec.widest_share_half_width() < 0.05);
+        }
     }
-    // With two effects, "pixel noise left out" and "optical blur alone" are the same scenario
-    // (and vice versa): the deterministic pipeline must give identical variances.
-    for runs in [&d.omega_runs, &d.alpha_runs] {
-        assert_eq!(runs.left_out[0].1, runs.alone[1].1);
-        assert_eq!(runs.left_out[1].1, runs.alone[0].1);
-    }
-    for f in [
-        "decomposition.csv",
-        "decomposition.md",
-        "decomposition_omega.png",
-        "decomposition_alpha.png",
-    ] {
-        assert!(dir.path().join(f).exists(), "{f}");
-    }
+    let dir = tempfile::tempdir().unwrap();
+    let files = write_outputs(&d, dir.path()).unwrap();
+    assert_eq!(files.len(), 5);
     let md = std::fs::read_to_string(dir.path().join("decomposition.md")).unwrap();
-    assert!(md.contains("| pixel_noise |") && md.contains("| interaction |"));
+    assert!(md.contains("| pixel_noise |") && md.contains("| corner quantisation |"));
+    if negative_exact.iter().any(|(_, _, negative)| *negative) {
+        assert!(md.contains("lowers the error"), "{negative_exact:?}\n{md}");
+    }
+    // The random source is not among the exact ones.
+    assert!(!negative_exact
+        .iter()
+        .any(|(_, name, _)| name == "pixel_noise"));
+    let csv = std::fs::read_to_string(dir.path().join("per_seed.csv")).unwrap();
+    // One line per configuration and seed.
+    assert_eq!(csv.lines().count(), 1 + d.configurations.len() * d.seeds);
 }

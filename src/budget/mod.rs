@@ -16,6 +16,6 @@ pub mod stats;
 pub use bounds::{
     half_pixel_bound, predict_noise, Exceedance, HalfPixelBound, LinearWeights, NoisePrediction,
 };
-pub use decompose::{decompose, Decomposition, VarianceRuns};
+pub use decompose::{decompose, Decomposition, PairedRuns};
 pub use montecarlo::MeanCi;
 pub use stats::ErrorStats;

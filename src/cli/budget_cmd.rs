@@ -3,8 +3,11 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
+use geneva_vision::budget::decompose::SeedRule;
 use geneva_vision::budget::report::Budget;
-use geneva_vision::pipeline::decompose::{decompose_effects, markdown_table};
+use geneva_vision::pipeline::decompose::{
+    decompose_effects, markdown_table, write_outputs, DecomposeOptions,
+};
 use geneva_vision::pipeline::montecarlo::{merge_monte_carlo, monte_carlo_study, MonteCarloRun};
 use geneva_vision::pipeline::reports::{reports, ReportsOptions};
 use geneva_vision::scenario;
@@ -132,25 +135,53 @@ fn print_budget(mc: &geneva_vision::pipeline::montecarlo::MonteCarloBudget) {
     line("alpha2", "rad/s^2", &|b| b.alpha.rms);
 }
 
-pub fn decompose(spec: &str, seeds: usize, out: &Path) -> Result<()> {
-    let s = scenario::load_any(spec)?;
-    let staged = geneva_vision::io::output_dir::OutputDir::create(out)?;
-    let d = decompose_effects(&s, seeds, staged.path(), true)
+#[derive(Args, Debug)]
+pub struct DecomposeArgs {
+    /// Scenario file or built-in name.
+    scenario: String,
+    /// Seeds of the first round (at least 2).
+    #[arg(long, default_value_t = 4)]
+    seeds: usize,
+    /// Largest number of seeds.
+    #[arg(long, default_value_t = 64)]
+    max_seeds: usize,
+    /// Stop when every share's 95 % CI half-width is below this many percentage points.
+    #[arg(long, default_value_t = 5.0)]
+    target_pp: f64,
+    #[arg(long, default_value = "out/decompose")]
+    out: PathBuf,
+    #[arg(long)]
+    full_frame: bool,
+}
+
+pub fn decompose(a: DecomposeArgs) -> Result<()> {
+    let s = scenario::load_any(&a.scenario)?;
+    let options = DecomposeOptions {
+        rule: SeedRule {
+            initial: a.seeds,
+            cap: a.max_seeds,
+            target_half_width: a.target_pp / 100.0,
+        },
+        roi: !a.full_frame,
+    };
+    let staged = geneva_vision::io::output_dir::OutputDir::create(&a.out)?;
+    let d = decompose_effects(&s, &options, &|line| eprintln!("{line}"))
         .with_context(|| format!("scenario {}", s.name))?;
+    write_outputs(&d, staged.path())?;
     println!("{}", markdown_table(&d));
+    eprintln!("{} runs of the pipeline in {:.0} s", d.runs, d.elapsed_s);
     super::run_cmd::print_files(&staged.commit()?);
     Ok(())
 }
 
 pub fn write_reports(out: &Path, seeds: usize, fast_only: bool, only: Vec<String>) -> Result<()> {
-    let files = reports(
-        out,
-        &ReportsOptions {
-            seeds,
-            fast_only,
-            only,
-        },
-    )?;
+    let options = ReportsOptions {
+        seeds,
+        fast_only,
+        only,
+        ..ReportsOptions::default()
+    };
+    let files = reports(out, &options)?;
     for f in files {
         println!("wrote {}", f.display());
     }

@@ -87,16 +87,11 @@ enum Command {
     /// per_seed.csv, error histograms, and the first seed's full run in seed0/ (resumable,
     /// shardable: --shard I/N, then `montecarlo merge DIR`).
     Montecarlo(budget_cmd::MonteCarloArgs),
-    /// Per-source decomposition of the omega2 and alpha2 error variance (each effect alone and
-    /// left out): table, CSV and bar charts.
-    Decompose {
-        scenario: String,
-        #[arg(long, default_value_t = 2)]
-        seeds: usize,
-        #[arg(long, default_value = "out/decompose")]
-        out: PathBuf,
-    },
-    /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition-1080p, dynamics, defaults) deterministically.
+    /// Per-source decomposition of the omega2 and alpha2 mean square error (corner quantisation,
+    /// each effect alone and left out, interaction) with paired 95 % CIs; seeds are added until
+    /// every share's CI is narrow enough or a cap is hit.
+    Decompose(budget_cmd::DecomposeArgs),
+    /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition, seed-camera, dynamics, defaults) deterministically.
     Reports {
         #[arg(long, default_value = "reports")]
         out: PathBuf,
@@ -128,11 +123,7 @@ pub fn main() -> Result<()> {
         Command::Analyze(args) => analyze_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Montecarlo(args) => budget_cmd::montecarlo(args),
-        Command::Decompose {
-            scenario,
-            seeds,
-            out,
-        } => budget_cmd::decompose(&scenario, seeds, &out),
+        Command::Decompose(args) => budget_cmd::decompose(args),
         Command::Reports {
             out,
             seeds,

@@ -159,7 +159,13 @@ fn script(a: ScriptArgs) -> Result<()> {
     // Bad inputs fail here, not on the cluster.
     let job = match (&a.sweep, &a.montecarlo, a.seeds) {
         (Some(sweep), None, _) => {
-            SweepSpec::load(sweep)?;
+            if SweepSpec::load(sweep)?.adaptive.is_some() {
+                bail!(
+                    "{}: [adaptive] seeds are picked round by round from the results, so the \
+                     sweep runs on one machine (`geneva sweep`); drop [adaptive] to shard it",
+                    sweep.display()
+                );
+            }
             let sweep = std::path::absolute(sweep).context("sweep file path")?;
             Job {
                 study: format!("sweep {}", quote(&sweep)),

@@ -20,8 +20,10 @@
 //! their fingerprint. Resuming or merging records of other inputs is refused, naming what changed.
 //!
 //! Files: `manifest` (inputs, fingerprint, differences), `log` (the append-only record log),
-//! `study` (the three drivers).
+//! `study` (the three drivers), `adaptive` (studies whose units are picked in rounds from the
+//! records so far: resumable and extensible, one machine).
 
+pub mod adaptive;
 mod log;
 mod manifest;
 mod study;
@@ -29,6 +31,7 @@ mod study;
 #[cfg(test)]
 mod tests;
 
+pub use adaptive::{run_adaptive, AdaptiveReport, AdaptiveStudy};
 pub use log::UnitLog;
 pub use manifest::Manifest;
 pub use study::{merge, run_shard, run_whole, Control, RunReport, Study, UnitDirs};

@@ -73,7 +73,7 @@ pub struct RunReport {
 }
 
 /// Refuses records of other inputs unless `restart`; returns whether `place` must be emptied.
-fn check(
+pub(super) fn check(
     found: Option<Manifest>,
     now: &Manifest,
     place: &Path,
@@ -105,23 +105,36 @@ fn run_units<S: Study>(
     total: usize,
     control: &Control,
 ) -> Result<usize, S::Error> {
+    run_units_with(todo, log, already, total, control, &|unit| {
+        study.run_unit(unit, work_dir)
+    })
+}
+
+/// [`run_units`] with the unit's work given as a function.
+pub(super) fn run_units_with<E: From<ShardError> + Send>(
+    todo: &[usize],
+    log: UnitLog,
+    already: usize,
+    total: usize,
+    control: &Control,
+    unit_record: &(dyn Fn(usize) -> Result<String, E> + Sync),
+) -> Result<usize, E> {
     let log = Mutex::new(log);
     let counter = AtomicUsize::new(already);
     let ran = AtomicUsize::new(0);
-    todo.par_iter()
-        .try_for_each(|&unit| -> Result<(), S::Error> {
-            if (control.stop)() {
-                return Ok(());
-            }
-            let record = study.run_unit(unit, work_dir)?;
-            // A poisoned lock means another unit panicked mid-append; its line is cut and redone.
-            let mut log = log.lock().unwrap_or_else(|p| p.into_inner());
-            log.append(unit, &record)?;
-            drop(log);
-            ran.fetch_add(1, Ordering::SeqCst);
-            (control.progress)(counter.fetch_add(1, Ordering::SeqCst) + 1, total);
-            Ok(())
-        })?;
+    todo.par_iter().try_for_each(|&unit| -> Result<(), E> {
+        if (control.stop)() {
+            return Ok(());
+        }
+        let record = unit_record(unit)?;
+        // A poisoned lock means another unit panicked mid-append; its line is cut and redone.
+        let mut log = log.lock().unwrap_or_else(|p| p.into_inner());
+        log.append(unit, &record)?;
+        drop(log);
+        ran.fetch_add(1, Ordering::SeqCst);
+        (control.progress)(counter.fetch_add(1, Ordering::SeqCst) + 1, total);
+        Ok(())
+    })?;
     Ok(ran.load(Ordering::SeqCst))
 }
 

@@ -13,7 +13,7 @@ use super::spec::SweepSpec;
 use super::summary::{summarise, write_csv, PointSummary};
 use super::Evaluator;
 use crate::scenario::{Scenario, ScenarioError};
-use crate::shard::{self, Manifest, Shard, ShardError, Study, UnitDirs};
+use crate::shard::{self, AdaptiveStudy, Manifest, Shard, ShardError, Study, UnitDirs};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -175,24 +175,10 @@ impl<'a, E: Evaluator> SweepStudy<'a, E> {
     }
 }
 
-fn one_line(s: &str) -> String {
-    s.replace('\n', " ")
-}
-
-impl<E: Evaluator> Study for SweepStudy<'_, E> {
-    type Error = SweepError;
-
-    fn manifest(&self) -> &Manifest {
-        &self.manifest
-    }
-
-    fn run_unit(&self, unit: usize, _work_dir: &Path) -> Result<String, SweepError> {
-        let (point, seed_index) = self.unit(unit);
-        let row = self.run_job(point, seed_index);
-        row_line(&row).map_err(|e| SweepError::io(self.spec_path, e))
-    }
-
-    fn finalize(&self, records: &[String], _: UnitDirs, out_dir: &Path) -> Result<(), SweepError> {
+impl<E: Evaluator> SweepStudy<'_, E> {
+    /// results.csv from the rows in (point, seed) order, then summary.csv, recommendation.md and
+    /// the heatmaps.
+    fn write_outputs(&self, records: &[String], out_dir: &Path) -> Result<(), SweepError> {
         let results_path = out_dir.join("results.csv");
         let mut text =
             header_line(&self.axis_names).map_err(|e| SweepError::io(&results_path, e))?;
@@ -211,6 +197,129 @@ impl<E: Evaluator> Study for SweepStudy<'_, E> {
             .map_err(|e| SweepError::io(&md_path, e))?;
         super::heatmaps::write_heatmaps(self.spec, &self.grid, &summary, &rec, out_dir)?;
         Ok(())
+    }
+}
+
+/// Largest seed index + 1 of an adaptive sweep (the unit numbers' range).
+const MAX_SEEDS: usize = 1000;
+
+/// The sweep with adaptive seeds: unit `seed_index · points + point`, so a unit's number does
+/// not depend on how many seeds any point gets.
+struct AdaptiveSweep<'a, E> {
+    sweep: SweepStudy<'a, E>,
+    manifest: Manifest,
+}
+
+impl<'a, E: Evaluator> AdaptiveSweep<'a, E> {
+    fn new(sweep: SweepStudy<'a, E>) -> Self {
+        let mut inputs = sweep.manifest.inputs.clone();
+        inputs.remove("seeds");
+        let mut manifest = Manifest::new("adaptive sweep", sweep.grid.len() * MAX_SEEDS, inputs);
+        manifest.origin = sweep.manifest.origin.clone();
+        Self { sweep, manifest }
+    }
+
+    fn point_seed(&self, unit: usize) -> (usize, usize) {
+        let p = self.sweep.grid.len();
+        (unit % p, unit / p)
+    }
+
+    fn unit(&self, point: usize, seed_index: usize) -> usize {
+        seed_index * self.sweep.grid.len() + point
+    }
+
+    /// The records in (point, seed) order.
+    fn ordered(&self, records: &BTreeMap<usize, String>) -> Vec<String> {
+        let mut keyed: Vec<((usize, usize), &String)> = records
+            .iter()
+            .map(|(u, r)| (self.point_seed(*u), r))
+            .collect();
+        keyed.sort_by_key(|(k, _)| *k);
+        keyed.into_iter().map(|(_, r)| r.clone()).collect()
+    }
+}
+
+impl<E: Evaluator> AdaptiveStudy for AdaptiveSweep<'_, E> {
+    type Error = SweepError;
+
+    fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    fn rule(&self) -> serde_json::Value {
+        let spec = self.sweep.spec;
+        serde_json::json!({
+            "seeds": spec.seeds,
+            "adaptive": spec.adaptive,
+            "target": spec.target,
+            "impact": spec.impact,
+            "cost": spec.cost,
+        })
+    }
+
+    fn first_round(&self) -> Vec<usize> {
+        (0..self.sweep.spec.seeds)
+            .flat_map(|k| (0..self.sweep.grid.len()).map(move |p| (p, k)))
+            .map(|(p, k)| self.unit(p, k))
+            .collect()
+    }
+
+    fn next_round(&self, records: &BTreeMap<usize, String>) -> Result<Vec<usize>, SweepError> {
+        let s = &self.sweep;
+        let mut text = header_line(&s.axis_names).map_err(|e| SweepError::io(s.spec_path, e))?;
+        for r in self.ordered(records) {
+            text.push('\n');
+            text.push_str(&r);
+        }
+        text.push('\n');
+        let rows = results::parse(&text, s.spec_path, &s.axis_names)?;
+        let summary = summarise(s.spec, &s.grid, &s.scenarios, &rows);
+        let cap = s
+            .spec
+            .adaptive
+            .as_ref()
+            .map_or(s.spec.seeds, |a| a.max_seeds);
+        Ok(super::adaptive::more_seeds(&summary, cap)
+            .into_iter()
+            .flat_map(|(p, from, to)| (from..to).map(move |k| (p, k)))
+            .map(|(p, k)| self.unit(p, k))
+            .collect())
+    }
+
+    fn run_unit(&self, unit: usize) -> Result<String, SweepError> {
+        let (point, seed_index) = self.point_seed(unit);
+        let row = self.sweep.run_job(point, seed_index);
+        row_line(&row).map_err(|e| SweepError::io(self.sweep.spec_path, e))
+    }
+
+    fn finalize(
+        &self,
+        records: &BTreeMap<usize, String>,
+        out_dir: &Path,
+    ) -> Result<(), SweepError> {
+        self.sweep.write_outputs(&self.ordered(records), out_dir)
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.replace('\n', " ")
+}
+
+impl<E: Evaluator> Study for SweepStudy<'_, E> {
+    type Error = SweepError;
+
+    fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    fn run_unit(&self, unit: usize, _work_dir: &Path) -> Result<String, SweepError> {
+        let (point, seed_index) = self.unit(unit);
+        let row = self.run_job(point, seed_index);
+        row_line(&row).map_err(|e| SweepError::io(self.spec_path, e))
+    }
+
+    fn finalize(&self, records: &[String], _: UnitDirs, out_dir: &Path) -> Result<(), SweepError> {
+        self.write_outputs(records, out_dir)
     }
 
     fn unit_name(&self, unit: usize) -> String {
@@ -255,6 +364,9 @@ pub fn run_sweep_with<E: Evaluator>(
     run: &SweepRun,
 ) -> Result<SweepOutcome, SweepError> {
     let study = SweepStudy::new(spec, spec_path, evaluator)?;
+    if spec.adaptive.is_some() {
+        return run_adaptive_sweep(study, out_dir, run);
+    }
     let report = match run.shard {
         Some(s) => shard::run_shard(&study, out_dir, s, run.restart, run.control)?,
         None => shard::run_whole(&study, out_dir, run.restart, run.control)?,
@@ -278,6 +390,42 @@ pub fn run_sweep_with<E: Evaluator>(
     Ok(outcome)
 }
 
+/// An adaptive sweep on this machine (see `shard::adaptive`).
+fn run_adaptive_sweep<E: Evaluator>(
+    study: SweepStudy<'_, E>,
+    out_dir: &Path,
+    run: &SweepRun,
+) -> Result<SweepOutcome, SweepError> {
+    if run.shard.is_some() {
+        return Err(SweepError::Io {
+            file: study.spec_path.to_path_buf(),
+            message: "adaptive seeds ([adaptive]) pick each round's runs from the results of \
+                      the round before, so the sweep runs on one machine: drop --shard, or drop \
+                      [adaptive] to shard a fixed number of seeds"
+                .into(),
+        });
+    }
+    let adaptive = AdaptiveSweep::new(study);
+    let report = shard::run_adaptive(&adaptive, out_dir, run.restart, run.control)?;
+    let mut outcome = SweepOutcome {
+        jobs_total: report.units_picked,
+        jobs_resumed: report.units_resumed,
+        jobs_run: report.units_run,
+        complete: report.complete,
+        summary: Vec::new(),
+        recommendation: None,
+        recommendation_md: String::new(),
+        files: report.files,
+    };
+    if report.complete {
+        let (summary, rec, md) = adaptive.sweep.outcome(out_dir)?;
+        outcome.summary = summary;
+        outcome.recommendation = Some(rec);
+        outcome.recommendation_md = md;
+    }
+    Ok(outcome)
+}
+
 /// Merges the shards in `out_dir/shards/` into the sweep's outputs, byte-identical to a
 /// one-machine run (idempotent). A missing unit is named and nothing is written.
 pub fn merge_sweep(
@@ -285,6 +433,14 @@ pub fn merge_sweep(
     spec_path: &Path,
     out_dir: &Path,
 ) -> Result<SweepOutcome, SweepError> {
+    if spec.adaptive.is_some() {
+        return Err(SweepError::Io {
+            file: spec_path.to_path_buf(),
+            message:
+                "an adaptive sweep ([adaptive]) runs on one machine and has no shards to merge"
+                    .into(),
+        });
+    }
     let study = SweepStudy::new(spec, spec_path, &NoEvaluator)?;
     let report = shard::merge(&study, out_dir)?;
     let (summary, rec, md) = study.outcome(out_dir)?;

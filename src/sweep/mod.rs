@@ -6,13 +6,17 @@
 //!
 //! Files: `spec` (the sweep file), `grid` (points, keys, overrides, seeds), `results`
 //! (results.csv rows), `engine` (the sweep as a study of work units: parallel, resumable,
-//! shardable, committed all at once; see `shard`), `summary` (per-point Monte
-//! Carlo means, detectability), `recommend` (the choice and recommendation.md), `heatmaps`.
+//! shardable, committed all at once; see `shard`; with `[adaptive]`, seeds added in rounds to the
+//! undecided points), `summary` (per-point Monte Carlo means and CIs, detectability, the decision
+//! on the 95 % bounds), `adaptive` (which points get more seeds), `recommend` (the choice and
+//! recommendation.md), `monotonic` (neighbours out of the expected order), `heatmaps`.
 
+pub mod adaptive;
 pub mod engine;
 pub mod error;
 pub mod grid;
 pub mod heatmaps;
+pub mod monotonic;
 pub mod recommend;
 pub mod results;
 pub mod spec;
@@ -28,7 +32,7 @@ pub use error::SweepError;
 pub use grid::{load_base, point_scenario, points, run_seed, Point};
 pub use recommend::{recommend, Recommendation};
 pub use results::{ResultRow, Status, METRICS};
-pub use spec::{AxisSpec, CostSpec, ImpactSpec, LevelSpec, SweepSpec, TargetSpec};
+pub use spec::{AdaptiveSpec, AxisSpec, CostSpec, ImpactSpec, LevelSpec, SweepSpec, TargetSpec};
 pub use summary::PointSummary;
 
 use crate::scenario::Scenario;

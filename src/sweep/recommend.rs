@@ -1,9 +1,11 @@
-//! The recommendation: the cheapest point that meets the accuracy target and detects the
-//! impact, with the runner-up, or — when none qualifies — the closest point. Also renders
-//! recommendation.md.
+//! The recommendation: the cheapest point whose 95 % intervals meet the accuracy target and
+//! detect the impact (upper error bounds within the target, lower SNR bound above the
+//! threshold), with the runner-up, or — when none qualifies — the closest point. Also renders
+//! recommendation.md, which names cheaper points the seeds left undecided and flags neighbours
+//! in camera distance or frame rate that break the expected order (`monotonic`).
 
 use super::spec::SweepSpec;
-use super::summary::PointSummary;
+use super::summary::{Decision, PointSummary};
 use std::cmp::Ordering;
 use std::fmt::Write;
 
@@ -16,6 +18,9 @@ pub struct Recommendation {
     pub runner_up: Option<usize>,
     /// When nothing qualifies: the evaluated point with the smallest worst shortfall ratio.
     pub closest: Option<usize>,
+    /// Points cheaper than the chosen one (all, when none is chosen) whose intervals still
+    /// straddle a boundary: more seeds could make one of them the choice.
+    pub undecided_cheaper: Vec<usize>,
 }
 
 fn by_cost(a: &PointSummary, b: &PointSummary) -> Ordering {
@@ -60,10 +65,18 @@ pub fn recommend(spec: &SweepSpec, summary: &[PointSummary]) -> Recommendation {
     } else {
         None
     };
+    let chosen = qualifying.first().copied();
+    let undecided_cheaper = summary
+        .iter()
+        .filter(|s| s.decision == Decision::Undecided)
+        .filter(|s| chosen.is_none_or(|c| by_cost(s, c) == Ordering::Less))
+        .map(|s| s.index)
+        .collect();
     Recommendation {
-        chosen: qualifying.first().map(|s| s.index),
+        chosen: chosen.map(|s| s.index),
         runner_up: qualifying.get(1).map(|s| s.index),
         closest,
+        undecided_cheaper,
     }
 }
 
@@ -78,13 +91,17 @@ fn describe(s: &PointSummary) -> String {
     };
     let impact = match &s.impact {
         Some(d) => format!(
-            "impact peak |α̂| {:.3} rad/s² vs dwell σ_α {:.3} rad/s² → SNR {:.2}",
-            d.peak_alpha_rad_s2, d.noise_alpha_rad_s2, d.snr
+            "impact peak |α̂| {:.3} rad/s² vs dwell σ_α {} rad/s² → SNR {:.2} [{:.2}, {:.2}]",
+            d.peak_alpha_rad_s2,
+            ci("dwell_alpha_std_rad_s2"),
+            d.snr,
+            s.snr_ci95.0,
+            s.snr_ci95.1
         ),
         None => "impact: not computed".into(),
     };
     format!(
-        "`{}`\n  - ω RMS {} rad/s, α RMS {} rad/s² (mean [95 % CI] over {} run(s))\n  - {}\n",
+        "`{}`\n  - ω RMS {} rad/s, α RMS {} rad/s² (mean [95 % CI] over {} seed(s))\n  - {}\n",
         s.key,
         ci("omega_rms_rad_s"),
         ci("alpha_rms_rad_s2"),
@@ -103,29 +120,78 @@ pub fn reasons(spec: &SweepSpec, s: &PointSummary) -> String {
         };
     }
     let mut r = Vec::new();
-    let w = s.mean("omega_rms_rad_s");
-    if w > spec.target.omega_rms_rad_s || w.is_nan() {
-        r.push(format!(
-            "ω RMS {w:.4} > {} rad/s",
-            spec.target.omega_rms_rad_s
-        ));
-    }
-    let a = s.mean("alpha_rms_rad_s2");
-    if a > spec.target.alpha_rms_rad_s2 || a.is_nan() {
-        r.push(format!(
-            "α RMS {a:.4} > {} rad/s²",
-            spec.target.alpha_rms_rad_s2
-        ));
-    }
-    match s.impact {
-        Some(d) if !d.detectable => {
-            r.push(format!("impact SNR {:.2} < {}", d.snr, spec.impact.min_snr))
+    let bound = |name: &str, symbol: &str, target: f64, unit: &str, r: &mut Vec<String>| {
+        let m = s.ci(name);
+        // NaN bounds (one seed) are not within the target.
+        let within = m.ci95_high <= target;
+        if m.ci95_low > target {
+            r.push(format!(
+                "{symbol} RMS {:.4} [{:.4}, {:.4}] > {target} {unit}",
+                m.mean, m.ci95_low, m.ci95_high
+            ));
+        } else if !within {
+            r.push(format!(
+                "{symbol} RMS {:.4} [{:.4}, {:.4}]: upper bound not within {target} {unit}",
+                m.mean, m.ci95_low, m.ci95_high
+            ));
         }
+    };
+    bound(
+        "omega_rms_rad_s",
+        "ω",
+        spec.target.omega_rms_rad_s,
+        "rad/s",
+        &mut r,
+    );
+    bound(
+        "alpha_rms_rad_s2",
+        "α",
+        spec.target.alpha_rms_rad_s2,
+        "rad/s²",
+        &mut r,
+    );
+    let (lo, hi) = s.snr_ci95;
+    let lower_clears = lo >= spec.impact.min_snr;
+    match s.impact {
+        Some(d) if hi < spec.impact.min_snr => r.push(format!(
+            "impact SNR {:.2} [{lo:.2}, {hi:.2}] < {}",
+            d.snr, spec.impact.min_snr
+        )),
+        Some(d) if !lower_clears => r.push(format!(
+            "impact SNR {:.2} [{lo:.2}, {hi:.2}]: lower bound not above {}",
+            d.snr, spec.impact.min_snr
+        )),
         None if s.error.is_empty() => r.push("impact SNR unknown".into()),
         None => r.push(s.error.clone()),
         _ => {}
     }
+    if s.decision == Decision::Undecided {
+        r.push(format!("undecided after {} seed(s)", s.runs_ok));
+    }
     r.join("; ")
+}
+
+/// How many seeds the points got, in words.
+fn seeds_sentence(spec: &SweepSpec, summary: &[PointSummary]) -> String {
+    let mut counts: Vec<usize> = summary.iter().map(|s| s.runs_expected).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    let per: Vec<String> = counts
+        .iter()
+        .map(|c| {
+            let n = summary.iter().filter(|s| s.runs_expected == *c).count();
+            format!("{n} point(s) with {c}")
+        })
+        .collect();
+    let rule = match &spec.adaptive {
+        Some(a) => format!(
+            "Seeds: {} a point, doubled for the points whose decision an interval left open, up \
+             to {}",
+            spec.seeds, a.max_seeds
+        ),
+        None => format!("Seeds: {} a point", spec.seeds),
+    };
+    format!("{rule}; seeds run: {}.", per.join(", "))
 }
 
 /// recommendation.md text.
@@ -134,14 +200,16 @@ pub fn markdown(spec: &SweepSpec, summary: &[PointSummary], rec: &Recommendation
     let _ = writeln!(md, "# Sweep recommendation\n");
     let _ = writeln!(
         md,
-        "Target: mean ω RMS ≤ {} rad/s, mean α RMS ≤ {} rad/s²; impact Δω = {} rad/s over {} s \
-         detectable at SNR ≥ {}. Cheapest by: {}.\n",
+        "Target: ω RMS ≤ {} rad/s and α RMS ≤ {} rad/s² at the upper end of the 95 % CI over \
+         seeds; impact Δω = {} rad/s over {} s detectable at SNR ≥ {} at the lower end of its \
+         95 % CI. Cheapest by: {}. {}\n",
         spec.target.omega_rms_rad_s,
         spec.target.alpha_rms_rad_s2,
         spec.impact.delta_omega_rad_s,
         spec.impact.duration_s,
         spec.impact.min_snr,
-        spec.cost.order.join(", then ")
+        spec.cost.order.join(", then "),
+        seeds_sentence(spec, summary)
     );
     match rec.chosen {
         Some(i) => {
@@ -168,6 +236,19 @@ pub fn markdown(spec: &SweepSpec, summary: &[PointSummary], rec: &Recommendation
             }
         }
     }
+    if !rec.undecided_cheaper.is_empty() {
+        let _ = writeln!(
+            md,
+            "## Cheaper points left undecided ({})\n\nTheir intervals straddle a boundary at the \
+             seed cap; more seeds could make one of them the choice.\n",
+            rec.undecided_cheaper.len()
+        );
+        for &i in &rec.undecided_cheaper {
+            let _ = writeln!(md, "- `{}`: {}", summary[i].key, reasons(spec, &summary[i]));
+        }
+        let _ = writeln!(md);
+    }
+    md.push_str(&super::monotonic::markdown(spec, summary));
     let failing: Vec<&PointSummary> = summary.iter().filter(|s| !s.qualifies).collect();
     let _ = writeln!(md, "## Points that do not qualify ({})\n", failing.len());
     for s in failing {

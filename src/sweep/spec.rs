@@ -28,12 +28,32 @@ pub struct SweepSpec {
     /// The axes; the grid is their cartesian product (first axis varies slowest).
     #[serde(rename = "axis")]
     pub axes: Vec<AxisSpec>,
-    /// Accuracy the recommended setup must meet (Monte Carlo mean of the per-run RMS).
+    /// Accuracy the recommended setup must meet: the upper end of the 95 % CI of the per-run
+    /// RMS over the point's seeds must be within it.
     pub target: TargetSpec,
     /// The impact that must be detectable in the α trace.
     pub impact: ImpactSpec,
     /// How the cheapest qualifying point is chosen.
     pub cost: CostSpec,
+    /// More seeds for the points whose decision the first seeds do not settle; default unset
+    /// (every point gets `seeds`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveSpec>,
+}
+
+/// Adaptive seeds: after each round, every point whose 95 % intervals straddle a decision
+/// boundary (ω or α RMS target, impact SNR threshold) gets twice its seeds, up to `max_seeds`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdaptiveSpec {
+    /// Largest number of seeds of a point, in [`seeds`, 1000]; default 16.
+    pub max_seeds: usize,
+}
+
+impl Default for AdaptiveSpec {
+    fn default() -> Self {
+        Self { max_seeds: 16 }
+    }
 }
 
 impl Default for SweepSpec {
@@ -45,6 +65,7 @@ impl Default for SweepSpec {
             target: TargetSpec::default(),
             impact: ImpactSpec::default(),
             cost: CostSpec::default(),
+            adaptive: None,
         }
     }
 }
@@ -77,9 +98,9 @@ pub struct LevelSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TargetSpec {
-    /// Largest acceptable mean ω RMS error, rad/s, > 0; default 0.02.
+    /// Largest acceptable ω RMS error (upper 95 % bound over seeds), rad/s, > 0; default 0.02.
     pub omega_rms_rad_s: f64,
-    /// Largest acceptable mean α RMS error, rad/s², > 0; default 1.0.
+    /// Largest acceptable α RMS error (upper 95 % bound over seeds), rad/s², > 0; default 1.0.
     pub alpha_rms_rad_s2: f64,
 }
 
@@ -100,7 +121,8 @@ pub struct ImpactSpec {
     pub delta_omega_rad_s: f64,
     /// Duration of the velocity change, s, in [0, 10]; default 0.002.
     pub duration_s: f64,
-    /// Detectable when peak |α̂| / σ_α,dwell ≥ this, > 0; default 3.
+    /// Detectable when peak |α̂| / σ_α,dwell ≥ this, > 0, for the lower 95 % bound of the SNR
+    /// (σ_α,dwell at its upper bound); default 3.
     pub min_snr: f64,
 }
 
@@ -171,6 +193,18 @@ impl SweepSpec {
         }
         if !(1..=1000).contains(&self.seeds) {
             p.push("seeds", format!("must be in [1, 1000], got {}", self.seeds));
+        }
+        if let Some(a) = &self.adaptive {
+            if !(self.seeds.max(2)..=1000).contains(&a.max_seeds) {
+                p.push(
+                    "adaptive.max_seeds",
+                    format!(
+                        "must be in [max(seeds, 2), 1000] = [{}, 1000], got {}",
+                        self.seeds.max(2),
+                        a.max_seeds
+                    ),
+                );
+            }
         }
         if self.axes.is_empty() {
             p.push("axis", "at least one [[axis]] is needed");

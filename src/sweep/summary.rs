@@ -1,5 +1,6 @@
 //! Per-point summary: Monte Carlo mean and 95 % CI of every metric over the point's seeds,
-//! impact detectability, whether the target is met, and the point's cost. Rows are in grid
+//! impact detectability with its SNR interval, the decision on the 95 % bounds (qualifies,
+//! fails, undecided), and the point's cost. Rows are in grid
 //! order whatever order results.csv was written in, so summary.csv is deterministic.
 
 use super::error::SweepError;
@@ -25,17 +26,58 @@ pub struct PointSummary {
     pub metrics: Vec<MeanCi>,
     /// Impact detectability (absent when no run succeeded or the differentiator failed).
     pub impact: Option<Detectability>,
-    /// Mean ω and α RMS within the target.
+    /// Lower and upper 95 % bounds of the impact SNR (σ_α,dwell at its upper and lower bound).
+    pub snr_ci95: (f64, f64),
+    /// The upper 95 % bounds of ω and α RMS are within the target.
     pub meets_target: bool,
-    /// Status ok, meets the target and the impact is detectable.
+    /// Status ok, meets the target and the lower SNR bound clears the threshold.
     pub qualifies: bool,
+    /// What the intervals say: qualifies, fails, or undecided (an interval straddles a boundary).
+    pub decision: Decision,
     /// Cost key values in `cost.order` priority (smaller is cheaper).
     pub cost: Vec<f64>,
     /// First error message met (invalid settings or a failed run).
     pub error: String,
 }
 
+/// What a point's 95 % intervals say about the recommendation's conditions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decision {
+    /// Upper error bounds within the target and lower SNR bound above the threshold.
+    Qualifies,
+    /// An error's lower bound above the target, the SNR's upper bound below the threshold, or
+    /// the point did not run.
+    Fails,
+    /// Neither: more seeds could settle it.
+    Undecided,
+}
+
+impl Decision {
+    pub fn label(self) -> &'static str {
+        match self {
+            Decision::Qualifies => "qualifies",
+            Decision::Fails => "fails",
+            Decision::Undecided => "undecided",
+        }
+    }
+}
+
 impl PointSummary {
+    /// The interval of the named metric (NaN when unknown).
+    pub fn ci(&self, metric: &str) -> MeanCi {
+        METRICS
+            .iter()
+            .position(|m| *m == metric)
+            .and_then(|i| self.metrics.get(i))
+            .copied()
+            .unwrap_or(MeanCi {
+                mean: f64::NAN,
+                ci95_low: f64::NAN,
+                ci95_high: f64::NAN,
+                n: 0,
+            })
+    }
+
     /// Mean of the named metric (NaN when unknown).
     pub fn mean(&self, metric: &str) -> f64 {
         METRICS
@@ -107,11 +149,13 @@ pub fn summarise(
                 labels: point.labels.clone(),
                 status: status.to_string(),
                 runs_ok: ok.len(),
-                runs_expected: spec.seeds,
+                runs_expected: spec.seeds.max(seen.len()),
                 metrics,
                 impact: None,
+                snr_ci95: (f64::NAN, f64::NAN),
                 meets_target: false,
                 qualifies: false,
+                decision: Decision::Fails,
                 cost: Vec::new(),
                 error,
             };
@@ -132,13 +176,41 @@ pub fn summarise(
                     }
                 }
             }
-            s.meets_target = s.mean("omega_rms_rad_s") <= spec.target.omega_rms_rad_s
-                && s.mean("alpha_rms_rad_s2") <= spec.target.alpha_rms_rad_s2;
-            s.qualifies =
-                s.status == "ok" && s.meets_target && s.impact.is_some_and(|d| d.detectable);
+            decide(spec, &mut s);
             s
         })
         .collect()
+}
+
+/// The point's SNR interval, target verdict and decision, all on the 95 % bounds.
+fn decide(spec: &SweepSpec, s: &mut PointSummary) {
+    let (w, a) = (s.ci("omega_rms_rad_s"), s.ci("alpha_rms_rad_s2"));
+    let noise = s.ci("dwell_alpha_std_rad_s2");
+    if let Some(d) = &s.impact {
+        let snr = |sigma: f64| {
+            if sigma > 0.0 {
+                d.peak_alpha_rad_s2 / sigma
+            } else {
+                f64::INFINITY
+            }
+        };
+        s.snr_ci95 = (snr(noise.ci95_high), snr(noise.ci95_low));
+    }
+    let (tw, ta, min_snr) = (
+        spec.target.omega_rms_rad_s,
+        spec.target.alpha_rms_rad_s2,
+        spec.impact.min_snr,
+    );
+    s.meets_target = w.ci95_high <= tw && a.ci95_high <= ta;
+    let ok = s.status == "ok" && s.impact.is_some();
+    s.decision = if ok && s.meets_target && s.snr_ci95.0 >= min_snr {
+        Decision::Qualifies
+    } else if !ok || w.ci95_low > tw || a.ci95_low > ta || s.snr_ci95.1 < min_snr {
+        Decision::Fails
+    } else {
+        Decision::Undecided
+    };
+    s.qualifies = s.decision == Decision::Qualifies;
 }
 
 /// Cost key values of a point, in `cost.order` priority.
@@ -194,6 +266,9 @@ pub fn header(axis_names: &[String]) -> Vec<String> {
             "impact_peak_alpha_rad_s2",
             "impact_snr",
             "detectable",
+            "impact_snr_ci95_low",
+            "impact_snr_ci95_high",
+            "decision",
             "meets_target",
             "qualifies",
             "cost",
@@ -232,6 +307,9 @@ pub fn write_csv(
             }
             None => c.extend(["", "", "false"].map(String::from)),
         }
+        c.push(s.snr_ci95.0.to_string());
+        c.push(s.snr_ci95.1.to_string());
+        c.push(s.decision.label().to_string());
         c.push(s.meets_target.to_string());
         c.push(s.qualifies.to_string());
         c.push(

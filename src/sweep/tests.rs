@@ -110,7 +110,8 @@ fn shipped_sweeps_parse_and_have_the_expected_grids() {
         base.camera.focal,
         crate::camera::FocalConfig::FieldOfView { .. }
     ));
-    assert_eq!(seed.seeds, 2);
+    assert_eq!(seed.seeds, 4);
+    assert_eq!(seed.adaptive.as_ref().map(|a| a.max_seeds), Some(16));
     let grid = points(&seed);
     assert_eq!(grid.len(), 5 * 4 * 2);
     assert_eq!(grid[0].key, "distance_m=0.2|fps=24|resolution=1080p");
@@ -694,8 +695,14 @@ fn hand_point(index: usize, cost: Vec<f64>, qualifies: bool, omega: f64) -> Poin
             snr: 10.0,
             detectable: true,
         }),
+        snr_ci95: (10.0, 10.0),
         meets_target: qualifies,
         qualifies,
+        decision: if qualifies {
+            summary::Decision::Qualifies
+        } else {
+            summary::Decision::Fails
+        },
         cost,
         error: String::new(),
     }
@@ -769,5 +776,206 @@ fn an_automatic_kalman_lambda_is_reported_not_guessed() {
         out.recommendation_md.contains("lambda"),
         "{}",
         out.recommendation_md
+    );
+}
+
+// ---------- adaptive seeds, recommendation on the bounds, neighbours ----------
+
+/// ω RMS = 0.6/fps × (0.95 + 0.3 u), u ∈ [−1, 1) from the seed (the 16 seeds of `fast` draw a
+/// mean u of +0.27, so the 30 fps mean is 0.0206, near the 0.02 target): 20 fps clearly fails (0.03),
+/// 30 fps straddles the target at every seed count up to 16 (checked on these seeds: the
+/// interval is [0.0191, 0.0222] at 16), 60 fps clearly qualifies (0.01) with few seeds.
+struct Noisy {
+    calls: AtomicUsize,
+}
+
+impl Evaluator for Noisy {
+    type Error = FakeFailure;
+    fn evaluate(
+        &self,
+        sc: &crate::scenario::Scenario,
+        seed: u64,
+    ) -> Result<PointMetrics, FakeFailure> {
+        self.calls.fetch_add(1, Ordering::SeqCst);
+        std::thread::sleep(std::time::Duration::from_millis(seed % 5));
+        let u = (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+        let fps = sc.frame_timing.fps;
+        let mut m = Fake::new().evaluate(sc, seed)?;
+        m.omega_rms_rad_s = 0.6 / fps * (0.95 + 0.3 * u);
+        m.alpha_rms_rad_s2 = 0.1;
+        m.dwell_alpha_std_rad_s2 = 0.01;
+        Ok(m)
+    }
+}
+
+fn noisy() -> Noisy {
+    Noisy {
+        calls: AtomicUsize::new(0),
+    }
+}
+
+fn adaptive_spec(max_seeds: usize) -> (SweepSpec, PathBuf) {
+    let text = format!(
+        "base = \"fast\"\nseeds = 2\n[adaptive]\nmax_seeds = {max_seeds}\n[[axis]]\nname = \"fps\"\n\
+         field = \"frame_timing.fps\"\nvalues = [20.0, 30.0, 60.0]\n[target]\n\
+         omega_rms_rad_s = 0.02\nalpha_rms_rad_s2 = 1.0\n"
+    );
+    let path = sweeps_dir().join("inline.toml");
+    (SweepSpec::from_str(&text, &path).unwrap(), path)
+}
+
+#[test]
+fn adaptive_seeds_go_to_the_undecided_point_until_the_cap() {
+    let (spec, path) = adaptive_spec(16);
+    let run = |threads: usize| {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("out");
+        let out = pool(threads)
+            .install(|| run_sweep(&spec, &path, &dir, &noisy(), no_progress()))
+            .unwrap();
+        (out, outputs(&dir))
+    };
+    let (out, one) = run(1);
+    let (_, four) = run(4);
+    assert_eq!(one, four, "same bytes whatever the thread count");
+    let seeds: Vec<usize> = out.summary.iter().map(|s| s.runs_expected).collect();
+    assert_eq!(seeds[1], 16, "the point on the target is capped: {seeds:?}");
+    assert!(seeds[0] < 16 && seeds[2] < 16, "{seeds:?}");
+    use summary::Decision;
+    assert_eq!(out.summary[0].decision, Decision::Fails);
+    assert_eq!(out.summary[1].decision, Decision::Undecided);
+    assert_eq!(out.summary[2].decision, Decision::Qualifies);
+    let rec = out.recommendation.unwrap();
+    assert_eq!(rec.chosen, Some(2));
+    assert_eq!(rec.undecided_cheaper, vec![1]);
+    assert!(
+        out.recommendation_md
+            .contains("Cheaper points left undecided (1)")
+            && out.recommendation_md.contains("undecided after 16 seed(s)"),
+        "{}",
+        out.recommendation_md
+    );
+}
+
+#[test]
+fn an_adaptive_sweep_resumes_and_extends_to_the_bytes_of_a_fresh_run() {
+    let (spec16, path) = adaptive_spec(16);
+    let (spec4, _) = adaptive_spec(4);
+    let root = tempfile::tempdir().unwrap();
+    let fresh = root.path().join("fresh");
+    let n = noisy();
+    run_sweep(&spec16, &path, &fresh, &n, no_progress()).unwrap();
+    let fresh_calls = n.calls.load(Ordering::SeqCst);
+    // Interrupted after 4 runs, resumed, finished at the cap of 4 ...
+    let dir = root.path().join("out");
+    let first = noisy();
+    let stop = || first.calls.load(Ordering::SeqCst) >= 4;
+    let control = Control {
+        progress: no_progress(),
+        stop: &stop,
+    };
+    let run = SweepRun {
+        shard: None,
+        restart: false,
+        control: &control,
+    };
+    let out = pool(1)
+        .install(|| run_sweep_with(&spec4, &path, &dir, &first, &run))
+        .unwrap();
+    assert!(!out.complete);
+    let second = noisy();
+    let out = run_sweep(&spec4, &path, &dir, &second, no_progress()).unwrap();
+    assert!(out.complete);
+    let at4 = first.calls.load(Ordering::SeqCst) + second.calls.load(Ordering::SeqCst);
+    // ... then extended to a cap of 16 without redoing a run: the same bytes as a fresh run.
+    let third = noisy();
+    let out = run_sweep(&spec16, &path, &dir, &third, no_progress()).unwrap();
+    assert!(out.complete);
+    assert_eq!(at4 + third.calls.load(Ordering::SeqCst), fresh_calls);
+    let strip = |d: &Path| {
+        outputs(d)
+            .into_iter()
+            .filter(|(name, _)| name != "manifest.json")
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&dir), strip(&fresh));
+    // Already complete: nothing runs.
+    let fourth = noisy();
+    run_sweep(&spec16, &path, &dir, &fourth, no_progress()).unwrap();
+    assert_eq!(fourth.calls.load(Ordering::SeqCst), 0);
+    // Adaptive sweeps refuse shards, naming why.
+    let shard = SweepRun {
+        shard: Some(crate::shard::Shard::new(0, 2).unwrap()),
+        restart: false,
+        control: &Control::none(),
+    };
+    let e = run_sweep_with(&spec16, &path, &root.path().join("s"), &noisy(), &shard).unwrap_err();
+    assert!(e.to_string().contains("one machine"), "{e}");
+}
+
+#[test]
+fn a_point_qualifies_on_its_upper_bound_not_its_mean() {
+    // Two seeds with ω RMS 0.005 and 0.025: the mean 0.015 meets 0.02, the interval does not.
+    let spec = SweepSpec::default();
+    let grid = points(&SweepSpec {
+        axes: vec![AxisSpec {
+            name: "x".into(),
+            field: Some("camera.distance_m".into()),
+            values: Some(vec![toml::Value::Float(0.3)]),
+            levels: None,
+        }],
+        ..SweepSpec::default()
+    });
+    let rows: Vec<ResultRow> = [0.005, 0.025]
+        .iter()
+        .enumerate()
+        .map(|(k, w)| ResultRow {
+            point: 0,
+            key: grid[0].key.clone(),
+            labels: grid[0].labels.clone(),
+            seed_index: k,
+            seed: k as u64,
+            metrics: Some(PointMetrics {
+                omega_rms_rad_s: *w,
+                alpha_rms_rad_s2: 0.1,
+                dwell_alpha_std_rad_s2: 0.001,
+                mean_frame_interval_s: 1.0 / 30.0,
+                frames_total: 60,
+                frames_detected: 60,
+                ..PointMetrics::default()
+            }),
+            status: Status::Ok,
+            error: String::new(),
+        })
+        .collect();
+    let s = summary::summarise(&spec, &grid, &[crate::scenario::load_any("fast")], &rows);
+    assert!(s[0].mean("omega_rms_rad_s") < spec.target.omega_rms_rad_s);
+    assert!(!s[0].meets_target && !s[0].qualifies);
+    assert_eq!(s[0].decision, summary::Decision::Undecided);
+    assert!(recommend::reasons(&spec, &s[0]).contains("upper bound not within"));
+}
+
+#[test]
+fn a_farther_camera_that_looks_better_is_flagged() {
+    let text = "base = \"fast\"\n[[axis]]\nname = \"distance_m\"\nfield = \"camera.distance_m\"\n\
+                values = [0.3, 0.4, 0.5]\n";
+    let spec = SweepSpec::from_str(text, &sweeps_dir().join("inline.toml")).unwrap();
+    let mut pts = vec![
+        hand_point(0, vec![1.0], true, 0.010),
+        hand_point(1, vec![1.0], true, 0.008),
+        hand_point(2, vec![1.0], true, 0.012),
+    ];
+    // Point 1's interval is tight and below point 0's: the reversal is not seed noise.
+    pts[0].metrics[1] = crate::budget::MeanCi::of(&[0.0100, 0.0101]);
+    pts[1].metrics[1] = crate::budget::MeanCi::of(&[0.0080, 0.0081]);
+    let found = monotonic::findings(&spec, &pts);
+    let omega: Vec<&monotonic::Finding> = found.iter().filter(|f| f.metric == "ω RMS").collect();
+    assert_eq!(omega.len(), 1, "{found:?}");
+    assert_eq!(omega[0].points, vec![0, 1]);
+    assert!(omega[0].separated);
+    let md = monotonic::markdown(&spec, &pts);
+    assert!(
+        md.contains("Non-monotonic neighbours (1)") && md.contains("intervals separated"),
+        "{md}"
     );
 }
