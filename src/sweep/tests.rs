@@ -814,10 +814,15 @@ fn noisy() -> Noisy {
     }
 }
 
+/// A one-level axis that pins a differentiator whose impact SNR is known without a run (the
+/// default's automatic Kalman λ is not: its points could not qualify at all).
+const CENTRAL3_AXIS: &str = "[[axis]]\nname = \"diff\"\nlevels = [{ label = \"central3\", set = \
+     { \"estimator.differentiator\" = { kind = \"central3\" } } }]\n";
+
 fn adaptive_spec(max_seeds: usize) -> (SweepSpec, PathBuf) {
     let text = format!(
         "base = \"fast\"\nseeds = 2\n[adaptive]\nmax_seeds = {max_seeds}\n[[axis]]\nname = \"fps\"\n\
-         field = \"frame_timing.fps\"\nvalues = [20.0, 30.0, 60.0]\n[target]\n\
+         field = \"frame_timing.fps\"\nvalues = [20.0, 30.0, 60.0]\n{CENTRAL3_AXIS}[target]\n\
          omega_rms_rad_s = 0.02\nalpha_rms_rad_s2 = 1.0\n"
     );
     let path = sweeps_dir().join("inline.toml");
@@ -948,7 +953,16 @@ fn a_point_qualifies_on_its_upper_bound_not_its_mean() {
             error: String::new(),
         })
         .collect();
-    let s = summary::summarise(&spec, &grid, &[crate::scenario::load_any("fast")], &rows);
+    let central3 = crate::scenario::load_any("fast").and_then(|fast| {
+        let mut kind = toml::map::Map::new();
+        kind.insert("kind".into(), toml::Value::String("central3".into()));
+        crate::scenario::with_overrides(
+            &fast,
+            &[("estimator.differentiator".into(), toml::Value::Table(kind))],
+            Path::new("inline"),
+        )
+    });
+    let s = summary::summarise(&spec, &grid, &[central3], &rows);
     assert!(s[0].mean("omega_rms_rad_s") < spec.target.omega_rms_rad_s);
     assert!(!s[0].meets_target && !s[0].qualifies);
     assert_eq!(s[0].decision, summary::Decision::Undecided);
