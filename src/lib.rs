@@ -11,6 +11,7 @@ pub mod budget;
 pub mod calibrate;
 pub mod camera;
 pub mod detect;
+pub mod diagnose;
 pub mod estimate;
 pub mod imagestats;
 pub mod io;

@@ -1,0 +1,574 @@
+//! The gap map's cells: statistics computed the same way on the real measurement and on every
+//! simulated one, per channel × motion phase × frequency band.
+//!
+//! Channels (the [`CHANNELS`] table gives units, how two values are compared and the model
+//! tolerance):
+//! - track channels, from the corners: the angle, ω̂ and α̂ residuals after the aligned nominal
+//!   motion (band RMS), the marker-centre radius about its own circle fit (runout, shake,
+//!   distortion, tilt), the marker's side length, its shape after a rigid fit (residual and the
+//!   image-frame stretch, see [`super::shape`]), the rolling-shutter readout implied by stretch
+//!   against velocity, the static reference marker's track, and the detection rate;
+//! - image channels, from the frames: ink, paper and background grey levels, edge-profile blur
+//!   across and along the motion, noise in flat regions, 8-px blockiness, frame-to-frame level
+//!   fluctuation;
+//! - timing channels, from the timestamps: interval median, jitter, first interval, long
+//!   intervals (drops) and pair alternation.
+//!
+//! A cell is absent (never zero) when its frames do not allow the statistic (fewer than
+//! [`MIN_FRAMES`] frames in the phase, no reference marker, no frames for image channels).
+
+use super::bands;
+use super::record::Record;
+use super::shape::{marker_shape, MarkerShape};
+use crate::estimate::{circle_fit, Estimate, RotationCentreMethod};
+use crate::mechanism::Phase;
+use std::collections::BTreeMap;
+
+/// Fewest frames a per-phase statistic is computed on.
+pub const MIN_FRAMES: usize = 4;
+
+/// How a channel's values are compared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compare {
+    /// Scale-like (RMS, σ): compared as ln(value + floor).
+    Log,
+    /// Signed or level-like: compared as is.
+    Linear,
+}
+
+/// Where a channel's data come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    Track,
+    Image,
+    Timing,
+}
+
+/// One channel of the gap map.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChannelSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub compare: Compare,
+    /// Absolute tolerance (Linear) or floor added before the logarithm (Log), in `unit`.
+    pub tol_abs: f64,
+    /// Relative tolerance: a fraction of the simulated value (Linear) or ln(1 + tol_rel) (Log).
+    pub tol_rel: f64,
+    pub source: Source,
+    /// Split into frequency bands.
+    pub banded: bool,
+    pub description: &'static str,
+}
+
+const fn ch(
+    name: &'static str,
+    unit: &'static str,
+    compare: Compare,
+    tol_abs: f64,
+    tol_rel: f64,
+    source: Source,
+    banded: bool,
+    description: &'static str,
+) -> ChannelSpec {
+    ChannelSpec {
+        name,
+        unit,
+        compare,
+        tol_abs,
+        tol_rel,
+        source,
+        banded,
+        description,
+    }
+}
+
+use Compare::{Linear, Log};
+use Source::{Image, Timing, Track};
+
+/// Every channel. The tolerances are the model tolerance: how far two renderers of the same
+/// rig may disagree for reasons that are no effect (anti-aliasing, edge profile, noise and
+/// tone-curve details). They are justified by the null cases of the self-check
+/// (`reports/diagnosis/`), where the data come from a perturbed renderer.
+pub const CHANNELS: &[ChannelSpec] = &[
+    ch("theta", "rad", Log, 2e-5, 0.3, Track, true, "angle residual after the aligned nominal motion"),
+    ch("omega", "rad/s", Log, 5e-4, 0.3, Track, true, "ω̂ residual after the aligned nominal motion"),
+    ch("alpha", "rad/s²", Log, 2e-2, 0.3, Track, true, "α̂ residual after the aligned nominal motion"),
+    ch("radius", "px", Log, 0.02, 0.3, Track, true, "marker-centre distance from its circle fit"),
+    ch("side", "–", Log, 1e-4, 0.3, Track, true, "marker side length relative to its median"),
+    ch("rigid_residual", "px", Log, 0.05, 0.25, Track, false, "corners' distance from a rigid square fit"),
+    ch("stretch_x", "–", Linear, 0.004, 0.15, Track, false, "marker stretch along x against y (image frame)"),
+    ch("stretch_diag", "–", Linear, 0.004, 0.15, Track, false, "marker stretch along the image diagonal"),
+    ch("rs_readout", "s", Linear, 0.003, 0.15, Track, false, "readout time implied by stretch against velocity"),
+    ch("reference_x", "px", Log, 0.02, 0.3, Track, true, "static reference marker's x track"),
+    ch("reference_y", "px", Log, 0.02, 0.3, Track, true, "static reference marker's y track"),
+    ch("missing", "–", Linear, 0.03, 0.0, Track, false, "fraction of frames without a detection"),
+    ch("ink", "DN", Linear, 4.0, 0.03, Image, false, "grey level of the black ink"),
+    ch("paper", "DN", Linear, 4.0, 0.03, Image, false, "grey level of the white paper"),
+    ch("background", "DN", Linear, 4.0, 0.05, Image, false, "grey level around the marker's paper"),
+    ch("edge_across", "px", Linear, 0.12, 0.12, Image, false, "edge blur σ of sides facing the motion"),
+    ch("edge_along", "px", Linear, 0.12, 0.12, Image, false, "edge blur σ of sides along the motion"),
+    ch("noise_ink", "DN", Log, 0.15, 0.15, Image, false, "noise σ in the ink"),
+    ch("noise_paper", "DN", Log, 0.15, 0.15, Image, false, "noise σ in the paper"),
+    ch("blockiness", "–", Linear, 0.05, 0.05, Image, false, "8-px grid blockiness (1 = none)"),
+    ch("flicker_paper", "DN", Log, 0.3, 0.3, Image, false, "frame-to-frame paper level fluctuation (above 1.5 Hz)"),
+    ch("flicker_ink", "DN", Log, 0.3, 0.3, Image, false, "frame-to-frame ink level fluctuation (above 1.5 Hz)"),
+    ch("interval_median", "s", Linear, 2e-5, 0.003, Timing, false, "median frame interval"),
+    ch("interval_jitter", "s", Linear, 2e-5, 0.2, Timing, false, "robust spread of the frame intervals"),
+    ch("first_interval", "s", Linear, 1e-3, 0.0, Timing, false, "interval between the first two frames"),
+    ch("long_intervals", "–", Linear, 0.01, 0.0, Timing, false, "fraction of intervals > 1.5 × the median (drops)"),
+    ch("alternation", "s", Linear, 2e-5, 0.2, Timing, false, "paired alternation of consecutive intervals"),
+];
+
+/// The channel called `name`.
+pub fn channel(name: &str) -> Option<&'static ChannelSpec> {
+    CHANNELS.iter().find(|c| c.name == name)
+}
+
+/// Phase names of the gap map; `all` is used by channels that are not split by phase.
+pub const PHASES: [&str; 5] = ["dwell", "entry", "drive", "exit", "all"];
+
+/// One cell: channel × phase × band (index into [`bands::band_edges_hz`], `None` = unsplit).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct CellKey {
+    pub channel: &'static str,
+    pub phase: &'static str,
+    pub band: Option<u8>,
+}
+
+impl CellKey {
+    pub fn spec(&self) -> &'static ChannelSpec {
+        channel(self.channel).unwrap_or(&CHANNELS[0])
+    }
+
+    /// `channel/phase` or `channel/phase/band_lo-band_hi Hz`, for reports.
+    pub fn label(&self, nyquist_hz: f64) -> String {
+        match self.band {
+            Some(b) => {
+                let e = bands::band_edges_hz(nyquist_hz)[b as usize];
+                format!("{}/{}/{:.3}-{:.3} Hz", self.channel, self.phase, e[0], e[1])
+            }
+            None => format!("{}/{}", self.channel, self.phase),
+        }
+    }
+}
+
+/// The cells of one measurement.
+pub type Cells = BTreeMap<CellKey, f64>;
+
+/// The aligned nominal motion at every frame of a record, in screen convention.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionReference {
+    pub theta_rad: Vec<f64>,
+    pub omega_rad_s: Vec<f64>,
+    pub alpha_rad_s2: Vec<f64>,
+    pub phase: Vec<Phase>,
+}
+
+fn phase_name(p: Phase) -> &'static str {
+    p.as_str()
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
+    let (mut n, mut s) = (0usize, 0.0);
+    for x in v.filter(|x| x.is_finite()) {
+        n += 1;
+        s += x * x;
+    }
+    (n >= MIN_FRAMES).then(|| (s / n as f64).sqrt())
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
+    let (mut n, mut s) = (0usize, 0.0);
+    for x in v.filter(|x| x.is_finite()) {
+        n += 1;
+        s += x;
+    }
+    (n >= MIN_FRAMES).then(|| s / n as f64)
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Band RMS per phase of a per-frame series (NaN where missing) into `cells`.
+fn banded_cells(
+    cells: &mut Cells,
+    name: &'static str,
+    t_s: &[f64],
+    x: &[f64],
+    phases: &[Phase],
+    nyquist_hz: f64,
+) {
+    if x.iter().filter(|v| v.is_finite()).count() < MIN_FRAMES {
+        return;
+    }
+    let parts = bands::split(t_s, x, nyquist_hz);
+    for (b, part) in parts.iter().enumerate() {
+        for p in [Phase::Dwell, Phase::Entry, Phase::Drive, Phase::Exit] {
+            let v = part
+                .iter()
+                .zip(phases)
+                .filter(|(_, q)| **q == p)
+                .map(|(v, _)| *v);
+            if let Some(r) = rms(v) {
+                cells.insert(
+                    CellKey {
+                        channel: name,
+                        phase: phase_name(p),
+                        band: Some(b as u8),
+                    },
+                    r,
+                );
+            }
+        }
+    }
+}
+
+/// Per-phase mean of a per-frame series into `cells`.
+fn phase_means(cells: &mut Cells, name: &'static str, x: &[f64], phases: &[Phase]) {
+    for p in [Phase::Dwell, Phase::Entry, Phase::Drive, Phase::Exit] {
+        let v = x
+            .iter()
+            .zip(phases)
+            .filter(|(_, q)| **q == p)
+            .map(|(v, _)| *v);
+        if let Some(m) = mean(v) {
+            cells.insert(
+                CellKey {
+                    channel: name,
+                    phase: phase_name(p),
+                    band: None,
+                },
+                m,
+            );
+        }
+    }
+}
+
+fn put(cells: &mut Cells, name: &'static str, value: Option<f64>) {
+    if let Some(v) = value.filter(|v| v.is_finite()) {
+        cells.insert(
+            CellKey {
+                channel: name,
+                phase: "all",
+                band: None,
+            },
+            v,
+        );
+    }
+}
+
+/// Track cells of `record` measured by `est` against the aligned nominal motion `reference`
+/// (screen convention, one entry per frame of the record). `height_px` converts the
+/// rolling-shutter slope into a readout time.
+pub fn track_cells(
+    record: &Record,
+    est: &Estimate,
+    reference: &MotionReference,
+    nyquist_hz: f64,
+    height_px: f64,
+) -> Cells {
+    let mut cells = Cells::new();
+    let t = record.t_s();
+    let n = t.len();
+    let primary = est.primary_series();
+    let residual = |m: &[f64], r: &[f64]| -> Vec<f64> {
+        (0..n).map(|k| m[k] - r[k]).collect::<Vec<f64>>()
+    };
+    banded_cells(
+        &mut cells,
+        "theta",
+        &t,
+        &residual(&primary.theta_rad, &reference.theta_rad),
+        &reference.phase,
+        nyquist_hz,
+    );
+    banded_cells(
+        &mut cells,
+        "omega",
+        &t,
+        &residual(&primary.omega_rad_s, &reference.omega_rad_s),
+        &reference.phase,
+        nyquist_hz,
+    );
+    banded_cells(
+        &mut cells,
+        "alpha",
+        &t,
+        &residual(&primary.alpha_rad_s2, &reference.alpha_rad_s2),
+        &reference.phase,
+        nyquist_hz,
+    );
+
+    let shapes: Vec<Option<MarkerShape>> = record
+        .frames
+        .iter()
+        .map(|f| f.corners_px.as_ref().and_then(marker_shape))
+        .collect();
+    let centres: Vec<[f64; 2]> = shapes.iter().flatten().map(|s| s.centre_px).collect();
+    if let Ok(rc) =
+        circle_fit::fit_rotation_centre(&[centres], RotationCentreMethod::Geometric, 5.0)
+    {
+        let c = rc.centre_px;
+        let radius: Vec<f64> = shapes
+            .iter()
+            .map(|s| {
+                s.map_or(f64::NAN, |s| {
+                    (s.centre_px[0] - c[0]).hypot(s.centre_px[1] - c[1])
+                })
+            })
+            .collect();
+        if let Some(m) = median(radius.clone()) {
+            let res: Vec<f64> = radius.iter().map(|r| r - m).collect();
+            banded_cells(&mut cells, "radius", &t, &res, &reference.phase, nyquist_hz);
+        }
+    }
+    let side: Vec<f64> = shapes
+        .iter()
+        .map(|s| s.map_or(f64::NAN, |s| s.side_px))
+        .collect();
+    if let Some(m) = median(side.clone()) {
+        let rel: Vec<f64> = side.iter().map(|s| s / m - 1.0).collect();
+        banded_cells(&mut cells, "side", &t, &rel, &reference.phase, nyquist_hz);
+    }
+    let field = |f: fn(&MarkerShape) -> f64| -> Vec<f64> {
+        shapes.iter().map(|s| s.as_ref().map_or(f64::NAN, f)).collect()
+    };
+    phase_means(&mut cells, "rigid_residual", &field(|s| s.rigid_residual_px), &reference.phase);
+    let (sx, sd) = (field(|s| s.stretch_x), field(|s| s.stretch_diag));
+    phase_means(&mut cells, "stretch_x", &sx, &reference.phase);
+    phase_means(&mut cells, "stretch_diag", &sd, &reference.phase);
+    put(&mut cells, "rs_readout", readout_from_stretch(&t, &shapes, height_px));
+
+    if record.has_reference {
+        let refc: Vec<Option<[f64; 2]>> = record
+            .frames
+            .iter()
+            .map(|f| f.reference_px.as_ref().and_then(marker_shape).map(|s| s.centre_px))
+            .collect();
+        for (axis, name) in [(0usize, "reference_x"), (1, "reference_y")] {
+            let x: Vec<f64> = refc.iter().map(|c| c.map_or(f64::NAN, |c| c[axis])).collect();
+            if let Some(m) = median(x.clone()) {
+                let d: Vec<f64> = x.iter().map(|v| v - m).collect();
+                banded_cells(&mut cells, name, &t, &d, &reference.phase, nyquist_hz);
+            }
+        }
+    }
+
+    for p in [Phase::Dwell, Phase::Entry, Phase::Drive, Phase::Exit] {
+        let in_phase: Vec<bool> = record
+            .frames
+            .iter()
+            .zip(&reference.phase)
+            .filter(|(_, q)| **q == p)
+            .map(|(f, _)| f.corners_px.is_none())
+            .collect();
+        if in_phase.len() >= MIN_FRAMES {
+            let missing = in_phase.iter().filter(|m| **m).count() as f64 / in_phase.len() as f64;
+            cells.insert(
+                CellKey {
+                    channel: "missing",
+                    phase: phase_name(p),
+                    band: None,
+                },
+                missing,
+            );
+        }
+    }
+    let _ = est;
+    cells
+}
+
+/// Readout time (s) implied by the marker's image-frame stretch against its image velocity:
+/// least squares of η = η₀ + ρ·v_x/2 and ε = ε₀ − ρ·v_y/2 (one ρ, two intercepts), times the
+/// image height. `None` when the marker hardly moves.
+pub fn readout_from_stretch(t_s: &[f64], shapes: &[Option<MarkerShape>], height_px: f64) -> Option<f64> {
+    let mut rows: Vec<(f64, f64, f64, f64)> = Vec::new(); // (vx, vy, ε, η)
+    for k in 1..shapes.len().saturating_sub(1) {
+        let (Some(a), Some(s), Some(b)) = (shapes[k - 1], shapes[k], shapes[k + 1]) else {
+            continue;
+        };
+        let dt = t_s[k + 1] - t_s[k - 1];
+        if dt <= 0.0 {
+            continue;
+        }
+        let vx = (b.centre_px[0] - a.centre_px[0]) / dt;
+        let vy = (b.centre_px[1] - a.centre_px[1]) / dt;
+        rows.push((vx, vy, s.stretch_x, s.stretch_diag));
+    }
+    if rows.len() < 2 * MIN_FRAMES {
+        return None;
+    }
+    let n = rows.len() as f64;
+    let m = |f: fn(&(f64, f64, f64, f64)) -> f64| rows.iter().map(f).sum::<f64>() / n;
+    let (mvx, mvy, me, mh) = (m(|r| r.0), m(|r| r.1), m(|r| r.2), m(|r| r.3));
+    let (mut num, mut den) = (0.0, 0.0);
+    for r in &rows {
+        let (dvx, dvy) = (r.0 - mvx, r.1 - mvy);
+        num += (r.3 - mh) * dvx / 2.0 - (r.2 - me) * dvy / 2.0;
+        den += (dvx * dvx + dvy * dvy) / 4.0;
+    }
+    // A marker moving less than ~1 px/s RMS carries no readout information.
+    (den / n > 0.25).then(|| num / den * height_px)
+}
+
+/// Image cells of `record` (none when the record has no frames). `rotation_centre_px` gives the
+/// motion direction (tangential) that sorts the marker sides into across / along.
+pub fn image_cells(record: &Record, rotation_centre_px: [f64; 2], phases: &[Phase], nyquist_hz: f64) -> Cells {
+    let mut cells = Cells::new();
+    if !record.has_images {
+        return cells;
+    }
+    let n = record.frames.len();
+    let mut series: BTreeMap<&'static str, Vec<f64>> = BTreeMap::new();
+    for name in ["ink", "paper", "background", "edge_across", "edge_along", "noise_ink", "noise_paper", "blockiness"] {
+        series.insert(name, vec![f64::NAN; n]);
+    }
+    for (k, f) in record.frames.iter().enumerate() {
+        let Some(img) = f.image else { continue };
+        let mut set = |name: &'static str, v: Option<f64>| {
+            if let (Some(v), Some(s)) = (v, series.get_mut(name)) {
+                s[k] = v;
+            }
+        };
+        set("ink", img.ink_dn);
+        set("paper", img.paper_dn);
+        set("background", img.background_dn);
+        set("noise_ink", img.noise_ink_dn);
+        set("noise_paper", img.noise_paper_dn);
+        set("blockiness", img.blockiness);
+        if let Some(c) = f.corners_px.as_ref().and_then(marker_shape) {
+            let r = [c.centre_px[0] - rotation_centre_px[0], c.centre_px[1] - rotation_centre_px[1]];
+            let len = r[0].hypot(r[1]);
+            if len > 0.0 {
+                let tangent = [-r[1] / len, r[0] / len];
+                let (mut across, mut along) = (Vec::new(), Vec::new());
+                for e in img.edges.iter().flatten() {
+                    let c = (e.normal[0] * tangent[0] + e.normal[1] * tangent[1]).abs();
+                    if c >= std::f64::consts::FRAC_1_SQRT_2 {
+                        across.push(e.sigma_px);
+                    } else {
+                        along.push(e.sigma_px);
+                    }
+                }
+                let avg = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+                set("edge_across", avg(&across));
+                set("edge_along", avg(&along));
+            }
+        }
+    }
+    for (name, x) in &series {
+        phase_means(&mut cells, name, x, phases);
+    }
+    let t = record.t_s();
+    for (level, name) in [("paper", "flicker_paper"), ("ink", "flicker_ink")] {
+        let x = &series[level];
+        if x.iter().filter(|v| v.is_finite()).count() >= 2 * MIN_FRAMES {
+            let [_, mid, high] = bands::split(&t, x, nyquist_hz);
+            put(&mut cells, name, rms(mid.iter().zip(&high).map(|(a, b)| a + b)));
+        }
+    }
+    cells
+}
+
+/// Timing cells of a series of frame times.
+pub fn timing_cells(t_s: &[f64]) -> Cells {
+    let mut cells = Cells::new();
+    let d: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.len() < MIN_FRAMES {
+        return cells;
+    }
+    let Some(med) = median(d.clone()) else {
+        return cells;
+    };
+    let dev: Vec<f64> = d.iter().map(|x| (x - med).abs()).collect();
+    let mad = median(dev).unwrap_or(0.0);
+    put(&mut cells, "interval_median", Some(med));
+    put(&mut cells, "interval_jitter", Some(1.4826 * mad));
+    put(&mut cells, "first_interval", d.first().copied());
+    // Intervals after the first (which has its own cell).
+    let body = &d[1..];
+    let long = body.iter().filter(|x| **x > 1.5 * med).count() as f64 / body.len() as f64;
+    put(&mut cells, "long_intervals", Some(long));
+    // Alternation: consecutive intervals sign-alternated around the median.
+    let alt = body
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| **x <= 1.5 * med)
+        .map(|(k, x)| if k % 2 == 0 { x - med } else { med - x })
+        .sum::<f64>()
+        / body.len().max(1) as f64;
+    put(&mut cells, "alternation", Some(alt.abs()));
+    cells
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_channel_is_named_once_with_sane_tolerances() {
+        for (i, c) in CHANNELS.iter().enumerate() {
+            assert!(CHANNELS[..i].iter().all(|o| o.name != c.name), "{}", c.name);
+            assert!(c.tol_abs > 0.0 && c.tol_rel >= 0.0, "{}", c.name);
+            assert!(!c.banded || c.source == Source::Track, "{}", c.name);
+        }
+    }
+
+    #[test]
+    fn timing_cells_of_a_phone_like_log() {
+        // 30 fps with a 52 ms first interval, ±0.5 ms alternation and one dropped frame.
+        let mut t = vec![0.0, 0.052];
+        for k in 1..200 {
+            let alt = if k % 2 == 0 { 5e-4 } else { -5e-4 };
+            let last = *t.last().unwrap();
+            t.push(last + 1.0 / 30.0 + alt + if k == 100 { 1.0 / 30.0 } else { 0.0 });
+        }
+        let c = timing_cells(&t);
+        let get = |n: &'static str| c[&CellKey { channel: n, phase: "all", band: None }];
+        assert!((get("first_interval") - 0.052).abs() < 1e-12);
+        assert!((get("long_intervals") - 1.0 / 199.0).abs() < 1e-12);
+        assert!((get("alternation") - 5e-4).abs() < 2e-5, "{}", get("alternation"));
+        assert!((get("interval_median") - 1.0 / 30.0).abs() < 6e-4);
+    }
+
+    #[test]
+    fn readout_is_recovered_from_sheared_corners() {
+        // A marker moving at (120, −60) px/s under a 30 ms readout of 720 rows.
+        let (h, readout) = (720.0, 0.03);
+        let rho = readout / h;
+        let t: Vec<f64> = (0..60).map(|k| k as f64 / 30.0).collect();
+        let shapes: Vec<Option<MarkerShape>> = t
+            .iter()
+            .map(|&ti| {
+                let (vx, vy) = (120.0 * (1.0 + ti).cos(), -60.0 * (2.0 * ti).sin());
+                let x = 300.0 + 120.0 * (1.0 + ti).sin();
+                let y = 300.0 + 30.0 * (2.0 * ti).cos();
+                Some(MarkerShape {
+                    centre_px: [x, y],
+                    side_px: 64.0,
+                    rotation_rad: 0.0,
+                    stretch_x: 0.01 - vy * rho / 2.0,
+                    stretch_diag: vx * rho / 2.0,
+                    rigid_residual_px: 0.0,
+                })
+            })
+            .collect();
+        let r = readout_from_stretch(&t, &shapes, h).unwrap();
+        assert!((r - readout).abs() < 2e-3, "{r}");
+        // A still marker gives no readout.
+        let still: Vec<Option<MarkerShape>> = shapes
+            .iter()
+            .map(|s| s.map(|mut s| {
+                s.centre_px = [300.0, 300.0];
+                s
+            }))
+            .collect();
+        assert!(readout_from_stretch(&t, &still, h).is_none());
+    }
+}

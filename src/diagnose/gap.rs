@@ -1,0 +1,419 @@
+//! The gap map: each cell of the real measurement against the spread of the same cell over N
+//! simulated seeds, as a standardised distance, with a false-discovery-rate control across
+//! cells and one total distance.
+//!
+//! For a cell with real value x and simulated values y₁…y_N (transformed by ln(· + floor) for
+//! scale-like channels, see [`super::cells::Compare`]):
+//!
+//!   z = (x − ȳ) / √(s_y²·(1 + 1/N) + τ²)
+//!
+//! s_y²(1 + 1/N) is the variance of a new draw around the seeds' mean (a prediction interval);
+//! τ is the channel's model tolerance: how far two renderers of the same rig may disagree for
+//! reasons that are no effect. With only N seeds, s_y is itself uncertain, so z's p-value is
+//! taken from Student's t with the Welch–Satterthwaite degrees of freedom
+//! ν = (s_y²(1 + 1/N) + τ²)² / ((s_y²(1 + 1/N))² / (N − 1)) (the normal when τ dominates).
+//! A cell is significant when the Benjamini–Hochberg procedure at
+//! false-discovery rate q (default 0.01) over all compared cells keeps it; under no gap at all
+//! this bounds the chance of any false alarm by q. The total gap is
+//!
+//!   D = Σ_cells max(0, |z| − z₀)²,  z₀ = 2,
+//!
+//! so cells within the usual scatter add nothing and D = 0 when every cell agrees; a closed gap
+//! gives D → 0 and `shrink = 1 − D_k / D₀` → 1.
+
+use super::cells::{Cells, CellKey, Compare};
+
+/// Options of the comparison.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GapOptions {
+    /// False-discovery rate of the significance decision.
+    pub fdr_q: f64,
+    /// Dead zone z₀ of the total distance.
+    pub dead_zone_z: f64,
+    /// Fewest simulated seeds a cell needs to be compared.
+    pub min_sims: usize,
+}
+
+impl Default for GapOptions {
+    fn default() -> Self {
+        Self {
+            fdr_q: 0.01,
+            dead_zone_z: 2.0,
+            min_sims: 2,
+        }
+    }
+}
+
+/// One compared cell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellGap {
+    pub key: CellKey,
+    pub real: f64,
+    pub sim_mean: f64,
+    pub sim_std: f64,
+    pub sims: usize,
+    pub z: f64,
+    /// Two-sided p-value of z (Student t with the Welch–Satterthwaite degrees of freedom of the
+    /// seeds' variance and the known tolerance).
+    pub p: f64,
+    pub significant: bool,
+}
+
+/// The whole comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapMap {
+    pub cells: Vec<CellGap>,
+    /// Total distance D.
+    pub total: f64,
+    pub options: GapOptions,
+}
+
+impl GapMap {
+    pub fn significant(&self) -> impl Iterator<Item = &CellGap> {
+        self.cells.iter().filter(|c| c.significant)
+    }
+
+    pub fn n_significant(&self) -> usize {
+        self.significant().count()
+    }
+
+    pub fn cell(&self, key: &CellKey) -> Option<&CellGap> {
+        self.cells.iter().find(|c| &c.key == key)
+    }
+
+    /// D restricted to the cells `keep` accepts.
+    pub fn total_where(&self, keep: impl Fn(&CellKey) -> bool) -> f64 {
+        self.cells
+            .iter()
+            .filter(|c| keep(&c.key))
+            .map(|c| excess(c.z, self.options.dead_zone_z))
+            .sum()
+    }
+
+    /// Σ z² over all compared cells (the fit's objective: smooth, no dead zone).
+    pub fn chi2(&self) -> f64 {
+        self.cells.iter().map(|c| c.z * c.z).sum()
+    }
+}
+
+/// max(0, |z| − z₀)².
+pub fn excess(z: f64, z0: f64) -> f64 {
+    let e = (z.abs() - z0).max(0.0);
+    e * e
+}
+
+/// erfc(x) for x ≥ 0 with fractional error < 1.2·10⁻⁷ (Chebyshev fit, Numerical Recipes
+/// `erfcc`); accurate in the far tail, where p-values of large z live.
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.265_512_23
+            + t * (1.000_023_68
+                + t * (0.374_091_96
+                    + t * (0.096_784_18
+                        + t * (-0.186_288_06
+                            + t * (0.278_868_07
+                                + t * (-1.135_203_98
+                                    + t * (1.488_515_87
+                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+/// Two-sided standard-normal p-value of `z`.
+pub fn two_sided_p(z: f64) -> f64 {
+    erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0)
+}
+
+/// ln Γ(x), x > 0 (Lanczos, g = 7, 9 terms; relative error ~1e-15).
+fn ln_gamma(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        let pi = std::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut a = C[0];
+    let t = x + 7.5;
+    for (i, c) in C.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Continued fraction of the regularised incomplete beta function (modified Lentz).
+fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
+    let tiny = 1e-300;
+    let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
+    let mut c = 1.0;
+    let mut d = 1.0 - qab * x / qap;
+    if d.abs() < tiny {
+        d = tiny;
+    }
+    d = 1.0 / d;
+    let mut h = d;
+    for m in 1..300 {
+        let m = m as f64;
+        let m2 = 2.0 * m;
+        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
+        d = 1.0 + aa * d;
+        d = if d.abs() < tiny { tiny } else { d };
+        c = 1.0 + aa / c;
+        c = if c.abs() < tiny { tiny } else { c };
+        d = 1.0 / d;
+        h *= d * c;
+        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
+        d = 1.0 + aa * d;
+        d = if d.abs() < tiny { tiny } else { d };
+        c = 1.0 + aa / c;
+        c = if c.abs() < tiny { tiny } else { c };
+        d = 1.0 / d;
+        let del = d * c;
+        h *= del;
+        if (del - 1.0).abs() < 1e-14 {
+            break;
+        }
+    }
+    h
+}
+
+/// Regularised incomplete beta I_x(a, b).
+fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let front = (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    if x < (a + 1.0) / (a + b + 2.0) {
+        front * beta_cf(a, b, x) / a
+    } else {
+        1.0 - front * beta_cf(b, a, 1.0 - x) / b
+    }
+}
+
+/// Two-sided p-value of `t` under Student's t with `dof` degrees of freedom (the normal for
+/// `dof` = ∞ or above 1e6).
+pub fn two_sided_p_student(t: f64, dof: f64) -> f64 {
+    if !dof.is_finite() || dof > 1e6 {
+        return two_sided_p(t);
+    }
+    let dof = dof.max(1.0);
+    inc_beta(0.5 * dof, 0.5, dof / (dof + t * t)).clamp(0.0, 1.0)
+}
+
+/// Benjamini–Hochberg: which of `p` are discoveries at false-discovery rate `q`.
+pub fn benjamini_hochberg(p: &[f64], q: f64) -> Vec<bool> {
+    let m = p.len();
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&a, &b| p[a].total_cmp(&p[b]).then(a.cmp(&b)));
+    let mut cutoff = None;
+    for (rank, &i) in order.iter().enumerate() {
+        if p[i] <= q * (rank + 1) as f64 / m as f64 {
+            cutoff = Some(rank);
+        }
+    }
+    let mut out = vec![false; m];
+    if let Some(c) = cutoff {
+        for &i in &order[..=c] {
+            out[i] = true;
+        }
+    }
+    out
+}
+
+fn transform(compare: Compare, floor: f64, v: f64) -> f64 {
+    match compare {
+        Compare::Log => (v.max(0.0) + floor).ln(),
+        Compare::Linear => v,
+    }
+}
+
+/// Compares `real` with `sims` cell by cell (cells present in `real` and in at least
+/// `options.min_sims` simulations).
+pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
+    let mut cells = Vec::new();
+    for (key, &x) in real {
+        let ys: Vec<f64> = sims.iter().filter_map(|s| s.get(key).copied()).collect();
+        if ys.len() < options.min_sims.max(2) || !x.is_finite() {
+            continue;
+        }
+        let spec = key.spec();
+        let n = ys.len() as f64;
+        let raw_mean = ys.iter().sum::<f64>() / n;
+        let raw_std = (ys.iter().map(|y| (y - raw_mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let t: Vec<f64> = ys
+            .iter()
+            .map(|&y| transform(spec.compare, spec.tol_abs, y))
+            .collect();
+        let m = t.iter().sum::<f64>() / n;
+        let s2 = t.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (n - 1.0);
+        let tol = match spec.compare {
+            Compare::Log => spec.tol_rel.ln_1p(),
+            Compare::Linear => spec.tol_abs + spec.tol_rel * raw_mean.abs(),
+        };
+        let v_sim = s2 * (1.0 + 1.0 / n);
+        let z = (transform(spec.compare, spec.tol_abs, x) - m) / (v_sim + tol * tol).sqrt();
+        // The seeds' variance is estimated from N draws: z is Student-t like with the
+        // Welch–Satterthwaite degrees of freedom (the tolerance is known exactly).
+        let dof = if v_sim > 0.0 {
+            (v_sim + tol * tol).powi(2) / (v_sim * v_sim / (n - 1.0))
+        } else {
+            f64::INFINITY
+        };
+        cells.push(CellGap {
+            key: *key,
+            real: x,
+            sim_mean: raw_mean,
+            sim_std: raw_std,
+            sims: ys.len(),
+            z,
+            p: two_sided_p_student(z, dof),
+            significant: false,
+        });
+    }
+    let p: Vec<f64> = cells.iter().map(|c| c.p).collect();
+    for (c, s) in cells.iter_mut().zip(benjamini_hochberg(&p, options.fdr_q)) {
+        c.significant = s;
+    }
+    let total = cells.iter().map(|c| excess(c.z, options.dead_zone_z)).sum();
+    GapMap {
+        cells,
+        total,
+        options,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::cells::CellKey;
+
+    #[test]
+    fn p_values_match_known_normal_tails() {
+        for (z, p) in [(0.0, 1.0), (1.959964, 0.05), (3.290527, 0.001), (5.326724, 1e-7)] {
+            let got = two_sided_p(z);
+            assert!((got - p).abs() <= 1e-6 * p.max(1e-3) + 1e-12, "z {z}: {got} vs {p}");
+        }
+    }
+
+    #[test]
+    fn student_p_values_match_tables() {
+        // t_{0.975} for 3, 7 and 30 degrees of freedom; t_{0.9995} for 5.
+        for (t, dof, p) in [(3.182446, 3.0, 0.05), (2.364624, 7.0, 0.05), (2.042272, 30.0, 0.05), (6.868827, 5.0, 0.001)] {
+            let got = two_sided_p_student(t, dof);
+            assert!((got - p).abs() < 1e-5 * p.max(1e-2), "t {t}, ν {dof}: {got} vs {p}");
+        }
+        assert!((two_sided_p_student(2.0, 1e7) - two_sided_p(2.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn benjamini_hochberg_step_up() {
+        // m = 5, q = 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05; the largest rank under
+        // its threshold is 3 (0.029 ≤ 0.03), so ranks 1–3 are discoveries.
+        let p = [0.029, 0.2, 0.001, 0.011, 0.9];
+        assert_eq!(benjamini_hochberg(&p, 0.05), vec![true, false, true, true, false]);
+        assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
+    }
+
+    fn key(channel: &'static str) -> CellKey {
+        CellKey {
+            channel,
+            phase: "drive",
+            band: None,
+        }
+    }
+
+    #[test]
+    fn a_far_cell_is_significant_and_agreeing_cells_add_nothing() {
+        let mut real = Cells::new();
+        real.insert(key("ink"), 80.0);
+        real.insert(key("paper"), 200.5);
+        let sims: Vec<Cells> = (0..6)
+            .map(|k| {
+                let mut c = Cells::new();
+                c.insert(key("ink"), 51.0 + 0.1 * k as f64);
+                c.insert(key("paper"), 200.0 + 0.2 * k as f64);
+                c
+            })
+            .collect();
+        let g = compare(&real, &sims, GapOptions::default());
+        let ink = g.cell(&key("ink")).unwrap();
+        let paper = g.cell(&key("paper")).unwrap();
+        assert!(ink.significant && ink.z > 4.0, "{ink:?}");
+        assert!(!paper.significant && paper.z.abs() < 1.0, "{paper:?}");
+        assert!((g.total - excess(ink.z, 2.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scale_channels_compare_in_logarithms() {
+        let mut real = Cells::new();
+        real.insert(key("noise_paper"), 4.0);
+        let sims: Vec<Cells> = (0..4)
+            .map(|_| {
+                let mut c = Cells::new();
+                c.insert(key("noise_paper"), 2.0);
+                c
+            })
+            .collect();
+        let g = compare(&real, &sims, GapOptions::default());
+        let c = g.cell(&key("noise_paper")).unwrap();
+        let spec = key("noise_paper").spec();
+        let expected = ((4.0 + spec.tol_abs) / (2.0 + spec.tol_abs) as f64).ln() / spec.tol_rel.ln_1p();
+        assert!((c.z - expected).abs() < 1e-9, "{} vs {expected}", c.z);
+    }
+
+    #[test]
+    fn null_cells_rarely_alarm() {
+        // 100 cells drawn from the simulated distribution itself: with q = 0.01 the chance of
+        // any discovery is ≤ 1 %; over 200 deterministic replicates expect ≈ 2 or fewer.
+        let mut alarms = 0;
+        let mut state = 12345u64;
+        let mut normal = || {
+            // Box–Muller from a small LCG (deterministic).
+            let mut u = || {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        };
+        let names = ["ink", "paper", "background", "edge_across", "edge_along"];
+        for _ in 0..200 {
+            let mut real = Cells::new();
+            let mut sims = vec![Cells::new(); 8];
+            for (i, name) in names.iter().enumerate() {
+                for phase in ["dwell", "entry", "drive", "exit"] {
+                    for band in 0..5u8 {
+                        let k = CellKey { channel: name, phase, band: Some(band) };
+                        let sd = 10.0 * (1 + i) as f64;
+                        real.insert(k, 100.0 + sd * normal());
+                        for s in sims.iter_mut() {
+                            s.insert(k, 100.0 + sd * normal());
+                        }
+                    }
+                }
+            }
+            if compare(&real, &sims, GapOptions::default()).n_significant() > 0 {
+                alarms += 1;
+            }
+        }
+        assert!(alarms <= 8, "{alarms} of 200 null replicates alarmed");
+    }
+}

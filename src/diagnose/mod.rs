@@ -1,0 +1,11 @@
+//! Sim-to-real gap diagnosis (pure: no I/O, no OpenCV, no truth): where the real measurement and
+//! the nominal simulation disagree, which effect of the vocabulary explains it, and how far the
+//! gap shrinks once that effect is added. Orchestration (running the pipeline on real footage
+//! and on simulations) lives in `pipeline::diagnose`.
+
+pub mod align;
+pub mod bands;
+pub mod cells;
+pub mod gap;
+pub mod record;
+pub mod shape;
