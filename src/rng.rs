@@ -13,6 +13,8 @@ pub enum Stream {
     Mechanism = 4,
     MonteCarlo = 5,
     Compression = 6,
+    /// Sub-pixel placement of the aligned nominal in a diagnosis's simulations.
+    DiagnoseNuisance = 7,
 }
 
 /// SplitMix64 finaliser: decorrelates nearby (seed, stream, index) triples.

@@ -7,10 +7,12 @@ use std::path::PathBuf;
 mod analyze_cmd;
 mod budget_cmd;
 mod calibrate_cmd;
+mod diagnose_cmd;
 mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
 mod scenario_cmd;
+mod selfcheck_cmd;
 mod slurm_cmd;
 mod sweep_cmd;
 mod timing_cmd;
@@ -80,6 +82,10 @@ enum Command {
     Analyze(analyze_cmd::AnalyzeArgs),
     /// Fit a scenario to real footage: scenario.toml (extends --base), calibration.md, overlay.png.
     Calibrate(calibrate_cmd::CalibrateArgs),
+    /// Where the sim-to-real gap lies, which effect causes it, how far it shrinks once added.
+    Diagnose(diagnose_cmd::DiagnoseArgs),
+    /// The diagnosis self-check: withheld effects, null and out-of-vocabulary cases, scored.
+    DiagnoseSelfcheck(selfcheck_cmd::SelfCheckArgs),
     /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable,
     /// shardable: --shard I/N, then `sweep merge DIR`).
     Sweep(sweep_cmd::SweepArgs),
@@ -122,6 +128,8 @@ pub fn main() -> Result<()> {
         Command::Kinematics { scenario, out, yes } => kinematics_cmd::run(&scenario, &out, yes),
         Command::Analyze(args) => analyze_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
+        Command::Diagnose(args) => diagnose_cmd::run(args),
+        Command::DiagnoseSelfcheck(args) => selfcheck_cmd::run(args),
         Command::Montecarlo(args) => budget_cmd::montecarlo(args),
         Command::Decompose(args) => budget_cmd::decompose(args),
         Command::Reports {

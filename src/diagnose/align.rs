@@ -136,7 +136,8 @@ pub fn align_motion(
 
     // Coarse grid: 3° in θ1₀, 4 % in |s|, both senses.
     let mut grid: Vec<(f64, f64, f64)> = Vec::new();
-    let steps_s = ((SPEED_SCALE_RANGE.1 / SPEED_SCALE_RANGE.0).ln() / 0.04f64.ln_1p()).ceil() as usize;
+    let steps_s =
+        ((SPEED_SCALE_RANGE.1 / SPEED_SCALE_RANGE.0).ln() / 0.04f64.ln_1p()).ceil() as usize;
     for sense in [1.0, -1.0] {
         for j in 0..=steps_s {
             let k = sense * SPEED_SCALE_RANGE.0 * 1.04f64.powi(j as i32);
@@ -201,7 +202,12 @@ pub fn phases(aligned: &Scenario, t_s: &[f64]) -> Vec<Phase> {
     let mut dynamics = aligned.dynamics.clone();
     dynamics.enabled = false;
     let duration = t_s.last().copied().unwrap_or(1.0).max(1e-3) + 1.0;
-    match Mechanism::new(&aligned.mechanism, &aligned.drive_speed, &dynamics, duration) {
+    match Mechanism::new(
+        &aligned.mechanism,
+        &aligned.drive_speed,
+        &dynamics,
+        duration,
+    ) {
         Ok(m) => t_s.iter().map(|&t| m.ideal(t).phase).collect(),
         Err(_) => vec![Phase::Dwell; t_s.len()],
     }

@@ -76,8 +76,13 @@ mod tests {
 
     #[test]
     fn components_sum_to_the_series_and_skip_gaps() {
-        let t: Vec<f64> = (0..300).map(|k| k as f64 / 29.87 + 1e-4 * ((k * 7) % 3) as f64).collect();
-        let mut x: Vec<f64> = t.iter().map(|&s| (TAU * 0.4 * s).sin() + 0.3 * (TAU * 9.0 * s).cos()).collect();
+        let t: Vec<f64> = (0..300)
+            .map(|k| k as f64 / 29.87 + 1e-4 * ((k * 7) % 3) as f64)
+            .collect();
+        let mut x: Vec<f64> = t
+            .iter()
+            .map(|&s| (TAU * 0.4 * s).sin() + 0.3 * (TAU * 9.0 * s).cos())
+            .collect();
         x[50] = f64::NAN;
         let [a, b, c] = split(&t, &x, 15.0);
         for k in 0..t.len() {
@@ -103,7 +108,10 @@ mod tests {
             let shares: Vec<f64> = parts.iter().map(|p| inner(p) / total).collect();
             assert!(shares[band] > 0.55, "f = {f} Hz: shares {shares:?}");
             for (b, s) in shares.iter().enumerate() {
-                assert!(b == band || *s < shares[band], "f = {f} Hz: shares {shares:?}");
+                assert!(
+                    b == band || *s < shares[band],
+                    "f = {f} Hz: shares {shares:?}"
+                );
             }
         }
     }

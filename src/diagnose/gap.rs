@@ -21,7 +21,7 @@
 //! so cells within the usual scatter add nothing and D = 0 when every cell agrees; a closed gap
 //! gives D → 0 and `shrink = 1 − D_k / D₀` → 1.
 
-use super::cells::{Cells, CellKey, Compare};
+use super::cells::{CellKey, Cells, Compare};
 
 /// Options of the comparison.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -200,7 +200,8 @@ fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
     if x >= 1.0 {
         return 1.0;
     }
-    let front = (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    let front =
+        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
     if x < (a + 1.0) / (a + b + 2.0) {
         front * beta_cf(a, b, x) / a
     } else {
@@ -307,18 +308,34 @@ mod tests {
 
     #[test]
     fn p_values_match_known_normal_tails() {
-        for (z, p) in [(0.0, 1.0), (1.959964, 0.05), (3.290527, 0.001), (5.326724, 1e-7)] {
+        for (z, p) in [
+            (0.0, 1.0),
+            (1.959964, 0.05),
+            (3.290527, 0.001),
+            (5.326724, 1e-7),
+        ] {
             let got = two_sided_p(z);
-            assert!((got - p).abs() <= 1e-6 * p.max(1e-3) + 1e-12, "z {z}: {got} vs {p}");
+            assert!(
+                (got - p).abs() <= 1e-6 * p.max(1e-3) + 1e-12,
+                "z {z}: {got} vs {p}"
+            );
         }
     }
 
     #[test]
     fn student_p_values_match_tables() {
         // t_{0.975} for 3, 7 and 30 degrees of freedom; t_{0.9995} for 5.
-        for (t, dof, p) in [(3.182446, 3.0, 0.05), (2.364624, 7.0, 0.05), (2.042272, 30.0, 0.05), (6.868827, 5.0, 0.001)] {
+        for (t, dof, p) in [
+            (3.182446, 3.0, 0.05),
+            (2.364624, 7.0, 0.05),
+            (2.042272, 30.0, 0.05),
+            (6.868827, 5.0, 0.001),
+        ] {
             let got = two_sided_p_student(t, dof);
-            assert!((got - p).abs() < 1e-5 * p.max(1e-2), "t {t}, ν {dof}: {got} vs {p}");
+            assert!(
+                (got - p).abs() < 1e-5 * p.max(1e-2),
+                "t {t}, ν {dof}: {got} vs {p}"
+            );
         }
         assert!((two_sided_p_student(2.0, 1e7) - two_sided_p(2.0)).abs() < 1e-12);
     }
@@ -328,7 +345,10 @@ mod tests {
         // m = 5, q = 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05; the largest rank under
         // its threshold is 3 (0.029 ≤ 0.03), so ranks 1–3 are discoveries.
         let p = [0.029, 0.2, 0.001, 0.011, 0.9];
-        assert_eq!(benjamini_hochberg(&p, 0.05), vec![true, false, true, true, false]);
+        assert_eq!(
+            benjamini_hochberg(&p, 0.05),
+            vec![true, false, true, true, false]
+        );
         assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
     }
 
@@ -375,7 +395,7 @@ mod tests {
         let g = compare(&real, &sims, GapOptions::default());
         let c = g.cell(&key("noise_paper")).unwrap();
         let spec = key("noise_paper").spec();
-        let expected = ((4.0 + spec.tol_abs) / (2.0 + spec.tol_abs) as f64).ln() / spec.tol_rel.ln_1p();
+        let expected = ((4.0 + spec.tol_abs) / (2.0 + spec.tol_abs)).ln() / spec.tol_rel.ln_1p();
         assert!((c.z - expected).abs() < 1e-9, "{} vs {expected}", c.z);
     }
 
@@ -388,7 +408,9 @@ mod tests {
         let mut normal = || {
             // Box–Muller from a small LCG (deterministic).
             let mut u = || {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
             };
             let (a, b) = (u(), u());
@@ -401,7 +423,11 @@ mod tests {
             for (i, name) in names.iter().enumerate() {
                 for phase in ["dwell", "entry", "drive", "exit"] {
                     for band in 0..5u8 {
-                        let k = CellKey { channel: name, phase, band: Some(band) };
+                        let k = CellKey {
+                            channel: name,
+                            phase,
+                            band: Some(band),
+                        };
                         let sd = 10.0 * (1 + i) as f64;
                         real.insert(k, 100.0 + sd * normal());
                         for s in sims.iter_mut() {

@@ -73,6 +73,9 @@ impl Record {
     }
 
     pub fn detected(&self) -> usize {
-        self.frames.iter().filter(|f| f.corners_px.is_some()).count()
+        self.frames
+            .iter()
+            .filter(|f| f.corners_px.is_some())
+            .count()
     }
 }

@@ -94,7 +94,10 @@ mod tests {
     fn a_rotated_square_is_rigid() {
         for phi in [0.0, 0.3, -1.2, 2.9] {
             let (c, s) = (f64::cos(phi), f64::sin(phi));
-            let m = corners_of([[64.0 * c, -64.0 * s], [64.0 * s, 64.0 * c]], [300.0, 200.0]);
+            let m = corners_of(
+                [[64.0 * c, -64.0 * s], [64.0 * s, 64.0 * c]],
+                [300.0, 200.0],
+            );
             let sh = marker_shape(&m).unwrap();
             assert!((sh.side_px - 64.0).abs() < 1e-9);
             assert!((sh.rotation_rad - phi).abs() < 1e-9);

@@ -156,13 +156,18 @@ fn render_rect_for(rig: &Rig, bbox: (f64, f64, f64, f64)) -> Option<PixelRect> {
     Some(rect.expand(pad).intersect(&rig.frame_rect()))
 }
 
-fn process_frame(
+/// Looks at a frame after detection: the frame (a full-size view; only the pixels rendered for
+/// the detection window are valid on the ROI path) and its detection.
+pub type Inspector<'a, T> = dyn Fn(GrayView<'_>, &FrameDetection) -> T + Sync + 'a;
+
+fn process_frame<T>(
     rig: &Rig,
     scene: &dyn crate::render::shapes::SceneAt,
     worker: &mut Worker,
     frame: usize,
     roi: bool,
-) -> Result<FrameDetection, FrameError> {
+    inspect: &Inspector<'_, T>,
+) -> Result<(FrameDetection, T), FrameError> {
     let t_s = rig.frame_times.as_slice()[frame];
     let (w, h) = (rig.settings.width_px, rig.settings.height_px);
     let cfg = &rig.scenario.detector;
@@ -214,27 +219,30 @@ fn process_frame(
         if matches!(obs.path, DetectionPath::Roi)
             && (reference_bbox.is_none() || reference.is_some())
         {
-            return Ok(FrameDetection {
+            let detection = FrameDetection {
                 frame,
                 t_s,
                 corners_px: obs.detection.map(|d| d.corners_px),
                 reference_px: reference,
                 path: FramePath::Roi,
-            });
+            };
+            let seen = inspect(view, &detection);
+            return Ok((detection, seen));
         }
-        let mut full = full_frame(rig, scene, worker, frame)?;
+        let (mut full, seen) = full_frame(rig, scene, worker, frame, inspect)?;
         full.path = FramePath::RoiThenFullFrame;
-        return Ok(full);
+        return Ok((full, seen));
     }
-    full_frame(rig, scene, worker, frame)
+    full_frame(rig, scene, worker, frame, inspect)
 }
 
-fn full_frame(
+fn full_frame<T>(
     rig: &Rig,
     scene: &dyn crate::render::shapes::SceneAt,
     worker: &mut Worker,
     frame: usize,
-) -> Result<FrameDetection, FrameError> {
+    inspect: &Inspector<'_, T>,
+) -> Result<(FrameDetection, T), FrameError> {
     let t_s = rig.frame_times.as_slice()[frame];
     let (w, h) = (rig.settings.width_px, rig.settings.height_px);
     let cfg = &rig.scenario.detector;
@@ -252,7 +260,7 @@ fn full_frame(
     let view = GrayView::full(&img.data, w, h);
     let found = worker.detector.detect(view).map_err(err)?;
     let pick = |id: i32| found.iter().find(|d| d.id == id).map(|d| d.corners_px);
-    Ok(FrameDetection {
+    let detection = FrameDetection {
         frame,
         t_s,
         corners_px: pick(cfg.marker_id),
@@ -261,7 +269,9 @@ fn full_frame(
             .filter(|_| rig.scenario.scene.reference_marker.enabled)
             .and_then(pick),
         path: FramePath::FullFrame,
-    })
+    };
+    let seen = inspect(view, &detection);
+    Ok((detection, seen))
 }
 
 /// Runs render → detect over `frames`, calling `sink` with each chunk's results in frame order
@@ -273,6 +283,29 @@ pub fn detect_frames(
     mut sink: impl FnMut(&[FrameDetection]) -> Result<(), crate::io::csv_out::CsvError>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(), FramesError> {
+    detect_and_inspect_frames(
+        rig,
+        frames,
+        options,
+        &|_, _| (),
+        |chunk| {
+            let detections: Vec<FrameDetection> = chunk.iter().map(|(d, _)| d.clone()).collect();
+            sink(&detections)
+        },
+        progress,
+    )
+}
+
+/// [`detect_frames`] with an inspector that looks at every rendered frame after detection (in
+/// parallel); `sink` receives each frame's detection with what the inspector returned.
+pub fn detect_and_inspect_frames<T: Send>(
+    rig: &Rig,
+    frames: std::ops::Range<usize>,
+    options: FrameLoopOptions,
+    inspect: &Inspector<'_, T>,
+    mut sink: impl FnMut(&[(FrameDetection, T)]) -> Result<(), crate::io::csv_out::CsvError>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(), FramesError> {
     let detector = ArucoDetector::new(&rig.scenario.detector).map_err(FramesError::Detector)?;
     let scene = rig.animated();
     let canvas_len = rig.settings.width_px * rig.settings.height_px;
@@ -282,7 +315,7 @@ pub fn detect_frames(
     let mut done = 0;
     while start < frames.end {
         let end = (start + chunk).min(frames.end);
-        let results: Vec<Result<FrameDetection, FrameError>> = (start..end)
+        let results: Vec<Result<(FrameDetection, T), FrameError>> = (start..end)
             .into_par_iter()
             .map_init(
                 || pool.borrow(),
@@ -293,11 +326,11 @@ pub fn detect_frames(
                         canvas: vec![0; canvas_len],
                         pasted: Vec::new(),
                     });
-                    process_frame(rig, &scene, worker, i, options.roi)
+                    process_frame(rig, &scene, worker, i, options.roi, inspect)
                 },
             )
             .collect();
-        let results: Vec<FrameDetection> = results.into_iter().collect::<Result<_, _>>()?;
+        let results: Vec<(FrameDetection, T)> = results.into_iter().collect::<Result<_, _>>()?;
         sink(&results)?;
         done += results.len();
         progress(done);

@@ -13,6 +13,8 @@ pub mod calibrate_roundtrip;
 pub mod decompose;
 #[cfg(feature = "opencv-detector")]
 pub mod defaults_study;
+#[cfg(feature = "opencv-detector")]
+pub mod diagnose;
 pub mod dynamics_report;
 #[cfg(feature = "opencv-detector")]
 pub mod frames;

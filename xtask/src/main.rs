@@ -30,9 +30,11 @@ fn main() {
             .and_then(|_| slurm::integration_test(&slurm::geneva_binary()?)),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
+        "diagnosis" => system::ensure_packages()
+            .and_then(|_| geneva("diagnose-selfcheck", "reports/diagnosis", rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  deps     check and install the system packages"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  diagnosis  the diagnosis self-check into reports/diagnosis/ (hours for the whole suite; resumable, --shard I/N)\n  deps     check and install the system packages"
             );
             Ok(())
         }

@@ -1,0 +1,142 @@
+//! `geneva diagnose --scenario NOMINAL (--video F | --frames DIR --timestamps F | --tracks F)
+//! --out DIR [--effects a,b,c] [--seeds N] [--max-minutes M]`.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use geneva_vision::pipeline::analyze::Source;
+use geneva_vision::pipeline::diagnose::{candidate_name, diagnose, DiagnoseOptions};
+use geneva_vision::scenario::{self, effects::Effect};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct DiagnoseArgs {
+    /// The rig as believed: a scenario file or built-in name (often `geneva calibrate`'s output).
+    #[arg(long)]
+    scenario: String,
+    /// A video file.
+    #[arg(long, conflicts_with_all = ["frames", "tracks"])]
+    video: Option<PathBuf>,
+    /// A folder of frames (PNG/JPEG) in natural name order; needs --timestamps.
+    #[arg(long, requires = "timestamps", conflicts_with = "tracks")]
+    frames: Option<PathBuf>,
+    /// `frame, t_s` CSV (or any timing log) for --frames.
+    #[arg(long)]
+    timestamps: Option<PathBuf>,
+    /// A corner track (tracks.csv): only the track channels can be judged.
+    #[arg(long)]
+    tracks: Option<PathBuf>,
+    /// Candidate effects, comma separated (default: the whole vocabulary).
+    #[arg(long, value_delimiter = ',')]
+    effects: Option<Vec<String>>,
+    /// Simulated seeds per configuration (the nominal's spread, every candidate's judgement).
+    #[arg(long, default_value_t = 6)]
+    seeds: usize,
+    /// Cap on the candidate search, minutes; what was not tried is reported.
+    #[arg(long)]
+    max_minutes: Option<f64>,
+    #[arg(long, default_value = "out/diagnose")]
+    out: PathBuf,
+}
+
+pub fn run(a: DiagnoseArgs) -> Result<()> {
+    let source = match (&a.video, &a.frames, &a.tracks) {
+        (Some(v), None, None) => Source::Video(v.clone()),
+        (None, Some(d), None) => Source::Frames {
+            dir: d.clone(),
+            timestamps: a
+                .timestamps
+                .clone()
+                .context("--frames needs --timestamps")?,
+        },
+        (None, None, Some(t)) => Source::Tracks(t.clone()),
+        _ => bail!("give exactly one of --video, --frames (with --timestamps) or --tracks"),
+    };
+    let nominal = scenario::load_any(&a.scenario)?;
+    let effects = match &a.effects {
+        None => None,
+        Some(names) => Some(
+            names
+                .iter()
+                .map(|n| {
+                    Effect::from_name(n).with_context(|| {
+                        format!(
+                            "--effects: `{n}` is not an effect; the vocabulary is: {}",
+                            Effect::names()
+                        )
+                    })
+                })
+                .collect::<Result<Vec<Effect>>>()?,
+        ),
+    };
+    if let Some(m) = a.max_minutes {
+        if !(m.is_finite() && m > 0.0) {
+            bail!("--max-minutes {m}: must be a positive number of minutes");
+        }
+    }
+    let options = DiagnoseOptions {
+        seeds: a.seeds,
+        effects,
+        max_minutes: a.max_minutes,
+        ..DiagnoseOptions::default()
+    };
+    let bar = indicatif::ProgressBar::new(1);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:32} {bar:30} {pos}/{len} [{elapsed}]")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    // Without a terminal (logs, CI) each new stage is one line with the elapsed time.
+    let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let started = std::time::Instant::now();
+    let last = std::cell::RefCell::new(String::new());
+    let (d, files) = diagnose(
+        &nominal,
+        &source,
+        &a.out,
+        &options,
+        &|stage, done, total| {
+            if plain {
+                if *last.borrow() != stage {
+                    eprintln!("[{:7.1} s] {stage}", started.elapsed().as_secs_f64());
+                    *last.borrow_mut() = stage.to_string();
+                }
+            } else {
+                bar.set_message(stage.to_string());
+                bar.set_length(total.max(1) as u64);
+                bar.set_position(done as u64);
+            }
+        },
+    )?;
+    bar.finish_and_clear();
+    println!("verdict: {}", d.verdict.as_str());
+    println!(
+        "gap: D0 = {:.1}, {} of {} cells significant",
+        d.nominal_gap.total,
+        d.nominal_gap.n_significant(),
+        d.nominal_gap.cells.len()
+    );
+    for (i, r) in d.ranking.iter().take(5).enumerate() {
+        println!(
+            "  {}. {:<32} shrink {:>5.1} %  score {:.2}  significant cells left {}",
+            i + 1,
+            candidate_name(&r.evaluated),
+            100.0 * r.shrink,
+            r.score,
+            r.evaluated.outcome.significant_left
+        );
+    }
+    if !d.not_tried.is_empty() {
+        println!(
+            "not tried (--max-minutes): {}",
+            d.not_tried
+                .iter()
+                .map(|e| e.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    println!("{} simulations in {:.0} s", d.simulations, d.elapsed_s);
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,91 @@
+//! `geneva diagnose-selfcheck --out DIR [--quick] [--seeds-per-case K] [--effects a,b]
+//! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
+//! out-of-vocabulary cases), resumable and shardable like a sweep.
+
+use anyhow::{Context, Result};
+use clap::Args;
+use geneva_vision::pipeline::diagnose::selfcheck::{
+    cases, phone_logs, suite_base, SelfCheck, SuitePlan,
+};
+use geneva_vision::pipeline::diagnose::DiagnoseOptions;
+use geneva_vision::scenario::effects::Effect;
+use geneva_vision::shard::{self, Control, Shard};
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct SelfCheckArgs {
+    #[arg(long, default_value = "reports/diagnosis")]
+    out: PathBuf,
+    /// A small suite (one withheld effect, one null, one flicker case; 4 s of footage).
+    #[arg(long)]
+    quick: bool,
+    /// Seeds per withheld effect and level (the whole suite).
+    #[arg(long, default_value_t = 3)]
+    seeds_per_case: usize,
+    /// Withheld effects (default: the vocabulary).
+    #[arg(long, value_delimiter = ',')]
+    effects: Option<Vec<String>>,
+    /// Footage length, s.
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Simulated seeds per configuration of each diagnosis.
+    #[arg(long, default_value_t = 4)]
+    seeds: usize,
+    #[arg(long, value_parser = super::sweep_cmd::parse_shard)]
+    shard: Option<Shard>,
+    /// Start over when the folder holds another plan's cases.
+    #[arg(long)]
+    restart: bool,
+}
+
+pub fn run(a: SelfCheckArgs) -> Result<()> {
+    let effects: Option<Vec<Effect>> = match &a.effects {
+        None => None,
+        Some(names) => Some(
+            names
+                .iter()
+                .map(|n| {
+                    Effect::from_name(n).with_context(|| {
+                        format!(
+                            "--effects: `{n}` is not an effect; the vocabulary is: {}",
+                            Effect::names()
+                        )
+                    })
+                })
+                .collect::<Result<_>>()?,
+        ),
+    };
+    let base = suite_base(a.duration_s.unwrap_or(if a.quick { 4.0 } else { 8.0 }))?;
+    let mut plan = if a.quick {
+        SuitePlan::quick(Effect::PixelNoise)
+    } else {
+        SuitePlan::full(a.seeds_per_case)
+    };
+    if let Some(e) = effects {
+        plan.effects = e;
+    }
+    let options = DiagnoseOptions {
+        seeds: a.seeds,
+        fit_seeds: 2,
+        ..Default::default()
+    };
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let all = cases(&base, &plan, &phone_logs(repo));
+    let text = plan.describe(&base, &options);
+    eprintln!("diagnose-selfcheck: {} case(s). {text}", all.len());
+    let study = SelfCheck::new(all, options, text);
+    let progress =
+        |done: usize, total: usize| eprintln!("diagnose-selfcheck: {done}/{total} cases");
+    let control = Control {
+        progress: &progress,
+        stop: &|| false,
+    };
+    let report = match a.shard {
+        Some(s) => shard::run_shard(&study, &a.out, s, a.restart, &control)?,
+        None => shard::run_whole(&study, &a.out, a.restart, &control)?,
+    };
+    for f in &report.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}

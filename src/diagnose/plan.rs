@@ -1,0 +1,303 @@
+//! Which cells each candidate effect can move (its signature), used to screen candidates
+//! cheaply before the expensive fits, and the direct first guesses of parameters from the real
+//! measurement (refined afterwards by simulation).
+
+use super::cells::CellKey;
+use super::gap::{excess, GapMap};
+use crate::scenario::effects::Effect;
+
+/// Channels an effect changes. Screening asks how much of the total gap lies in them.
+pub fn signature(e: Effect) -> &'static [&'static str] {
+    const KIN: &[&str] = &["theta", "omega", "alpha"];
+    match e {
+        Effect::DriveSpeed => KIN,
+        Effect::Backlash | Effect::Overrotation => &["theta", "omega", "alpha", "missing"],
+        Effect::DiscVibration => KIN,
+        Effect::AxisRunout => &["radius", "theta", "omega", "alpha"],
+        Effect::CameraVibration => &[
+            "radius",
+            "theta",
+            "omega",
+            "alpha",
+            "reference_x",
+            "reference_y",
+            "rigid_residual",
+        ],
+        Effect::FrameTiming => &[
+            "interval_median",
+            "interval_jitter",
+            "first_interval",
+            "long_intervals",
+            "alternation",
+        ],
+        Effect::Timebase => &[
+            "interval_median",
+            "interval_jitter",
+            "first_interval",
+            "long_intervals",
+            "alternation",
+            "theta",
+            "omega",
+            "alpha",
+        ],
+        Effect::PixelNoise => &[
+            "noise_ink",
+            "noise_paper",
+            "flicker_paper",
+            "flicker_ink",
+            "theta",
+            "omega",
+            "alpha",
+            "rigid_residual",
+            "missing",
+        ],
+        Effect::OpticalBlur => &[
+            "edge_across",
+            "edge_along",
+            "rigid_residual",
+            "theta",
+            "missing",
+        ],
+        Effect::MotionBlur => &[
+            "edge_across",
+            "edge_along",
+            "rigid_residual",
+            "theta",
+            "omega",
+            "alpha",
+            "missing",
+        ],
+        Effect::RollingShutter => &[
+            "rs_readout",
+            "stretch_x",
+            "stretch_diag",
+            "rigid_residual",
+            "theta",
+            "omega",
+            "alpha",
+        ],
+        Effect::LensDistortion => &[
+            "radius",
+            "side",
+            "stretch_x",
+            "stretch_diag",
+            "theta",
+            "rigid_residual",
+        ],
+        Effect::PerspectiveTilt => &[
+            "stretch_x",
+            "stretch_diag",
+            "side",
+            "radius",
+            "theta",
+            "rigid_residual",
+        ],
+        Effect::Compression => &[
+            "blockiness",
+            "noise_ink",
+            "noise_paper",
+            "edge_across",
+            "edge_along",
+            "rigid_residual",
+            "theta",
+            "missing",
+        ],
+        Effect::Lighting => &[
+            "ink",
+            "paper",
+            "background",
+            "noise_ink",
+            "noise_paper",
+            "missing",
+        ],
+    }
+}
+
+/// Whether `key` belongs to `e`'s signature.
+pub fn in_signature(e: Effect, key: &CellKey) -> bool {
+    signature(e).contains(&key.channel)
+}
+
+/// Share of the total gap that lies in `e`'s signature cells: an upper bound on the shrink the
+/// effect could reach. 0 when there is no gap.
+pub fn screening_share(e: Effect, gap: &GapMap) -> f64 {
+    if gap.total <= 0.0 {
+        return 0.0;
+    }
+    let z0 = gap.options.dead_zone_z;
+    gap.cells
+        .iter()
+        .filter(|c| in_signature(e, &c.key))
+        .map(|c| excess(c.z, z0))
+        .sum::<f64>()
+        / gap.total
+}
+
+/// Whether `e`'s signature holds a significant cell.
+pub fn signature_significant(e: Effect, gap: &GapMap) -> bool {
+    gap.significant().any(|c| in_signature(e, &c.key))
+}
+
+/// Optical blur σ that moves a measured edge σ from `sim_px` (nominal optical σ
+/// `nominal_px`) to `real_px`, adding in quadrature (Gaussian blurs add variances).
+pub fn guess_optical_sigma(real_px: f64, sim_px: f64, nominal_px: f64) -> f64 {
+    (nominal_px * nominal_px + real_px * real_px - sim_px * sim_px)
+        .max(0.05 * 0.05)
+        .sqrt()
+}
+
+/// Exposure (s) that adds the measured extra edge variance across the motion: a box of length
+/// v·T adds (v·T)²/12 to the edge's second moment.
+pub fn guess_exposure_s(extra_variance_px2: f64, speed_px_s: f64, nominal_s: f64) -> f64 {
+    if speed_px_s <= 0.0 {
+        return nominal_s.max(1e-3);
+    }
+    (nominal_s * nominal_s + 12.0 * extra_variance_px2 / (speed_px_s * speed_px_s))
+        .max(1e-8)
+        .sqrt()
+}
+
+/// Full well and read noise (e⁻) from the noise σ (DN) measured on two radiances `s_ink` and
+/// `s_paper` of a linear tone curve spanning `span_dn` DN from radiance 0 to 1:
+/// var = span²·(s/FW + RN²/FW²) + 1/12 (8-bit quantisation). `None` when the two levels do
+/// not separate shot from read noise (paper noise not above ink noise).
+pub fn guess_noise(
+    sigma_ink_dn: f64,
+    sigma_paper_dn: f64,
+    s_ink: f64,
+    s_paper: f64,
+    span_dn: f64,
+) -> Option<(f64, f64)> {
+    let q = 1.0 / 12.0;
+    let vi = (sigma_ink_dn * sigma_ink_dn - q).max(0.0) / (span_dn * span_dn);
+    let vp = (sigma_paper_dn * sigma_paper_dn - q).max(0.0) / (span_dn * span_dn);
+    if !(vp > vi && s_paper > s_ink) {
+        return None;
+    }
+    let fw = (s_paper - s_ink) / (vp - vi);
+    let rn2 = (vi - s_ink / fw) * fw * fw;
+    Some((fw, rn2.max(0.0).sqrt()))
+}
+
+/// Black and white levels (DN) of a linear tone curve that put radiances `s_ink` and
+/// `s_paper` at the measured ink and paper levels.
+pub fn guess_levels(ink_dn: f64, paper_dn: f64, s_ink: f64, s_paper: f64) -> Option<(f64, f64)> {
+    if s_paper <= s_ink {
+        return None;
+    }
+    let span = (paper_dn - ink_dn) / (s_paper - s_ink);
+    let black = ink_dn - span * s_ink;
+    Some((black, black + span))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_effect_has_a_signature_of_known_channels() {
+        for e in Effect::ALL {
+            assert!(!signature(e).is_empty());
+            for c in signature(e) {
+                assert!(
+                    super::super::cells::channel(c).is_some(),
+                    "{}: {c}",
+                    e.name()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn noise_guess_inverts_the_noise_model() {
+        let (fw, rn, span) = (20000.0, 185.0, 155.0);
+        let sigma = |s: f64| (span * span * (s / fw + rn * rn / (fw * fw)) + 1.0 / 12.0).sqrt();
+        let (g_fw, g_rn) = guess_noise(sigma(0.04), sigma(1.0), 0.04, 1.0, span).unwrap();
+        assert!((g_fw / fw - 1.0).abs() < 1e-9 && (g_rn / rn - 1.0).abs() < 1e-9);
+        assert!(guess_noise(2.0, 1.0, 0.04, 1.0, span).is_none());
+    }
+
+    #[test]
+    fn level_and_blur_guesses_invert_their_models() {
+        let (b, w) = guess_levels(51.0 + 0.04 * 155.0, 206.0, 0.04, 1.0).unwrap();
+        assert!((b - 51.0).abs() < 1e-9 && (w - 206.0).abs() < 1e-9);
+        let g = guess_optical_sigma(
+            (1.2f64.powi(2) + 0.3f64.powi(2)).sqrt(),
+            (0.5f64.powi(2) + 0.3f64.powi(2)).sqrt(),
+            0.5,
+        );
+        assert!((g - 1.2).abs() < 1e-9);
+        // v = 100 px/s, T = 10 ms adds (1 px)²/12.
+        assert!((guess_exposure_s(1.0 / 12.0, 100.0, 0.0) - 0.01).abs() < 1e-12);
+    }
+}
+
+/// Frequency (Hz) of the strongest sinusoid in `x` sampled at `t_s` (NaN skipped), searched
+/// from `f_min_hz` to `f_max_hz` in steps of `df_hz` with the Lomb–Scargle periodogram (exact
+/// for uneven sampling); with its power normalised by the series' variance. `None` for fewer
+/// than 8 samples.
+pub fn dominant_frequency_hz(
+    t_s: &[f64],
+    x: &[f64],
+    f_min_hz: f64,
+    f_max_hz: f64,
+    df_hz: f64,
+) -> Option<(f64, f64)> {
+    let pts: Vec<(f64, f64)> = t_s
+        .iter()
+        .zip(x)
+        .filter(|(t, v)| t.is_finite() && v.is_finite())
+        .map(|(t, v)| (*t, *v))
+        .collect();
+    if pts.len() < 8 || !(df_hz > 0.0 && f_max_hz > f_min_hz) {
+        return None;
+    }
+    let mean = pts.iter().map(|p| p.1).sum::<f64>() / pts.len() as f64;
+    let var = pts.iter().map(|p| (p.1 - mean).powi(2)).sum::<f64>() / pts.len() as f64;
+    if var <= 0.0 {
+        return None;
+    }
+    let mut best = (f_min_hz, -1.0);
+    let steps = ((f_max_hz - f_min_hz) / df_hz).floor() as usize;
+    for i in 0..=steps {
+        let f = f_min_hz + i as f64 * df_hz;
+        let w = std::f64::consts::TAU * f;
+        let (s2, c2) = pts.iter().fold((0.0, 0.0), |(s, c), p| {
+            (s + (2.0 * w * p.0).sin(), c + (2.0 * w * p.0).cos())
+        });
+        let tau = s2.atan2(c2) / (2.0 * w);
+        let (mut yc, mut ys, mut cc, mut ss) = (0.0, 0.0, 0.0, 0.0);
+        for p in &pts {
+            let a = w * (p.0 - tau);
+            let (s, c) = a.sin_cos();
+            let y = p.1 - mean;
+            yc += y * c;
+            ys += y * s;
+            cc += c * c;
+            ss += s * s;
+        }
+        let power = 0.5 * (yc * yc / cc.max(1e-300) + ys * ys / ss.max(1e-300)) / var;
+        if power > best.1 {
+            best = (f, power);
+        }
+    }
+    Some(best)
+}
+
+#[cfg(test)]
+mod periodogram_tests {
+    use super::*;
+
+    #[test]
+    fn finds_an_aliased_vibration() {
+        // 25 Hz sampled at 29.87 fps appears at |25 − 29.87| = 4.87 Hz.
+        let t: Vec<f64> = (0..300).map(|k| k as f64 / 29.87).collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&s| 1e-3 * (std::f64::consts::TAU * 25.0 * s + 0.4).sin())
+            .collect();
+        let (f, p) = dominant_frequency_hz(&t, &x, 0.2, 14.9, 0.01).unwrap();
+        assert!((f - 4.87).abs() < 0.02, "{f}");
+        assert!(p > 50.0, "{p}");
+    }
+}

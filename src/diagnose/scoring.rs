@@ -1,0 +1,297 @@
+//! Scoring of the diagnosis self-check: how a diagnosis of footage with a known cause is
+//! judged (top-1/top-3, false alarms, out-of-vocabulary recall, shrink, parameter errors) and
+//! the confusion matrix. Pure: the cases' outcomes in, the figures out.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// What a self-check case holds back from the nominal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Expectation {
+    /// One effect of the vocabulary is on in the data and off in the nominal; `also` are the
+    /// names that count as the same answer (effects that share its switch).
+    Withheld {
+        effect: String,
+        also: Vec<String>,
+        strong: bool,
+    },
+    /// Nothing is withheld: the verdict must be `no_gap`.
+    Null,
+    /// The cause is outside the candidates: the verdict must be `unexplained` (or `no_gap` when
+    /// the perturbation is below what the footage shows, counted separately).
+    OutOfVocabulary,
+}
+
+/// One diagnosed case, as the scoring sees it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CaseOutcome {
+    pub name: String,
+    pub expectation: Expectation,
+    pub verdict: String,
+    /// Ranked candidates, best first: each the effect names of the candidate (one, or two for a
+    /// pair) together with the names of the group the data cannot tell apart from it.
+    pub ranked: Vec<Vec<String>>,
+    /// Shrink of the best candidate (1 − D_k / D₀ on fresh seeds); `None` without one.
+    pub best_shrink: Option<f64>,
+    /// Relative errors |fitted − true| / |true| of the withheld effect's identifiable
+    /// parameters, when the best candidate is that effect.
+    pub param_rel_errors: Vec<f64>,
+    pub elapsed_s: f64,
+}
+
+impl CaseOutcome {
+    fn rank_of(&self, names: &[String]) -> Option<usize> {
+        self.ranked
+            .iter()
+            .position(|cand| cand.iter().any(|n| names.contains(n)))
+    }
+
+    /// The top-ranked candidate names the withheld effect (a gap must have been found).
+    pub fn top_k(&self, k: usize) -> bool {
+        match &self.expectation {
+            Expectation::Withheld { effect, also, .. } => {
+                let mut names = also.clone();
+                names.push(effect.clone());
+                self.verdict != "no_gap" && self.rank_of(&names).is_some_and(|r| r < k)
+            }
+            _ => false,
+        }
+    }
+
+    /// What the best candidate is called (`none` without a candidate, `no_gap` when no gap).
+    pub fn answer(&self) -> String {
+        if self.verdict == "no_gap" {
+            return "no_gap".into();
+        }
+        match self.ranked.first().and_then(|c| c.first()) {
+            Some(n) => n.clone(),
+            None => "none".into(),
+        }
+    }
+}
+
+/// A rate with its count, k of n.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rate {
+    pub k: usize,
+    pub n: usize,
+}
+
+impl Rate {
+    pub fn value(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.k as f64 / self.n as f64)
+    }
+
+    /// 95 % Wilson score interval.
+    pub fn wilson95(&self) -> Option<(f64, f64)> {
+        if self.n == 0 {
+            return None;
+        }
+        let (n, p, z) = (self.n as f64, self.k as f64 / self.n as f64, 1.96);
+        let d = 1.0 + z * z / n;
+        let c = (p + z * z / (2.0 * n)) / d;
+        let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
+        Some(((c - h).max(0.0), (c + h).min(1.0)))
+    }
+}
+
+/// The self-check's figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scores {
+    pub top1_strong: Rate,
+    pub top3_strong: Rate,
+    pub top1_weak: Rate,
+    pub top3_weak: Rate,
+    /// Withheld cases where a gap was found at all.
+    pub detected_strong: Rate,
+    pub detected_weak: Rate,
+    /// Null cases with any verdict but `no_gap`.
+    pub false_alarms: Rate,
+    /// Out-of-vocabulary cases judged `unexplained`.
+    pub unexplained_recall: Rate,
+    pub median_shrink_strong: Option<f64>,
+    pub median_param_rel_error_strong: Option<f64>,
+    /// Withheld effect → (answer → count).
+    pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+/// Scores the outcomes of a self-check.
+pub fn score(outcomes: &[CaseOutcome]) -> Scores {
+    let rate = |keep: &dyn Fn(&CaseOutcome) -> bool, hit: &dyn Fn(&CaseOutcome) -> bool| {
+        let cases: Vec<&CaseOutcome> = outcomes.iter().filter(|o| keep(o)).collect();
+        Rate {
+            k: cases.iter().filter(|o| hit(o)).count(),
+            n: cases.len(),
+        }
+    };
+    let strong =
+        |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { strong: true, .. });
+    let weak =
+        |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { strong: false, .. });
+    let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
+    for o in outcomes {
+        let row = match &o.expectation {
+            Expectation::Withheld { effect, strong, .. } => {
+                format!("{effect} ({})", if *strong { "strong" } else { "weak" })
+            }
+            Expectation::Null => "null".into(),
+            Expectation::OutOfVocabulary => "out-of-vocabulary".into(),
+        };
+        let answer = match (&o.expectation, o.verdict.as_str()) {
+            (_, "no_gap") => "no_gap".to_string(),
+            (_, "unexplained") => format!("unexplained ({})", o.answer()),
+            _ => o.answer(),
+        };
+        *confusion.entry(row).or_default().entry(answer).or_default() += 1;
+    }
+    Scores {
+        top1_strong: rate(&strong, &|o| o.top_k(1)),
+        top3_strong: rate(&strong, &|o| o.top_k(3)),
+        top1_weak: rate(&weak, &|o| o.top_k(1)),
+        top3_weak: rate(&weak, &|o| o.top_k(3)),
+        detected_strong: rate(&strong, &|o| o.verdict != "no_gap"),
+        detected_weak: rate(&weak, &|o| o.verdict != "no_gap"),
+        false_alarms: rate(&|o| o.expectation == Expectation::Null, &|o| {
+            o.verdict != "no_gap"
+        }),
+        unexplained_recall: rate(&|o| o.expectation == Expectation::OutOfVocabulary, &|o| {
+            o.verdict == "unexplained"
+        }),
+        median_shrink_strong: median(
+            outcomes
+                .iter()
+                .filter(|o| strong(o))
+                .filter_map(|o| o.best_shrink)
+                .collect(),
+        ),
+        median_param_rel_error_strong: median(
+            outcomes
+                .iter()
+                .filter(|o| strong(o) && o.top_k(1))
+                .flat_map(|o| o.param_rel_errors.iter().copied())
+                .collect(),
+        ),
+        confusion,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn case(
+        expectation: Expectation,
+        verdict: &str,
+        ranked: &[&[&str]],
+        shrink: f64,
+    ) -> CaseOutcome {
+        CaseOutcome {
+            name: "c".into(),
+            expectation,
+            verdict: verdict.into(),
+            ranked: ranked
+                .iter()
+                .map(|c| c.iter().map(|s| s.to_string()).collect())
+                .collect(),
+            best_shrink: Some(shrink),
+            param_rel_errors: vec![0.1],
+            elapsed_s: 1.0,
+        }
+    }
+
+    fn withheld(effect: &str, strong: bool) -> Expectation {
+        Expectation::Withheld {
+            effect: effect.into(),
+            also: if effect == "backlash" {
+                vec!["overrotation".into()]
+            } else {
+                vec![]
+            },
+            strong,
+        }
+    }
+
+    #[test]
+    fn top_k_counts_ranks_groups_and_shared_switches() {
+        let rs = case(
+            withheld("rolling_shutter", true),
+            "explained",
+            &[&["motion_blur"], &["pixel_noise", "rolling_shutter"]],
+            0.9,
+        );
+        assert!(!rs.top_k(1));
+        assert!(rs.top_k(2));
+        let bl = case(
+            withheld("backlash", true),
+            "explained",
+            &[&["overrotation"]],
+            0.9,
+        );
+        assert!(bl.top_k(1), "a shared switch is the same answer");
+        let missed = case(withheld("lighting", true), "no_gap", &[&["lighting"]], 0.9);
+        assert!(!missed.top_k(3), "no gap found is no identification");
+    }
+
+    #[test]
+    fn rates_and_confusion_count_each_case_once() {
+        let outcomes = vec![
+            case(
+                withheld("pixel_noise", true),
+                "explained",
+                &[&["pixel_noise"]],
+                0.9,
+            ),
+            case(
+                withheld("pixel_noise", true),
+                "explained",
+                &[&["optical_blur"], &["pixel_noise"]],
+                0.5,
+            ),
+            case(withheld("pixel_noise", false), "no_gap", &[], 0.0),
+            case(Expectation::Null, "no_gap", &[], 0.0),
+            case(Expectation::Null, "unexplained", &[&["lighting"]], 0.1),
+            case(
+                Expectation::OutOfVocabulary,
+                "unexplained",
+                &[&["lighting"]],
+                0.2,
+            ),
+        ];
+        let s = score(&outcomes);
+        assert_eq!(s.top1_strong, Rate { k: 1, n: 2 });
+        assert_eq!(s.top3_strong, Rate { k: 2, n: 2 });
+        assert_eq!(s.detected_weak, Rate { k: 0, n: 1 });
+        assert_eq!(s.false_alarms, Rate { k: 1, n: 2 });
+        assert_eq!(s.unexplained_recall, Rate { k: 1, n: 1 });
+        assert_eq!(s.median_shrink_strong, Some(0.7));
+        assert_eq!(s.median_param_rel_error_strong, Some(0.1));
+        assert_eq!(s.confusion["pixel_noise (strong)"]["optical_blur"], 1);
+        assert_eq!(s.confusion["null"]["unexplained (lighting)"], 1);
+        let total: usize = s.confusion.values().flat_map(|r| r.values()).sum();
+        assert_eq!(total, outcomes.len());
+    }
+
+    #[test]
+    fn wilson_interval_contains_the_rate_and_shrinks_with_n() {
+        let a = Rate { k: 9, n: 10 }.wilson95().unwrap();
+        let b = Rate { k: 90, n: 100 }.wilson95().unwrap();
+        assert!(a.0 < 0.9 && 0.9 < a.1 && b.0 < 0.9 && 0.9 < b.1);
+        assert!(b.1 - b.0 < a.1 - a.0);
+        assert_eq!(Rate { k: 0, n: 0 }.wilson95(), None);
+    }
+}

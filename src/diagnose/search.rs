@@ -1,0 +1,220 @@
+//! Bounded one-dimensional minimisation for parameter fits whose objective is expensive (each
+//! evaluation runs simulations): bracket from a start value, then golden-section search, then a
+//! parabola through the best three points for the minimum's curvature (the uncertainty).
+//!
+//! The search runs on a coordinate u: log10 of the parameter for scale-like parameters, the
+//! parameter itself otherwise, always inside [lo, hi]. Deterministic: the same objective values
+//! give the same sequence of evaluations.
+
+/// Result of a search.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SearchResult {
+    /// Best parameter value found.
+    pub value: f64,
+    /// Objective there.
+    pub objective: f64,
+    /// 1-σ uncertainty of the value from the curvature of the objective (treated as χ²:
+    /// Δ = 1 at one σ); infinite when the objective is flat or the minimum sits on a bound.
+    pub std: f64,
+    /// Every (value, objective) evaluated, in order.
+    pub evaluations: Vec<(f64, f64)>,
+}
+
+/// Search settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SearchOptions {
+    pub lo: f64,
+    pub hi: f64,
+    pub log_scale: bool,
+    /// First step in u (decades for log scale).
+    pub step_u: f64,
+    /// Largest number of objective evaluations.
+    pub max_evaluations: usize,
+    /// Stop when the bracket is narrower than this in u.
+    pub tol_u: f64,
+}
+
+impl SearchOptions {
+    pub fn new(lo: f64, hi: f64, log_scale: bool) -> Self {
+        let (step_u, tol_u) = if log_scale {
+            (0.3, 0.02)
+        } else {
+            (0.15 * (hi - lo), 0.01 * (hi - lo))
+        };
+        Self {
+            lo,
+            hi,
+            log_scale,
+            step_u,
+            max_evaluations: 9,
+            tol_u,
+        }
+    }
+
+    fn search_u_of(&self, v: f64) -> f64 {
+        if self.log_scale {
+            v.max(self.lo).log10()
+        } else {
+            v
+        }
+    }
+
+    fn value_of_u(&self, u: f64) -> f64 {
+        if self.log_scale {
+            10f64.powf(u)
+        } else {
+            u
+        }
+    }
+
+    fn bounds_u(&self) -> (f64, f64) {
+        (self.search_u_of(self.lo), self.search_u_of(self.hi))
+    }
+}
+
+/// Minimises `f` over [lo, hi] starting from `start`.
+pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) -> SearchResult {
+    let (ulo, uhi) = o.bounds_u();
+    let clamp = |u: f64| u.clamp(ulo, uhi);
+    let mut evals: Vec<(f64, f64)> = Vec::new(); // (u, f)
+    let mut eval = |u: f64, evals: &mut Vec<(f64, f64)>| -> f64 {
+        let u = clamp(u);
+        if let Some(&(_, v)) = evals.iter().find(|(x, _)| (x - u).abs() < 1e-12) {
+            return v;
+        }
+        let v = f(o.value_of_u(u));
+        let v = if v.is_finite() { v } else { f64::INFINITY };
+        evals.push((u, v));
+        v
+    };
+    let budget = o.max_evaluations.max(3);
+    let u0 = clamp(o.search_u_of(if start.is_finite() {
+        start
+    } else {
+        0.5 * (o.lo + o.hi)
+    }));
+    let f0 = eval(u0, &mut evals);
+    let (mut a, mut b, mut c) = (u0 - o.step_u, u0, u0 + o.step_u);
+    let mut fa = eval(a, &mut evals);
+    let mut fb = f0;
+    let mut fc = eval(c, &mut evals);
+    // Expand towards the lower side until the middle point is the lowest (or a bound is hit).
+    while (fa < fb || fc < fb) && evals.len() < budget {
+        if fa < fc {
+            if clamp(a) <= ulo {
+                break;
+            }
+            (c, fc) = (b, fb);
+            (b, fb) = (a, fa);
+            a = b - 2.0 * (c - b);
+            fa = eval(a, &mut evals);
+        } else {
+            if clamp(c) >= uhi {
+                break;
+            }
+            (a, fa) = (b, fb);
+            (b, fb) = (c, fc);
+            c = b + 2.0 * (b - a);
+            fc = eval(c, &mut evals);
+        }
+    }
+    let (mut a, mut c) = (clamp(a), clamp(c));
+    // Golden-section inside [a, c] around b.
+    const R: f64 = 0.381_966_011_250_105_1;
+    while evals.len() < budget && (c - a) > o.tol_u {
+        let (x, fx) = if (c - b) > (b - a) {
+            let x = b + R * (c - b);
+            (x, eval(x, &mut evals))
+        } else {
+            let x = b - R * (b - a);
+            (x, eval(x, &mut evals))
+        };
+        if fx < fb {
+            if x > b {
+                a = b;
+            } else {
+                c = b;
+            }
+            (b, fb) = (x, fx);
+        } else if x > b {
+            c = x;
+        } else {
+            a = x;
+        }
+    }
+    let _ = fa;
+    let _ = fc;
+    // Curvature from a parabola through the best point and its nearest evaluated neighbours.
+    let mut sorted = evals.clone();
+    sorted.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let best_i = sorted
+        .iter()
+        .enumerate()
+        .min_by(|p, q| p.1 .1.total_cmp(&q.1 .1))
+        .map_or(0, |(i, _)| i);
+    let (ub, fbest) = sorted[best_i];
+    let mut std_u = f64::INFINITY;
+    if best_i > 0 && best_i + 1 < sorted.len() {
+        let (x0, y0) = sorted[best_i - 1];
+        let (x2, y2) = sorted[best_i + 1];
+        // Second derivative of the parabola through three points.
+        let d = 2.0 * ((y2 - fbest) / (x2 - ub) - (fbest - y0) / (ub - x0)) / (x2 - x0);
+        if d > 0.0 {
+            // f ≈ f_min + (d/2)(u − u*)²; Δf = 1 at σ.
+            std_u = (2.0 / d).sqrt();
+        }
+    }
+    let value = o.value_of_u(ub);
+    let std = if !std_u.is_finite() {
+        f64::INFINITY
+    } else if o.log_scale {
+        value * std::f64::consts::LN_10 * std_u
+    } else {
+        std_u
+    };
+    SearchResult {
+        value,
+        objective: fbest,
+        std,
+        evaluations: evals.iter().map(|&(u, v)| (o.value_of_u(u), v)).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_the_minimum_of_a_log_parabola_from_far_away() {
+        // χ²-like objective: ((log10 v − log10 0.8) / 0.05)² + 3 → σ_u = 0.05 decades.
+        let f = |v: f64| ((v.log10() - 0.8f64.log10()) / 0.05).powi(2) + 3.0;
+        let mut o = SearchOptions::new(0.01, 10.0, true);
+        o.max_evaluations = 14;
+        let r = minimise(f, 0.05, &o);
+        assert!((r.value / 0.8 - 1.0).abs() < 0.06, "{r:?}");
+        assert!(r.evaluations.len() <= 14);
+        let expected_std = 0.8 * std::f64::consts::LN_10 * 0.05;
+        assert!(
+            (r.std / expected_std - 1.0).abs() < 0.35,
+            "{} vs {expected_std}",
+            r.std
+        );
+    }
+
+    #[test]
+    fn linear_search_stops_at_a_bound() {
+        let f = |v: f64| (v - 5.0).powi(2);
+        let r = minimise(f, 0.0, &SearchOptions::new(-0.3, 0.3, false));
+        assert!((r.value - 0.3).abs() < 1e-12, "{r:?}");
+        assert!(r.std.is_infinite());
+    }
+
+    #[test]
+    fn non_finite_objective_values_are_avoided() {
+        let f = |v: f64| if v > 2.0 { f64::NAN } else { (v - 1.5).powi(2) };
+        let mut o = SearchOptions::new(0.1, 10.0, true);
+        o.max_evaluations = 12;
+        let r = minimise(f, 1.0, &o);
+        assert!((r.value - 1.5).abs() < 0.15, "{r:?}");
+    }
+}

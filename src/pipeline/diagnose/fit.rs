@@ -1,0 +1,516 @@
+//! Fitting and judging candidate effects: for one effect (or a pair), build the trial (the
+//! aligned nominal with the effect switched on at given parameters), fit the parameters by
+//! simulated method of moments (minimise Σ z² over the effect's signature cells with the real
+//! pipeline in the loop, on the fit seeds), then re-simulate on fresh seeds (the evaluation
+//! seeds, shared with the nominal) and measure how far the gap shrinks.
+
+use super::nominal::Aligned;
+use super::simulate::{trial_cells, SimContext, TimingSource, Trial};
+use super::DiagnoseError;
+use crate::diagnose::align::{align_motion, apply_motion};
+use crate::diagnose::cells::Cells;
+use crate::diagnose::gap::{compare, excess, GapMap, GapOptions};
+use crate::diagnose::plan::{self, in_signature};
+use crate::diagnose::search::{minimise, SearchOptions};
+use crate::diagnose::verdict::Outcome;
+use crate::scenario::effects::Effect;
+use crate::scenario::Scenario;
+use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
+use std::cell::RefCell;
+
+/// One effect with fitted parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fitted {
+    pub effect: Effect,
+    /// In [`Effect::params`] order.
+    pub values: Vec<f64>,
+    /// 1-σ uncertainties (infinite when the data do not determine a parameter).
+    pub stds: Vec<f64>,
+    /// How the values were obtained.
+    pub method: String,
+    /// Simulations run for the fit.
+    pub simulations: usize,
+}
+
+/// A fitted candidate (one effect or a pair) judged on the evaluation seeds.
+#[derive(Debug, Clone)]
+pub struct Evaluated {
+    pub effects: Vec<Fitted>,
+    pub gap: GapMap,
+    pub outcome: Outcome,
+}
+
+/// Everything the fits need.
+pub struct Fitter<'a> {
+    pub ctx: SimContext<'a>,
+    /// The user's nominal (before alignment).
+    pub nominal: &'a Scenario,
+    pub real_cells: &'a Cells,
+    /// Real frame times (all frames) and the primary angle of the detected frames.
+    pub real_t_s: &'a [f64],
+    pub real_theta_det: (&'a [f64], &'a [f64]),
+    pub nominal_gap: &'a GapMap,
+    pub base: Trial,
+    pub fit_seeds: Vec<u64>,
+    pub eval_seeds: Vec<u64>,
+    pub gap_options: GapOptions,
+    /// Simulations run so far (for the report).
+    pub simulations: RefCell<usize>,
+}
+
+fn aligned_of<'a>(f: &'a Fitter<'a>) -> &'a Aligned {
+    f.ctx.aligned
+}
+
+impl<'a> Fitter<'a> {
+    /// The base trial: the aligned nominal at the real frame times, timestamps from the
+    /// nominal's frame-timing model.
+    pub fn base_trial(aligned: &Aligned, nominal: &Scenario, real_t_s: &[f64]) -> Trial {
+        let duration = real_t_s.last().copied().unwrap_or(0.0)
+            - real_t_s.first().copied().unwrap_or(0.0)
+            + 1e-3;
+        Trial {
+            scenario: aligned.scenario.clone(),
+            stamped_fps: None,
+            timing: TimingSource::Model {
+                config: nominal.frame_timing.clone(),
+                log: nominal.timing_log.clone(),
+                duration_s: duration,
+            },
+        }
+    }
+
+    fn real_duration_s(&self) -> f64 {
+        self.real_t_s.last().copied().unwrap_or(0.0) - self.real_t_s.first().copied().unwrap_or(0.0)
+    }
+
+    fn median_interval_s(&self) -> f64 {
+        let mut d: Vec<f64> = self.real_t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
+    }
+
+    /// The trial with `applied` effects switched on at their values.
+    pub fn trial_with(&self, applied: &[(Effect, Vec<f64>)]) -> Result<Trial, DiagnoseError> {
+        let mut t = self.base.clone();
+        for (e, v) in applied {
+            match e {
+                Effect::FrameTiming => {
+                    let mut cfg = FrameTimingConfig {
+                        fps: self.nominal.frame_timing.fps,
+                        ..self.nominal.frame_timing.clone()
+                    };
+                    let mut tmp = self.nominal.clone();
+                    tmp.frame_timing = cfg.clone();
+                    Effect::FrameTiming.apply(&mut tmp, v);
+                    cfg.model = tmp.frame_timing.model;
+                    t.timing = TimingSource::Model {
+                        config: cfg,
+                        log: None,
+                        duration_s: self.real_duration_s() + 1e-3,
+                    };
+                }
+                Effect::Timebase => {
+                    let fps = v.first().copied().unwrap_or(30.0);
+                    let s = &mut t.scenario;
+                    let model = match &self.nominal.frame_timing.model {
+                        TimingModel::Vfr(m) => m.clone(),
+                        _ => VfrModel {
+                            rate_error_ppm: 0.0,
+                            ..VfrModel::default()
+                        },
+                    };
+                    s.frame_timing = FrameTimingConfig {
+                        fps,
+                        model: TimingModel::Vfr(model),
+                        ..self.nominal.frame_timing.clone()
+                    };
+                    s.timing_log = None;
+                    s.duration_s = self.real_duration_s() + 0.5 / fps;
+                    t.stamped_fps = Some(fps);
+                    t.timing = TimingSource::ConstantRate {
+                        fps_hz: fps,
+                        frames: self.real_t_s.len(),
+                    };
+                }
+                Effect::DriveSpeed => {
+                    e.apply(&mut t.scenario, v);
+                    // The crank phase and mean speed are nuisance: refit them for this profile.
+                    let (td, th) = self.real_theta_det;
+                    let a = align_motion(&t.scenario, td, th, aligned_of(self).screen_sign)
+                        .map_err(|x| DiagnoseError::Alignment(x.to_string()))?;
+                    t.scenario = apply_motion(&t.scenario, &a);
+                }
+                _ => {
+                    e.apply(&mut t.scenario, v);
+                }
+            }
+        }
+        Ok(t)
+    }
+
+    /// Cells of a trial on `seeds`.
+    fn cells(
+        &self,
+        trial: &Trial,
+        seeds: &[u64],
+        images: bool,
+    ) -> Result<Vec<Cells>, DiagnoseError> {
+        *self.simulations.borrow_mut() += seeds.len();
+        trial_cells(&self.ctx, trial, seeds, images)
+    }
+
+    /// The comparison of the real data with a trial on `seeds`.
+    pub fn gap(&self, trial: &Trial, seeds: &[u64]) -> Result<GapMap, DiagnoseError> {
+        Ok(compare(
+            self.real_cells,
+            &self.cells(trial, seeds, true)?,
+            self.gap_options,
+        ))
+    }
+
+    /// The fit objective: Σ z² over the signature cells of `effects`.
+    fn objective(&self, effects: &[Effect], applied: &[(Effect, Vec<f64>)]) -> f64 {
+        let Ok(trial) = self.trial_with(applied) else {
+            return f64::INFINITY;
+        };
+        // Image statistics cost most of a simulated measurement; skip them when no signature
+        // channel uses them (the objective compares signature cells only).
+        let images = effects.iter().any(|e| {
+            plan::signature(*e).iter().any(|c| {
+                crate::diagnose::cells::channel(c)
+                    .is_some_and(|s| s.source == crate::diagnose::cells::Source::Image)
+            })
+        });
+        let gap = self
+            .cells(&trial, &self.fit_seeds, images)
+            .map(|sims| compare(self.real_cells, &sims, self.gap_options));
+        match gap {
+            Ok(g) => g
+                .cells
+                .iter()
+                .filter(|c| effects.iter().any(|e| in_signature(*e, &c.key)))
+                .map(|c| c.z * c.z)
+                .sum(),
+            Err(_) => f64::INFINITY,
+        }
+    }
+
+    /// Mean over phases of a channel's real value and the nominal simulations' mean.
+    fn channel_pair(&self, channel: &str, phases: &[&str]) -> Option<(f64, f64)> {
+        let cells: Vec<_> = self
+            .nominal_gap
+            .cells
+            .iter()
+            .filter(|c| c.key.channel == channel && c.key.band.is_none())
+            .filter(|c| phases.is_empty() || phases.contains(&c.key.phase))
+            .collect();
+        if cells.is_empty() {
+            return None;
+        }
+        let n = cells.len() as f64;
+        Some((
+            cells.iter().map(|c| c.real).sum::<f64>() / n,
+            cells.iter().map(|c| c.sim_mean).sum::<f64>() / n,
+        ))
+    }
+
+    /// RMS over the banded cells of a channel (all phases, the given bands) of real and nominal.
+    fn banded_pair(&self, channel: &str, bands: &[u8]) -> Option<(f64, f64)> {
+        let cells: Vec<_> = self
+            .nominal_gap
+            .cells
+            .iter()
+            .filter(|c| c.key.channel == channel && c.key.band.is_some_and(|b| bands.contains(&b)))
+            .collect();
+        if cells.is_empty() {
+            return None;
+        }
+        let n = cells.len() as f64;
+        let r = (cells.iter().map(|c| c.real * c.real).sum::<f64>() / n).sqrt();
+        let s = (cells.iter().map(|c| c.sim_mean * c.sim_mean).sum::<f64>() / n).sqrt();
+        Some((r, s))
+    }
+
+    /// Image speed of the marker during the drive, px/s (median over frames).
+    fn drive_speed_px_s(&self) -> f64 {
+        let g = &aligned_of(self).geometry;
+        let w = crate::scenario::effects::mean_crank_speed_rad_s(
+            &aligned_of(self).scenario.drive_speed,
+        );
+        // ω2 peaks at a few tenths of ω1 for the internal drive and above ω1 for the external.
+        let geneva = aligned_of(self).scenario.mechanism.geneva();
+        let peak = geneva.omega2_rad_s(0.0, w).abs();
+        0.6 * peak * g.marker_radius_px
+    }
+
+    /// First guesses of the parameters of `e` from the real measurement.
+    fn start_values(&self, e: Effect) -> Vec<f64> {
+        let s = &aligned_of(self).scenario;
+        let mut v = e.values(s);
+        let fx = &s.effects;
+        match e {
+            Effect::DriveSpeed => v[0] = if v[0] == 0.0 { -0.1 } else { v[0] },
+            Effect::Backlash => v[0] = if e.is_on(s) { v[0] } else { 0.3 },
+            Effect::Overrotation => v[0] = (s.dynamics.mu_kinetic / 3.0).max(0.005),
+            Effect::DiscVibration => {
+                let (r, n) = self.banded_pair("theta", &[0, 1, 2]).unwrap_or((1e-3, 0.0));
+                v[0] = (2.0f64.sqrt() * (r * r - n * n).max(1e-10).sqrt()).clamp(1e-5, 1e-2);
+            }
+            Effect::AxisRunout => {
+                let (r, n) = self.banded_pair("radius", &[0]).unwrap_or((1.0, 0.0));
+                let mm_px = aligned_of(self).geometry.mm_per_px;
+                v[0] = (2.0f64.sqrt() * (r * r - n * n).max(1e-6).sqrt() * mm_px * 1e-3)
+                    .clamp(1e-6, 3e-3);
+            }
+            Effect::CameraVibration => {
+                let (r, n) = self.banded_pair("radius", &[1, 2]).unwrap_or((0.3, 0.0));
+                v[0] = ((r * r - n * n).max(1e-4).sqrt()).clamp(0.01, 10.0);
+            }
+            Effect::PixelNoise => {
+                let span = if fx.lighting.enabled {
+                    fx.lighting.white_level_dn - fx.lighting.black_level_dn
+                } else {
+                    255.0
+                };
+                if let (Some((ni, _)), Some((np, _))) = (
+                    self.channel_pair("noise_ink", &[]),
+                    self.channel_pair("noise_paper", &[]),
+                ) {
+                    if let Some((fw, rn)) = plan::guess_noise(
+                        ni,
+                        np,
+                        s.scene.ink_radiance,
+                        s.scene.paper_radiance,
+                        span,
+                    ) {
+                        v = vec![fw.clamp(50.0, 1e6), rn.clamp(0.0, 5000.0)];
+                    }
+                }
+            }
+            Effect::OpticalBlur => {
+                let nominal = if e.is_on(s) {
+                    fx.optical_blur.sigma_px
+                } else {
+                    0.0
+                };
+                if let Some((r, sim)) =
+                    self.channel_pair("edge_along", &["dwell", "entry", "drive", "exit"])
+                {
+                    v[0] = plan::guess_optical_sigma(r, sim, nominal).clamp(0.05, 6.0);
+                }
+            }
+            Effect::MotionBlur => {
+                let nominal = if e.is_on(s) {
+                    fx.motion_blur.exposure_s
+                } else {
+                    0.0
+                };
+                if let (Some((ra, sa)), Some((rl, sl))) = (
+                    self.channel_pair("edge_across", &["drive"]),
+                    self.channel_pair("edge_along", &["drive"]),
+                ) {
+                    let extra = (ra * ra - rl * rl) - (sa * sa - sl * sl);
+                    v[0] = plan::guess_exposure_s(extra, self.drive_speed_px_s(), nominal)
+                        .clamp(1e-4, 0.04);
+                } else {
+                    v[0] = 0.01;
+                }
+            }
+            Effect::RollingShutter => {
+                let nominal = if e.is_on(s) {
+                    fx.rolling_shutter.readout_s
+                } else {
+                    0.0
+                };
+                if let Some((r, sim)) = self.channel_pair("rs_readout", &["all"]) {
+                    v[0] = (nominal + r - sim).clamp(5e-4, 0.05);
+                } else {
+                    v[0] = 0.01;
+                }
+            }
+            Effect::LensDistortion => v[0] = if e.is_on(s) { v[0] } else { 0.0 },
+            Effect::PerspectiveTilt if !e.is_on(s) => v = vec![0.0, 0.0],
+            Effect::Compression => v[0] = if e.is_on(s) { v[0] } else { 50.0 },
+            _ => {}
+        }
+        v
+    }
+
+    /// Fits `e` on top of `prior` (already fitted effects, kept fixed).
+    pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, DiagnoseError> {
+        let before = *self.simulations.borrow();
+        let specs = e.params();
+        let mut values = self.start_values(e);
+        let mut stds = vec![f64::INFINITY; specs.len()];
+        let method: String;
+        match e {
+            Effect::FrameTiming => {
+                let ts = Timestamps::new(self.real_t_s.to_vec())
+                    .map_err(|x| DiagnoseError::Input(x.to_string()))?;
+                let f =
+                    fit_vfr(&ts).map_err(|x| DiagnoseError::Input(format!("timing fit: {x}")))?;
+                let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
+                values = vec![
+                    f.jitter_s,
+                    f.first_interval_s,
+                    rate_ppm,
+                    f.drop_probability,
+                    f.pair_alternation_s.abs(),
+                ];
+                stds = vec![
+                    f.jitter_s / ((f.frames.max(4) - 3) as f64).sqrt() / std::f64::consts::SQRT_2,
+                    f.first_interval_stderr_s,
+                    f.fps_stderr / self.nominal.frame_timing.fps * 1e6,
+                    (f.drop_probability * (1.0 - f.drop_probability) / f.frames.max(1) as f64)
+                        .sqrt(),
+                    f.pair_alternation_stderr_s,
+                ];
+                method = "fitted directly to the footage's timestamps (geneva timing fit)".into();
+            }
+            Effect::Timebase => {
+                let fps = 1.0 / self.median_interval_s();
+                values = vec![fps];
+                stds = vec![0.0];
+                method = "rate of the footage's timestamps; frames taken on the nominal's schedule"
+                    .into();
+            }
+            Effect::Lighting => {
+                let s = &aligned_of(self).scenario;
+                let all = ["dwell", "entry", "drive", "exit"];
+                if let (Some((ink, _)), Some((paper, _))) = (
+                    self.channel_pair("ink", &all),
+                    self.channel_pair("paper", &all),
+                ) {
+                    if let Some((b, w)) =
+                        plan::guess_levels(ink, paper, s.scene.ink_radiance, s.scene.paper_radiance)
+                    {
+                        values = vec![b, w, 1.0];
+                    }
+                }
+                // One correction with simulations (blur and noise move the measured levels).
+                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+                applied.push((e, values.clone()));
+                let trial = self.trial_with(&applied)?;
+                let g = self.gap(&trial, &self.fit_seeds)?;
+                let pair = |ch: &str| {
+                    let c: Vec<_> = g.cells.iter().filter(|c| c.key.channel == ch).collect();
+                    let n = c.len().max(1) as f64;
+                    (
+                        c.iter().map(|c| c.real).sum::<f64>() / n,
+                        c.iter().map(|c| c.sim_mean).sum::<f64>() / n,
+                    )
+                };
+                let ((ri, si), (rp, sp)) = (pair("ink"), pair("paper"));
+                let (s_i, s_p) = (s.scene.ink_radiance, s.scene.paper_radiance);
+                // Levels are linear in (black, white): DN = black + (white − black)·s.
+                let d_ink = ri - si;
+                let d_paper = rp - sp;
+                let d_span = (d_paper - d_ink) / (s_p - s_i);
+                let d_black = d_ink - d_span * s_i;
+                values[0] += d_black;
+                values[1] += d_black + d_span;
+                let tol = crate::diagnose::cells::channel("ink").map_or(4.0, |c| c.tol_abs);
+                stds = vec![tol, tol, f64::INFINITY];
+                method =
+                    "levels inverted from the measured ink and paper, corrected once by simulation"
+                        .into();
+            }
+            _ => {
+                if e == Effect::DiscVibration {
+                    let nyq = self.ctx.nyquist_hz;
+                    if let Some((f, _)) = self.theta_peak_hz(nyq) {
+                        values[1] = f;
+                        stds[1] = 0.05;
+                    }
+                }
+                let searched: Vec<usize> = match e {
+                    Effect::PixelNoise | Effect::PerspectiveTilt => vec![0, 1],
+                    _ => vec![0],
+                };
+                for &i in &searched {
+                    let spec = specs[i];
+                    let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
+                    o.max_evaluations = 7;
+                    let base = values.clone();
+                    let r = minimise(
+                        |x| {
+                            let mut v = base.clone();
+                            v[i] = x;
+                            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+                            applied.push((e, v));
+                            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+                            self.objective(&effects, &applied)
+                        },
+                        values[i],
+                        &o,
+                    );
+                    values[i] = r.value;
+                    stds[i] = r.std;
+                }
+                method = format!(
+                    "simulated method of moments: Σ z² over the {} signature cells, {} fit seeds",
+                    e.name(),
+                    self.fit_seeds.len()
+                );
+            }
+        }
+        Ok(Fitted {
+            effect: e,
+            values,
+            stds,
+            method,
+            simulations: *self.simulations.borrow() - before,
+        })
+    }
+
+    /// The strongest frequency of the real angle residual above the low band, with its power.
+    fn theta_peak_hz(&self, nyquist_hz: f64) -> Option<(f64, f64)> {
+        let (t, th) = self.real_theta_det;
+        // Residual after a smooth trend: the aligned motion is not needed for a peak search.
+        let trend = crate::diagnose::bands::smooth(
+            t,
+            th,
+            crate::diagnose::bands::gaussian_sigma_for_cutoff_s(nyquist_hz / 10.0),
+        );
+        let r: Vec<f64> = th.iter().zip(&trend).map(|(a, b)| a - b).collect();
+        plan::dominant_frequency_hz(t, &r, nyquist_hz / 10.0, 0.98 * nyquist_hz, 0.02)
+    }
+
+    /// Judges `fitted` (applied together) on the evaluation seeds.
+    pub fn evaluate(&self, fitted: Vec<Fitted>) -> Result<Evaluated, DiagnoseError> {
+        let applied: Vec<(Effect, Vec<f64>)> = fitted
+            .iter()
+            .map(|f| (f.effect, f.values.clone()))
+            .collect();
+        let trial = self.trial_with(&applied)?;
+        let gap = self.gap(&trial, &self.eval_seeds)?;
+        let params: usize = fitted.iter().map(|f| f.values.len()).sum();
+        let outcome = Outcome {
+            remaining: gap.total,
+            params,
+            significant_left: gap.n_significant(),
+        };
+        Ok(Evaluated {
+            effects: fitted,
+            gap,
+            outcome,
+        })
+    }
+}
+
+/// Per-cell shrink of `after` against `before`: 1 − excess_after / excess_before for cells with
+/// a gap before.
+pub fn cell_shrink(before: &GapMap, after: &GapMap) -> Vec<(crate::diagnose::cells::CellKey, f64)> {
+    let z0 = before.options.dead_zone_z;
+    before
+        .cells
+        .iter()
+        .filter(|c| excess(c.z, z0) > 0.0)
+        .map(|c| {
+            let e0 = excess(c.z, z0);
+            let e1 = after.cell(&c.key).map_or(e0, |a| excess(a.z, z0));
+            (c.key, 1.0 - e1 / e0)
+        })
+        .collect()
+}

@@ -1,0 +1,408 @@
+//! `geneva diagnose`: where the real measurement and the nominal simulation disagree, which
+//! effect of the vocabulary explains it, and how far the gap shrinks once it is added.
+//!
+//! 1. The real data are measured with the nominal's detector and estimator (the code of
+//!    `geneva analyze`), plus image statistics on every frame ([`real`]).
+//! 2. Nuisance alignment ([`nominal`]): crank phase and speed, marker angle, orientation,
+//!    radius, image scale, rotation-centre and reference-marker positions are fitted, so that
+//!    what is left is a gap, not a misplacement.
+//! 3. The aligned nominal is simulated at the real frame times on N seeds ([`simulate`]); both
+//!    sides give the same cells ([`crate::diagnose::cells`]); the gap map compares them.
+//! 4. Candidates are screened by their signatures, fitted by simulated method of moments and
+//!    re-simulated on the evaluation seeds ([`fit`]); a greedy pair is tried when one effect is
+//!    not enough; the ranking and the verdict are pure ([`crate::diagnose::verdict`]).
+//! 5. Outputs ([`report`]): `diagnosis.json`, `diagnosis.md`, gap-map heatmaps, a ranking
+//!    chart, before/after residual overlays; the real measurement's `tracks.csv` under `real/`.
+//!
+//! No truth of the real data is used anywhere (there is none).
+
+pub mod fit;
+pub mod image;
+pub mod nominal;
+pub mod real;
+pub mod report;
+pub mod selfcheck;
+pub mod simulate;
+
+use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
+use crate::diagnose::gap::{GapMap, GapOptions};
+use crate::diagnose::plan;
+use crate::diagnose::verdict::{self, Outcome, Verdict};
+use crate::io::output_dir::OutputDir;
+use crate::pipeline::analyze::Source;
+use crate::scenario::effects::Effect;
+use crate::scenario::Scenario;
+use fit::{Evaluated, Fitter};
+use nominal::Aligned;
+use simulate::SimContext;
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnoseError {
+    #[error("{0}")]
+    Input(String),
+    #[error("nominal scenario: {0}")]
+    Nominal(String),
+    #[error("alignment: {0}")]
+    Alignment(String),
+    #[error("simulation: {0}")]
+    Simulation(String),
+    #[error("{file}: {message}")]
+    Output { file: PathBuf, message: String },
+    #[error(transparent)]
+    Shard(#[from] crate::shard::ShardError),
+}
+
+/// Options of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct DiagnoseOptions {
+    /// Evaluation seeds N (the nominal's spread and every candidate's judgement).
+    pub seeds: usize,
+    /// Seeds per objective evaluation in the fits.
+    pub fit_seeds: usize,
+    /// Candidates (default: the whole vocabulary).
+    pub effects: Option<Vec<Effect>>,
+    /// Cap on the candidate search; what was not tried is reported.
+    pub max_minutes: Option<f64>,
+    pub gap: GapOptions,
+    /// Try a second effect when the best single one leaves a significant remainder.
+    pub pairs: bool,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self {
+            seeds: 6,
+            fit_seeds: 3,
+            effects: None,
+            max_minutes: None,
+            gap: GapOptions::default(),
+            pairs: true,
+        }
+    }
+}
+
+/// One ranked candidate.
+#[derive(Debug, Clone)]
+pub struct Ranked {
+    pub evaluated: Evaluated,
+    /// 1 − D_k / D₀.
+    pub shrink: f64,
+    /// Penalised shrink (the ranking score).
+    pub score: f64,
+    /// Other candidates the data cannot tell apart from this one (filled for the best).
+    pub group: Vec<String>,
+    /// Per-cell shrink for the cells with a gap.
+    pub cell_shrink: Vec<(crate::diagnose::cells::CellKey, f64)>,
+}
+
+/// Everything a diagnosis found.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub verdict: Verdict,
+    pub aligned: Aligned,
+    pub nominal_gap: GapMap,
+    pub real_cells: Cells,
+    /// Best first; singles, and the best pair when one was tried.
+    pub ranking: Vec<Ranked>,
+    /// Index into `ranking` of the candidate the verdict rests on.
+    pub best: Option<usize>,
+    /// Candidates screened out (no significant cell in their signature), with their share of
+    /// the gap.
+    pub screened_out: Vec<(Effect, f64)>,
+    /// Candidates not fitted because their share of the gap (an upper bound on their shrink) is
+    /// below the best fitted score by more than the group margin, with that share.
+    pub bounded_out: Vec<(Effect, f64)>,
+    /// Candidates not tried because of `--max-minutes`.
+    pub not_tried: Vec<Effect>,
+    /// Candidates that cannot be judged from the input (image effects from a corner track).
+    pub not_judged: Vec<Effect>,
+    pub pair_tried: bool,
+    pub seeds: Vec<u64>,
+    pub fit_seeds: Vec<u64>,
+    pub simulations: usize,
+    pub frames: usize,
+    pub detected: usize,
+    pub has_images: bool,
+    pub nyquist_hz: f64,
+    /// Time shift between the real frames' timestamps and the aligned motion, s.
+    pub real_time_shift_s: f64,
+    pub elapsed_s: f64,
+}
+
+/// What a progress callback hears: the stage and how far it is.
+pub type Progress<'a> = dyn Fn(&str, usize, usize) + 'a;
+
+/// Runs the whole diagnosis; writes the outputs into `out_dir` (all or nothing: a staging
+/// folder renamed into place at the end).
+pub fn diagnose(
+    nominal: &Scenario,
+    source: &Source,
+    out_dir: &Path,
+    options: &DiagnoseOptions,
+    progress: &Progress<'_>,
+) -> Result<(Diagnosis, Vec<PathBuf>), DiagnoseError> {
+    let started = Instant::now();
+    if options.seeds < 2 {
+        return Err(DiagnoseError::Input(format!(
+            "--seeds {}: at least 2 seeds are needed for a spread",
+            options.seeds
+        )));
+    }
+    let layout =
+        image::marker_layout(nominal).map_err(|e| DiagnoseError::Nominal(e.to_string()))?;
+    real::check_source(nominal, source)?;
+    let staging = OutputDir::create(out_dir).map_err(|e| DiagnoseError::Output {
+        file: out_dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+
+    progress("measuring the real footage", 0, 1);
+    let real = real::measure_real(
+        nominal,
+        source,
+        &layout,
+        &staging.path().join("real"),
+        &|d, t| progress("measuring the real footage", d, t),
+    )?;
+    progress("aligning the nominal", 0, 1);
+    let aligned = nominal::align(nominal, &real.record, &real.estimate, &layout)?;
+    let t_all = real.record.t_s();
+    let median_dt = {
+        let mut d: Vec<f64> = t_all.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
+    };
+    let nyquist_hz = 0.5 / median_dt;
+    let ctx = SimContext {
+        aligned: &aligned,
+        layout: &layout,
+        with_images: real.record.has_images,
+        nyquist_hz,
+        height_px: nominal.camera.height_px as f64,
+    };
+    let (reference, real_time_shift_s) =
+        nominal::motion_reference(&aligned.reference, &real.record, &real.estimate);
+    let mut real_cells = track_cells(
+        &real.record,
+        &real.estimate,
+        &reference,
+        nyquist_hz,
+        ctx.height_px,
+    );
+    real_cells.extend(image_cells(
+        &real.record,
+        aligned.geometry.rotation_centre_px,
+        &reference.phase,
+        nyquist_hz,
+    ));
+    real_cells.extend(timing_cells(&t_all));
+
+    let primary = &real.estimate.primary_series().theta_rad;
+    let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
+        .iter()
+        .zip(primary)
+        .filter(|(_, th)| th.is_finite())
+        .map(|(t, th)| (*t, *th))
+        .unzip();
+    let seeds: Vec<u64> = (0..options.seeds as u64)
+        .map(|k| nominal.seed.wrapping_add(1000 + k))
+        .collect();
+    let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
+        .map(|k| nominal.seed.wrapping_add(2000 + k))
+        .collect();
+    let base = Fitter::base_trial(&aligned, nominal, &t_all);
+    progress("simulating the nominal", 0, seeds.len());
+    let placeholder = GapMap {
+        cells: Vec::new(),
+        total: 0.0,
+        options: options.gap,
+    };
+    let mut fitter = Fitter {
+        ctx,
+        nominal,
+        real_cells: &real_cells,
+        real_t_s: &t_all,
+        real_theta_det: (&t_det, &th_det),
+        nominal_gap: &placeholder,
+        base: base.clone(),
+        fit_seeds: fit_seeds.clone(),
+        eval_seeds: seeds.clone(),
+        gap_options: options.gap,
+        simulations: RefCell::new(0),
+    };
+    let nominal_gap = fitter.gap(&base, &seeds)?;
+    fitter.nominal_gap = &nominal_gap;
+    let d0 = nominal_gap.total;
+
+    let candidates: Vec<Effect> = options
+        .effects
+        .clone()
+        .unwrap_or_else(|| Effect::ALL.to_vec());
+    let (candidates, not_judged): (Vec<Effect>, Vec<Effect>) = candidates
+        .into_iter()
+        .partition(|e| real.record.has_images || !e.needs_frames());
+    let mut screened_out = Vec::new();
+    let mut bounded_out = Vec::new();
+    let mut not_tried = Vec::new();
+    let mut ranking: Vec<Ranked> = Vec::new();
+    let mut pair_tried = false;
+    if nominal_gap.n_significant() > 0 {
+        // Screening: only effects with a significant cell in their signature are fitted,
+        // largest possible share of the gap first.
+        let mut screened: Vec<(Effect, f64)> = candidates
+            .iter()
+            .map(|&e| (e, plan::screening_share(e, &nominal_gap)))
+            .collect();
+        screened.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let deadline = options.max_minutes.map(|m| m * 60.0);
+        let total = screened.len();
+        let mut best_score = f64::NEG_INFINITY;
+        for (i, (e, share)) in screened.into_iter().enumerate() {
+            if !plan::signature_significant(e, &nominal_gap) {
+                screened_out.push((e, share));
+                continue;
+            }
+            // A candidate moves only its signature cells, so its shrink is at most its share;
+            // below the best score by more than the group margin it can neither win nor join
+            // the best's group.
+            if share < best_score - verdict::GROUP_MARGIN {
+                bounded_out.push((e, share));
+                continue;
+            }
+            if deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d) {
+                not_tried.push(e);
+                continue;
+            }
+            progress(&format!("fitting {}", e.name()), i, total);
+            let fitted = fitter.fit(e, &[])?;
+            let evaluated = fitter.evaluate(vec![fitted])?;
+            let r = ranked(&nominal_gap, evaluated);
+            progress(
+                &format!("{}: shrink {:.2}, score {:.2}", e.name(), r.shrink, r.score),
+                i + 1,
+                total,
+            );
+            best_score = best_score.max(r.score);
+            ranking.push(r);
+        }
+        sort_ranking(d0, &mut ranking);
+        // A second effect when the best single one does not explain the gap.
+        let best_explains = ranking
+            .first()
+            .is_some_and(|r| verdict::explains(d0, &r.evaluated.outcome));
+        if options.pairs && !best_explains && ranking.len() >= 2 {
+            let deadline_hit = deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d);
+            if !deadline_hit {
+                pair_tried = true;
+                let first = ranking[0].evaluated.effects[0].clone();
+                let prior = vec![(first.effect, first.values.clone())];
+                let others: Vec<Effect> = ranking[1..]
+                    .iter()
+                    .map(|r| r.evaluated.effects[0].effect)
+                    .filter(|e| !first.effect.shares_switch_with().contains(e))
+                    .take(3)
+                    .collect();
+                for (k, e) in others.into_iter().enumerate() {
+                    progress(
+                        &format!("fitting {} + {}", first.effect.name(), e.name()),
+                        k,
+                        3,
+                    );
+                    let second = fitter.fit(e, &prior)?;
+                    let evaluated = fitter.evaluate(vec![first.clone(), second])?;
+                    ranking.push(ranked(&nominal_gap, evaluated));
+                }
+                sort_ranking(d0, &mut ranking);
+            }
+        }
+    }
+    let outcomes: Vec<Outcome> = ranking
+        .iter()
+        .map(|r| r.evaluated.outcome.clone())
+        .collect();
+    let order = verdict::rank(d0, &outcomes);
+    let group = verdict::group_of_best(d0, &outcomes, &order);
+    let best = order.first().copied();
+    if let Some(b) = best {
+        let names: Vec<String> = group
+            .iter()
+            .filter(|&&i| i != b)
+            .map(|&i| candidate_name(&ranking[i].evaluated))
+            .collect();
+        ranking[b].group = names;
+    }
+    let verdict = verdict::verdict(
+        nominal_gap.n_significant(),
+        d0,
+        best.map(|b| &ranking[b].evaluated.outcome),
+    );
+    let simulations = *fitter.simulations.borrow();
+    let diagnosis = Diagnosis {
+        verdict,
+        aligned: aligned.clone(),
+        nominal_gap: nominal_gap.clone(),
+        real_cells: real_cells.clone(),
+        ranking,
+        best,
+        screened_out,
+        bounded_out,
+        not_tried,
+        not_judged,
+        pair_tried,
+        seeds,
+        fit_seeds,
+        simulations,
+        frames: real.record.frames.len(),
+        detected: real.record.detected(),
+        has_images: real.record.has_images,
+        nyquist_hz,
+        real_time_shift_s,
+        elapsed_s: started.elapsed().as_secs_f64(),
+    };
+    progress("writing the report", 0, 1);
+    let files = report::write(&diagnosis, &fitter, &real, &staging)?;
+    let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
+    staging.commit().map_err(|e| DiagnoseError::Output {
+        file: out_dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    Ok((diagnosis, files))
+}
+
+/// Name of a candidate: `a` or `a+b`.
+pub fn candidate_name(e: &Evaluated) -> String {
+    e.effects
+        .iter()
+        .map(|f| f.effect.name())
+        .collect::<Vec<_>>()
+        .join("+")
+}
+
+fn ranked(nominal_gap: &GapMap, evaluated: Evaluated) -> Ranked {
+    let d0 = nominal_gap.total;
+    let raw = if d0 > 0.0 {
+        1.0 - evaluated.outcome.remaining / d0
+    } else {
+        0.0
+    };
+    Ranked {
+        shrink: raw,
+        score: verdict::shrink(d0, &evaluated.outcome),
+        group: Vec::new(),
+        cell_shrink: fit::cell_shrink(nominal_gap, &evaluated.gap),
+        evaluated,
+    }
+}
+
+fn sort_ranking(d0: f64, ranking: &mut Vec<Ranked>) {
+    let outcomes: Vec<Outcome> = ranking
+        .iter()
+        .map(|r| r.evaluated.outcome.clone())
+        .collect();
+    let order = verdict::rank(d0, &outcomes);
+    let mut sorted: Vec<Ranked> = order.iter().map(|&i| ranking[i].clone()).collect();
+    std::mem::swap(ranking, &mut sorted);
+}

@@ -1,0 +1,643 @@
+//! The diagnosis's outputs: `diagnosis.json` (machine-readable), `diagnosis.md` (the answer in
+//! words, with the tables), gap-map heatmaps, a ranking chart and before/after overlays of the
+//! real and simulated residual curves; written into a staging folder that replaces the output
+//! folder only once everything is written.
+
+use super::fit::Fitter;
+use super::real::RealMeasurement;
+use super::simulate::{estimate_record, simulate_record, Trial};
+use super::{candidate_name, nominal, DiagnoseError, Diagnosis, Ranked};
+use crate::diagnose::bands::band_edges_hz;
+use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
+use crate::diagnose::gap::{CellGap, GapMap};
+use crate::diagnose::record::Record;
+use crate::io::output_dir::OutputDir;
+use crate::plot::{bars_png, heatmap::heatmap_png, heatmap::Heatmap, stacked_png, Panel, Series};
+use crate::plot::{MEASURED, SECOND, THIRD};
+use crate::scenario::effects::Effect;
+use serde_json::{json, Map, Value};
+use std::path::{Path, PathBuf};
+
+fn band_hz(key: &CellKey, nyquist_hz: f64) -> [f64; 2] {
+    match key.band {
+        Some(b) => band_edges_hz(nyquist_hz)[b as usize],
+        None => [0.0, nyquist_hz],
+    }
+}
+
+fn cell_json(c: &CellGap, nyquist_hz: f64) -> Value {
+    json!({
+        "channel": c.key.channel,
+        "phase": c.key.phase,
+        "band_hz": band_hz(&c.key, nyquist_hz),
+        "unit": c.key.spec().unit,
+        "real": c.real,
+        "sim_mean": c.sim_mean,
+        "sim_std": c.sim_std,
+        "z": c.z,
+        "p": c.p,
+        "significant": c.significant,
+    })
+}
+
+fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
+    let e = &r.evaluated;
+    let single = e.effects.len() == 1;
+    let mut params = Map::new();
+    let mut stds = Map::new();
+    for f in &e.effects {
+        for ((spec, v), s) in f.effect.params().iter().zip(&f.values).zip(&f.stds) {
+            let key = if single {
+                spec.name.to_string()
+            } else {
+                format!("{}.{}", f.effect.name(), spec.name)
+            };
+            params.insert(key.clone(), json!(v));
+            stds.insert(key, if s.is_finite() { json!(s) } else { Value::Null });
+        }
+    }
+    let cell_shrink: Vec<Value> = r
+        .cell_shrink
+        .iter()
+        .map(|(k, s)| json!({"cell": k.label(nyquist_hz), "shrink": s}))
+        .collect();
+    json!({
+        "effect": e.effects[0].effect.name(),
+        "effects": e.effects.iter().map(|f| f.effect.name()).collect::<Vec<_>>(),
+        "group": r.group,
+        "params": params,
+        "params_std": stds,
+        "units": e.effects.iter().flat_map(|f| f.effect.params().iter().map(|p| p.unit)).collect::<Vec<_>>(),
+        "shrink": r.shrink,
+        "score": r.score,
+        "remaining_gap": e.outcome.remaining,
+        "significant_cells_left": e.outcome.significant_left,
+        "method": e.effects.iter().map(|f| format!("{}: {}", f.effect.name(), f.method)).collect::<Vec<_>>(),
+        "cell_shrink": cell_shrink,
+    })
+}
+
+/// `diagnosis.json` as a value.
+pub fn to_json(d: &Diagnosis) -> Value {
+    let a = &d.aligned;
+    let m = &a.motion;
+    let mean_speed = crate::scenario::effects::mean_crank_speed_rad_s(&a.scenario.drive_speed);
+    let nuisance = json!({
+        "theta1_start_rad": m.theta1_start_rad,
+        "crank_speed_scale": m.speed_scale,
+        "mean_crank_speed_rad_s": mean_speed,
+        "angle_offset_rad": m.offset_rad,
+        "time_shift_s": d.real_time_shift_s,
+        "angle_rms_residual_rad": m.rms_residual_rad,
+        "angle_rms_residual_with_nominal_phase_and_speed_rad": m.nominal_rms_residual_rad,
+        "rotation_centre_px": a.geometry.rotation_centre_px,
+        "rotation_centre_sigma_px": a.geometry.rotation_centre_sigma_px,
+        "marker_radius_px": a.geometry.marker_radius_px,
+        "marker_side_px": a.geometry.marker_side_px,
+        "mm_per_px": a.geometry.mm_per_px,
+        "marker_radius_mm": a.geometry.marker_radius_mm,
+        "marker_angle_on_disc_deg": a.geometry.angle_on_disc_deg,
+        "marker_orientation_deg": a.geometry.orientation_deg,
+        "screen_sign": a.screen_sign,
+    });
+    let best = d.best.map(|b| &d.ranking[b]);
+    let remainder = match best {
+        Some(r) => {
+            let cells: Vec<Value> = r
+                .evaluated
+                .gap
+                .significant()
+                .map(|c| cell_json(c, d.nyquist_hz))
+                .collect();
+            json!({
+                "after": candidate_name(&r.evaluated),
+                "total": r.evaluated.gap.total,
+                "cells": cells,
+                "best_partial": d.ranking.iter().take(3).map(|r| candidate_name(&r.evaluated)).collect::<Vec<_>>(),
+            })
+        }
+        None => json!({
+            "after": Value::Null,
+            "total": d.nominal_gap.total,
+            "cells": d.nominal_gap.significant().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
+            "best_partial": Vec::<String>::new(),
+        }),
+    };
+    json!({
+        "verdict": d.verdict.as_str(),
+        "nuisance": nuisance,
+        "gap": {
+            "total": d.nominal_gap.total,
+            "significant": d.nominal_gap.n_significant(),
+            "fdr_q": d.nominal_gap.options.fdr_q,
+            "dead_zone_z": d.nominal_gap.options.dead_zone_z,
+            "cells": d.nominal_gap.cells.iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
+        },
+        "ranking": d.ranking.iter().map(|r| ranked_json(r, d.nyquist_hz)).collect::<Vec<_>>(),
+        "remainder": remainder,
+        "screened_out": d.screened_out.iter().map(|(e, s)| json!({"effect": e.name(), "gap_share": s})).collect::<Vec<_>>(),
+        "bounded_out": d.bounded_out.iter().map(|(e, s)| json!({"effect": e.name(), "gap_share": s})).collect::<Vec<_>>(),
+        "not_tried": d.not_tried.iter().map(|e| e.name()).collect::<Vec<_>>(),
+        "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
+        "pair_tried": d.pair_tried,
+        "thresholds": {
+            "explained_shrink": crate::diagnose::verdict::EXPLAINED_SHRINK,
+            "penalty_per_param": crate::diagnose::verdict::PENALTY_PER_PARAM,
+            "group_margin": crate::diagnose::verdict::GROUP_MARGIN,
+        },
+        "run": {
+            "frames": d.frames,
+            "detected": d.detected,
+            "frames_seen": d.has_images,
+            "nyquist_hz": d.nyquist_hz,
+            "seeds": d.seeds,
+            "fit_seeds": d.fit_seeds,
+            "simulations": d.simulations,
+            "elapsed_s": d.elapsed_s,
+        },
+    })
+}
+
+fn fmt(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if v.abs() >= 1e4 || v.abs() < 1e-3 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
+}
+
+fn params_text(r: &Ranked) -> String {
+    r.evaluated
+        .effects
+        .iter()
+        .flat_map(|f| {
+            f.effect
+                .params()
+                .iter()
+                .zip(&f.values)
+                .zip(&f.stds)
+                .map(move |((p, v), s)| {
+                    if s.is_finite() {
+                        format!("{} = {} ± {} {}", p.name, fmt(*v), fmt(*s), p.unit)
+                    } else {
+                        format!("{} = {} {}", p.name, fmt(*v), p.unit)
+                    }
+                })
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `diagnosis.md`.
+pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
+    let mut s = String::new();
+    let best = d.best.map(|b| &d.ranking[b]);
+    s.push_str("# Sim-to-real diagnosis\n\n");
+    let answer = match (d.verdict, best) {
+        (crate::diagnose::verdict::Verdict::NoGap, _) => format!(
+            "**No gap.** The real measurement lies within the nominal simulation's spread: none of \
+             the {} compared cells differs significantly (false-discovery rate {}).",
+            d.nominal_gap.cells.len(),
+            d.nominal_gap.options.fdr_q
+        ),
+        (crate::diagnose::verdict::Verdict::Explained, Some(r)) => {
+            let mut t = format!(
+                "**Explained by `{}`** ({}): adding it closes {:.0} % of the gap and leaves no \
+                 significant difference.",
+                candidate_name(&r.evaluated),
+                params_text(r),
+                100.0 * r.shrink
+            );
+            if !r.group.is_empty() {
+                t.push_str(&format!(
+                    " The data cannot tell it apart from {}: they are reported together.",
+                    r.group
+                        .iter()
+                        .map(|g| format!("`{g}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            if r.evaluated.effects.len() > 1 {
+                t.push_str(" One effect alone was not enough; the pair was found greedily.");
+            }
+            t
+        }
+        (_, Some(r)) => format!(
+            "**Unexplained.** No candidate closes enough of the gap: the best, `{}` ({}), closes \
+             {:.0} % and leaves {} significant cell(s). What is left is listed under Remainder.",
+            candidate_name(&r.evaluated),
+            params_text(r),
+            100.0 * r.shrink,
+            r.evaluated.outcome.significant_left
+        ),
+        (_, None) => "**Unexplained.** There is a gap, but no candidate effect has a signature \
+                      in the cells that differ."
+            .to_string(),
+    };
+    s.push_str(&answer);
+    s.push_str("\n\n");
+    s.push_str(&format!(
+        "Compared: {} real frames ({} with the marker{}), against the nominal simulated at the \
+         same frame times on {} seeds; {} simulations in {:.0} s. Frequency bands up to the \
+         footage's Nyquist rate of {:.2} Hz.\n\n",
+        d.frames,
+        d.detected,
+        if d.has_images {
+            ""
+        } else {
+            "; corner track only, no image channels"
+        },
+        d.seeds.len(),
+        d.simulations,
+        d.elapsed_s,
+        d.nyquist_hz
+    ));
+    let a = &d.aligned;
+    s.push_str("## Nuisance fitted first (not effects)\n\n| what | value |\n|---|---|\n");
+    s.push_str(&format!(
+        "| crank angle at t = 0 | {:.4} rad |\n| crank speed | {:.4} × nominal (mean {:.4} rad/s) |\n\
+         | angle residual after alignment | {:.2e} rad RMS (with the nominal's phase and speed: {:.2e}) |\n\
+         | rotation centre | ({:.2}, {:.2}) ± ({:.2}, {:.2}) px |\n| marker radius | {:.2} px = {:.2} mm |\n\
+         | image scale | {:.5} mm/px (marker side {:.2} px) |\n| marker on the disc | at {:.2}°, turned {:.2}° |\n\n",
+        a.motion.theta1_start_rad,
+        a.motion.speed_scale,
+        crate::scenario::effects::mean_crank_speed_rad_s(&a.scenario.drive_speed),
+        a.motion.rms_residual_rad,
+        a.motion.nominal_rms_residual_rad,
+        a.geometry.rotation_centre_px[0],
+        a.geometry.rotation_centre_px[1],
+        a.geometry.rotation_centre_sigma_px[0],
+        a.geometry.rotation_centre_sigma_px[1],
+        a.geometry.marker_radius_px,
+        a.geometry.marker_radius_mm,
+        a.geometry.mm_per_px,
+        a.geometry.marker_side_px,
+        a.geometry.angle_on_disc_deg,
+        a.geometry.orientation_deg
+    ));
+    s.push_str(&format!(
+        "## Where the gap lies\n\nTotal gap D₀ = {:.1} (Σ over cells of max(0, |z| − {})²), {} of {} \
+         cells significant. z = (real − simulated mean) / √(seed variance·(1 + 1/N) + model \
+         tolerance²).\n\n",
+        d.nominal_gap.total,
+        d.nominal_gap.options.dead_zone_z,
+        d.nominal_gap.n_significant(),
+        d.nominal_gap.cells.len()
+    ));
+    s.push_str(&gap_table(&d.nominal_gap, d.nyquist_hz, 12));
+    s.push_str("\n## Which effect causes it\n\n");
+    if d.ranking.is_empty() {
+        s.push_str("No candidate was fitted");
+        s.push_str(if d.nominal_gap.n_significant() == 0 {
+            " (there is no gap).\n\n"
+        } else {
+            ".\n\n"
+        });
+    } else {
+        s.push_str("| rank | candidate | fitted parameters | shrink | score (penalised) | significant cells left |\n|---|---|---|---|---|---|\n");
+        for (i, r) in d.ranking.iter().enumerate() {
+            s.push_str(&format!(
+                "| {} | `{}` | {} | {:.0} % | {:.2} | {} |\n",
+                i + 1,
+                candidate_name(&r.evaluated),
+                params_text(r),
+                100.0 * r.shrink,
+                r.score,
+                r.evaluated.outcome.significant_left
+            ));
+        }
+        s.push_str(&format!(
+            "\nshrink = 1 − D_k / D₀ on fresh seeds (the fit used other seeds); the score \
+             subtracts {} per fitted parameter from D_k first. `explained` needs a score ≥ {} \
+             and no significant cell left.\n\n",
+            crate::diagnose::verdict::PENALTY_PER_PARAM,
+            crate::diagnose::verdict::EXPLAINED_SHRINK
+        ));
+    }
+    if let Some(r) = best {
+        if r.evaluated.outcome.significant_left > 0 {
+            s.push_str(&format!(
+                "## Remainder after `{}`\n\n",
+                candidate_name(&r.evaluated)
+            ));
+            s.push_str(&gap_table(&r.evaluated.gap, d.nyquist_hz, 10));
+            s.push('\n');
+        }
+    }
+    let list = |v: &[Effect]| {
+        v.iter()
+            .map(|e| format!("`{}`", e.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if !d.screened_out.is_empty() {
+        s.push_str(&format!(
+            "Screened out (no significant cell in their signature): {}.\n\n",
+            d.screened_out
+                .iter()
+                .map(|(e, _)| format!("`{}`", e.name()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    if !d.bounded_out.is_empty() {
+        s.push_str(&format!(
+            "Not fitted (their share of the gap, an upper bound on their shrink, is below the best \
+             score by more than the group margin {}): {}.\n\n",
+            crate::diagnose::verdict::GROUP_MARGIN,
+            d.bounded_out
+                .iter()
+                .map(|(e, sh)| format!("`{}` ({:.0} %)", e.name(), 100.0 * sh))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    if !d.not_judged.is_empty() {
+        s.push_str(&format!(
+            "Not judged: {} act on the pixels and cannot be judged from a corner track.\n\n",
+            list(&d.not_judged)
+        ));
+    }
+    if !d.not_tried.is_empty() {
+        s.push_str(&format!(
+            "Not tried (time cap reached): {}.\n\n",
+            list(&d.not_tried)
+        ));
+    }
+    if !figures.is_empty() {
+        s.push_str("## Figures\n\n");
+        for f in figures {
+            s.push_str(&format!("![{f}]({f})\n"));
+        }
+    }
+    s
+}
+
+fn gap_table(g: &GapMap, nyquist_hz: f64, rows: usize) -> String {
+    let mut cells: Vec<&CellGap> = g.cells.iter().collect();
+    cells.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
+    let mut s =
+        String::from("| cell | real | simulated | z | significant |\n|---|---|---|---|---|\n");
+    for c in cells.iter().take(rows) {
+        s.push_str(&format!(
+            "| {} | {} {} | {} ± {} | {:+.1} | {} |\n",
+            c.key.label(nyquist_hz),
+            fmt(c.real),
+            c.key.spec().unit,
+            fmt(c.sim_mean),
+            fmt(c.sim_std),
+            c.z,
+            if c.significant { "yes" } else { "" }
+        ));
+    }
+    s
+}
+
+fn plot_err(e: crate::plot::PlotError) -> DiagnoseError {
+    DiagnoseError::Output {
+        file: PathBuf::from(e.file),
+        message: e.message,
+    }
+}
+
+/// Heatmaps of |z|: one per banded channel (band × phase) and one for the others.
+fn gap_heatmaps(g: &GapMap, nyquist_hz: f64, dir: &Path) -> Result<Vec<PathBuf>, DiagnoseError> {
+    let mut files = Vec::new();
+    let phases = &PHASES[..4];
+    let edges = band_edges_hz(nyquist_hz);
+    let z = |key: CellKey| g.cell(&key).map_or(f64::NAN, |c| c.z.abs().max(1e-3));
+    for ch in CHANNELS.iter().filter(|c| c.banded) {
+        if !g.cells.iter().any(|c| c.key.channel == ch.name) {
+            continue;
+        }
+        let values: Vec<Vec<f64>> = (0..3u8)
+            .map(|b| {
+                phases
+                    .iter()
+                    .map(|p| {
+                        z(CellKey {
+                            channel: ch.name,
+                            phase: p,
+                            band: Some(b),
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let path = dir.join(format!("gap_map_{}.png", ch.name));
+        heatmap_png(
+            &path,
+            &Heatmap {
+                title: format!("|z| of {} ({}): real vs nominal", ch.name, ch.description),
+                x_label: "phase".into(),
+                y_label: "band (Hz)".into(),
+                x_ticks: phases.iter().map(|p| p.to_string()).collect(),
+                y_ticks: edges
+                    .iter()
+                    .map(|e| format!("{:.1}-{:.1}", e[0], e[1]))
+                    .collect(),
+                values,
+            },
+        )
+        .map_err(plot_err)?;
+        files.push(path);
+    }
+    let others: Vec<&str> = CHANNELS
+        .iter()
+        .filter(|c| !c.banded && g.cells.iter().any(|x| x.key.channel == c.name))
+        .map(|c| c.name)
+        .collect();
+    if !others.is_empty() {
+        let values: Vec<Vec<f64>> = others
+            .iter()
+            .map(|ch| {
+                PHASES
+                    .iter()
+                    .map(|p| {
+                        z(CellKey {
+                            channel: ch,
+                            phase: p,
+                            band: None,
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let path = dir.join("gap_map_other.png");
+        heatmap_png(
+            &path,
+            &Heatmap {
+                title: "|z| of the unbanded channels: real vs nominal".into(),
+                x_label: "phase".into(),
+                y_label: "channel".into(),
+                x_ticks: PHASES.iter().map(|p| p.to_string()).collect(),
+                y_ticks: others.iter().map(|c| c.to_string()).collect(),
+                values,
+            },
+        )
+        .map_err(plot_err)?;
+        files.push(path);
+    }
+    Ok(files)
+}
+
+/// Angle and ω residual series of a record against the aligned motion.
+/// Angle, ω and α residual curves.
+type Residuals = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+fn residuals(
+    d: &Diagnosis,
+    scenario: &crate::scenario::Scenario,
+    record: &Record,
+    est: Option<&crate::estimate::Estimate>,
+) -> Result<Residuals, DiagnoseError> {
+    let owned;
+    let est = match est {
+        Some(e) => e,
+        None => {
+            owned = estimate_record(scenario, record)?;
+            &owned
+        }
+    };
+    let (r, _) = nominal::motion_reference(&d.aligned.reference, record, est);
+    let p = est.primary_series();
+    let th = p
+        .theta_rad
+        .iter()
+        .zip(&r.theta_rad)
+        .map(|(a, b)| a - b)
+        .collect();
+    let w = p
+        .omega_rad_s
+        .iter()
+        .zip(&r.omega_rad_s)
+        .map(|(a, b)| a - b)
+        .collect();
+    Ok((record.t_s(), th, w))
+}
+
+fn overlay(
+    d: &Diagnosis,
+    fitter: &Fitter<'_>,
+    real: &RealMeasurement,
+    path: &Path,
+) -> Result<bool, DiagnoseError> {
+    let seed = d.seeds[0];
+    let sim = |trial: &Trial| -> Result<Residuals, DiagnoseError> {
+        let mut s = trial.scenario.clone();
+        s.seed = seed;
+        let mut record = simulate_record(&s, fitter.ctx.layout, false)?;
+        if let Some(fps) = trial.stamped_fps {
+            for (k, f) in record.frames.iter_mut().enumerate() {
+                f.t_s = k as f64 / fps;
+            }
+        }
+        residuals(d, &s, &record, None)
+    };
+    let (t, th, w) = residuals(d, &d.aligned.scenario, &real.record, Some(&real.estimate))?;
+    let nominal = sim(&fitter.base)?;
+    let best = match d.best {
+        Some(b) => {
+            let applied: Vec<(Effect, Vec<f64>)> = d.ranking[b]
+                .evaluated
+                .effects
+                .iter()
+                .map(|f| (f.effect, f.values.clone()))
+                .collect();
+            Some((
+                candidate_name(&d.ranking[b].evaluated),
+                sim(&fitter.trial_with(&applied)?)?,
+            ))
+        }
+        None => None,
+    };
+    let pts = |t: &[f64], v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
+    let mut theta = vec![
+        Series::points("real", pts(&t, &th), MEASURED),
+        Series::line("nominal (seed 1)", pts(&nominal.0, &nominal.1), SECOND),
+    ];
+    let mut omega = vec![
+        Series::points("real", pts(&t, &w), MEASURED),
+        Series::line("nominal (seed 1)", pts(&nominal.0, &nominal.2), SECOND),
+    ];
+    if let Some((name, b)) = &best {
+        theta.push(Series::line(format!("with {name}"), pts(&b.0, &b.1), THIRD));
+        omega.push(Series::line(format!("with {name}"), pts(&b.0, &b.2), THIRD));
+    }
+    stacked_png(
+        path,
+        &[
+            Panel {
+                title: "angle residual after the aligned nominal motion".into(),
+                x_label: "t (s)".into(),
+                y_label: "rad".into(),
+                series: theta,
+            },
+            Panel {
+                title: "omega residual".into(),
+                x_label: "t (s)".into(),
+                y_label: "rad/s".into(),
+                series: omega,
+            },
+        ],
+        1200,
+        420,
+    )
+    .map_err(plot_err)?;
+    Ok(true)
+}
+
+/// Writes every output into the staging folder.
+pub fn write(
+    d: &Diagnosis,
+    fitter: &Fitter<'_>,
+    real: &RealMeasurement,
+    staging: &OutputDir,
+) -> Result<Vec<PathBuf>, DiagnoseError> {
+    let dir = staging.path();
+    let mut files = gap_heatmaps(&d.nominal_gap, d.nyquist_hz, dir)?;
+    if !d.ranking.is_empty() {
+        let path = dir.join("ranking.png");
+        let bars: Vec<(String, f64)> = d
+            .ranking
+            .iter()
+            .map(|r| (candidate_name(&r.evaluated), r.shrink))
+            .collect();
+        bars_png(
+            &path,
+            "shrink of the gap per candidate (fresh seeds)",
+            "1 − D_k / D0",
+            &bars,
+        )
+        .map_err(plot_err)?;
+        files.push(path);
+    }
+    let overlay_path = dir.join("residuals_before_after.png");
+    if overlay(d, fitter, real, &overlay_path)? {
+        files.push(overlay_path);
+    }
+    let figures: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().to_string()))
+        .collect();
+    let md_path = dir.join("diagnosis.md");
+    std::fs::write(&md_path, markdown(d, &figures)).map_err(|e| DiagnoseError::Output {
+        file: md_path.clone(),
+        message: e.to_string(),
+    })?;
+    let json_path = dir.join("diagnosis.json");
+    let text = serde_json::to_string_pretty(&to_json(d)).map_err(|e| DiagnoseError::Output {
+        file: json_path.clone(),
+        message: e.to_string(),
+    })?;
+    std::fs::write(&json_path, text + "\n").map_err(|e| DiagnoseError::Output {
+        file: json_path.clone(),
+        message: e.to_string(),
+    })?;
+    files.insert(0, md_path);
+    files.insert(0, json_path);
+    Ok(files)
+}

@@ -1,0 +1,707 @@
+//! The diagnosis self-check: footage with a known cause, rendered by the project's renderer,
+//! diagnosed against a nominal that lacks the cause, and scored
+//! ([`crate::diagnose::scoring`]).
+//!
+//! Cases (see [`cases`]):
+//! - **withheld**: one effect of the vocabulary on in the data at a strong level (the registry's
+//!   probe value, clearly visible) or a weak one (30 % of the way from the bottom of its search
+//!   range to the probe, on the parameter's scale), the nominal the same rig with it off;
+//! - **null**: nothing withheld; the data differ from the nominal only by nuisance (crank phase
+//!   and speed, rotation centre, marker angle), seeds and, in half of them, by real phone frame
+//!   timing (the seed's `showinfo` logs, which the nominal reads as the footage's own timestamps);
+//! - **out of vocabulary**: mains-light flicker (the frame's gain modulated at the beat of 100 Hz
+//!   light with the frame rate: no effect of the vocabulary draws it), and a withheld effect that
+//!   `--effects` excludes from the candidates.
+//!
+//! Every case perturbs the data's nuisance by a seeded draw, so the alignment is exercised in
+//! every case and the nominal is never the data's exact twin.
+//!
+//! A case's frames are deleted once diagnosed (they are reproducible from the case); set
+//! `GENEVA_KEEP_FRAMES` to keep them for inspection.
+
+use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
+use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate};
+use crate::pipeline::analyze::Source;
+use crate::pipeline::render_job::{render_job, RenderJob};
+use crate::scenario::effects::Effect;
+use crate::scenario::Scenario;
+use crate::shard::{Manifest, Study, UnitDirs};
+use crate::timing::{LogModel, TimingModel};
+use rand::Rng;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Strength of a withheld effect.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    Strong,
+    Weak,
+}
+
+/// A perturbation of the footage after rendering.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PostProcess {
+    None,
+    /// Frame gain × (1 + amplitude·sin(2π·beat·t)): mains flicker aliased by the frame rate.
+    Flicker {
+        amplitude_frac: f64,
+        beat_hz: f64,
+    },
+    /// The footage's timestamps replaced by k / fps (a recorder that stamps a constant rate).
+    ConstantRateStamps {
+        fps_hz: f64,
+    },
+}
+
+/// One self-check case.
+#[derive(Debug, Clone)]
+pub struct Case {
+    pub name: String,
+    pub expectation: Expectation,
+    /// The rig that makes the footage.
+    pub data: Scenario,
+    /// The rig as the diagnosis is told it is.
+    pub nominal: Scenario,
+    pub post: PostProcess,
+    /// Candidate restriction (`--effects`).
+    pub effects: Option<Vec<Effect>>,
+    /// The withheld effect and its true parameter values.
+    pub truth: Option<(Effect, Vec<f64>)>,
+}
+
+/// Parameter values of a withheld effect at `level`.
+pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
+    effect
+        .params()
+        .iter()
+        .map(|p| match level {
+            Level::Strong => p.probe,
+            Level::Weak => {
+                let (lo, hi) = (p.search.0, p.probe);
+                if p.log_scale && lo > 0.0 && hi > 0.0 {
+                    lo * (hi / lo).powf(0.3)
+                } else {
+                    lo + 0.3 * (hi - lo)
+                }
+            }
+        })
+        .collect()
+}
+
+/// Moves the data's nuisance by a seeded draw: crank phase ±0.2 rad, mean speed ±1.5 %, rotation
+/// centre ±1.5 px, marker angle on the disc ±3°.
+pub fn perturb_nuisance(s: &mut Scenario, seed: u64) {
+    let mut r = crate::rng::stream(seed, crate::rng::Stream::DiagnoseNuisance, 1);
+    let mut u = |a: f64| a * (2.0 * r.gen::<f64>() - 1.0);
+    let start = s.mechanism.theta1_start_rad.unwrap_or(0.0);
+    s.mechanism.theta1_start_rad = Some(start + u(0.2));
+    s.drive_speed = crate::diagnose::align::scale_drive(&s.drive_speed, 1.0 + u(0.015));
+    let centre = s.camera.rotation_centre_px.unwrap_or([
+        s.camera.width_px as f64 / 2.0,
+        s.camera.height_px as f64 / 2.0,
+    ]);
+    s.camera.rotation_centre_px = Some([centre[0] + u(1.5), centre[1] + u(1.5)]);
+    s.scene.marker.angle_on_disc_deg += u(3.0);
+}
+
+/// The effects a withheld case is made of: every effect of the vocabulary except the one that
+/// only shares another's switch (`overrotation` is `backlash`'s contact dynamics seen at exit).
+pub fn withheld_effects() -> Vec<Effect> {
+    Effect::ALL
+        .iter()
+        .copied()
+        .filter(|e| *e != Effect::Overrotation)
+        .collect()
+}
+
+/// The seed's phone logs (`../shared/real/phone-frame-timing/*.showinfo.log`) found next to the
+/// repository, sorted.
+pub fn phone_logs(repo: &Path) -> Vec<PathBuf> {
+    let dir = repo.join("../shared/real/phone-frame-timing");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.to_string_lossy().ends_with(".showinfo.log"))
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Size of a self-check.
+#[derive(Debug, Clone)]
+pub struct SuitePlan {
+    pub effects: Vec<Effect>,
+    pub levels: Vec<Level>,
+    pub seeds_per_case: usize,
+    pub null_cases: usize,
+    pub flicker_cases: usize,
+    pub excluded_cases: usize,
+}
+
+/// The cases of a self-check built on `base` (the rig every case starts from, with the
+/// effects it has on kept on in both data and nominal).
+pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
+    let mut out = Vec::new();
+    let mut case_seed = base.seed;
+    let mut next_seed = || {
+        case_seed = case_seed.wrapping_add(7919);
+        case_seed
+    };
+    for &e in &plan.effects {
+        for &level in &plan.levels {
+            for k in 0..plan.seeds_per_case {
+                let seed = next_seed();
+                let values = level_values(e, level);
+                let mut nominal = base.clone();
+                e.switch_off(&mut nominal);
+                for other in e.shares_switch_with() {
+                    other.switch_off(&mut nominal);
+                }
+                let mut data = nominal.clone();
+                let mut post = PostProcess::None;
+                if e == Effect::Timebase {
+                    post = PostProcess::ConstantRateStamps { fps_hz: values[0] };
+                    // Frames taken on a phone's variable schedule, stamped at a constant rate.
+                    data.frame_timing.model = TimingModel::Vfr(Default::default());
+                    nominal.frame_timing.model = TimingModel::Constant;
+                } else {
+                    e.apply(&mut data, &values);
+                }
+                data.seed = seed;
+                perturb_nuisance(&mut data, seed);
+                let level_name = if level == Level::Strong {
+                    "strong"
+                } else {
+                    "weak"
+                };
+                out.push(Case {
+                    name: format!("withheld-{}-{level_name}-{k}", e.name()),
+                    expectation: Expectation::Withheld {
+                        effect: e.name().into(),
+                        also: e
+                            .shares_switch_with()
+                            .iter()
+                            .map(|o| o.name().to_string())
+                            .collect(),
+                        strong: level == Level::Strong,
+                    },
+                    data,
+                    nominal,
+                    post,
+                    effects: None,
+                    truth: Some((e, values)),
+                });
+            }
+        }
+    }
+    for k in 0..plan.null_cases {
+        let seed = next_seed();
+        let mut data = base.clone();
+        let mut nominal = base.clone();
+        if k % 2 == 1 && !logs.is_empty() {
+            let log = &logs[(k / 2) % logs.len()];
+            let model = TimingModel::Log(LogModel {
+                file: log.to_string_lossy().into_owned(),
+                ..Default::default()
+            });
+            data.frame_timing.model = model.clone();
+            nominal.frame_timing.model = model;
+        }
+        data.seed = seed;
+        perturb_nuisance(&mut data, seed);
+        out.push(Case {
+            name: format!("null-{k}"),
+            expectation: Expectation::Null,
+            data,
+            nominal,
+            post: PostProcess::None,
+            effects: None,
+            truth: None,
+        });
+    }
+    for k in 0..plan.flicker_cases {
+        let seed = next_seed();
+        let mut data = base.clone();
+        data.seed = seed;
+        perturb_nuisance(&mut data, seed);
+        out.push(Case {
+            name: format!("oov-flicker-{k}"),
+            expectation: Expectation::OutOfVocabulary,
+            data,
+            nominal: base.clone(),
+            // 100 Hz light at 29.6–30 fps beats at a few Hz; a 6 % swing is a cheap LED lamp.
+            post: PostProcess::Flicker {
+                amplitude_frac: 0.06,
+                beat_hz: 2.5 + 0.5 * k as f64,
+            },
+            effects: None,
+            truth: None,
+        });
+    }
+    let excluded = [
+        Effect::RollingShutter,
+        Effect::OpticalBlur,
+        Effect::PixelNoise,
+    ];
+    for k in 0..plan.excluded_cases {
+        let seed = next_seed();
+        let e = excluded[k % excluded.len()];
+        let mut nominal = base.clone();
+        e.switch_off(&mut nominal);
+        let mut data = nominal.clone();
+        e.apply(&mut data, &level_values(e, Level::Strong));
+        data.seed = seed;
+        perturb_nuisance(&mut data, seed);
+        let candidates: Vec<Effect> = Effect::ALL
+            .iter()
+            .copied()
+            .filter(|c| *c != e && !e.shares_switch_with().contains(c))
+            .collect();
+        out.push(Case {
+            name: format!("oov-excluded-{}-{k}", e.name()),
+            expectation: Expectation::OutOfVocabulary,
+            data,
+            nominal,
+            post: PostProcess::None,
+            effects: Some(candidates),
+            truth: None,
+        });
+    }
+    out
+}
+
+/// Renders `case`'s footage into `dir` (PNG frames + `timestamps.csv`) and applies its
+/// post-processing.
+pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
+    let sim = |e: &dyn std::fmt::Display| DiagnoseError::Simulation(format!("{}: {e}", case.name));
+    let job = RenderJob {
+        frames: None,
+        roi_margin_px: None,
+        video: None,
+        png: true,
+    };
+    render_job(&case.data, dir, &job, &|_, _| {}).map_err(|e| sim(&e))?;
+    let stamps = dir.join("timestamps.csv");
+    let text = std::fs::read_to_string(&stamps).map_err(|e| sim(&e))?;
+    let times: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').nth(1).and_then(|v| v.trim().parse().ok()))
+        .collect();
+    match case.post {
+        PostProcess::None => {}
+        PostProcess::ConstantRateStamps { fps_hz } => {
+            let mut out = String::from("frame,t_s\n");
+            for k in 0..times.len() {
+                out.push_str(&format!("{k},{}\n", k as f64 / fps_hz));
+            }
+            std::fs::write(&stamps, out).map_err(|e| sim(&e))?;
+        }
+        PostProcess::Flicker {
+            amplitude_frac,
+            beat_hz,
+        } => {
+            for (k, t) in times.iter().enumerate() {
+                let path = dir.join(crate::pipeline::render_job::frame_file_name(k));
+                let mut img = crate::io::images::read_gray(&path).map_err(|e| sim(&e))?;
+                let gain = 1.0 + amplitude_frac * (2.0 * std::f64::consts::PI * beat_hz * t).sin();
+                for v in img.data.iter_mut() {
+                    *v = (*v as f64 * gain).round().clamp(0.0, 255.0) as u8;
+                }
+                crate::io::png_out::write_gray_png(
+                    &path,
+                    img.width as u32,
+                    img.height as u32,
+                    &img.data,
+                )
+                .map_err(|e| sim(&e))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What one case gave.
+pub fn outcome(case: &Case, d: &Diagnosis, elapsed_s: f64) -> CaseOutcome {
+    let ranked: Vec<Vec<String>> = d
+        .ranking
+        .iter()
+        .map(|r| {
+            let mut names: Vec<String> = r
+                .evaluated
+                .effects
+                .iter()
+                .map(|f| f.effect.name().to_string())
+                .collect();
+            names.extend(
+                r.group
+                    .iter()
+                    .flat_map(|g| g.split('+').map(str::to_string)),
+            );
+            names
+        })
+        .collect();
+    let best = d.best.map(|b| &d.ranking[b]);
+    let mut param_rel_errors = Vec::new();
+    if let (Some((effect, truth)), Some(best)) = (&case.truth, best) {
+        if let Some(f) = best.evaluated.effects.iter().find(|f| f.effect == *effect) {
+            for ((v, s), t) in f.values.iter().zip(&f.stds).zip(truth) {
+                // Only parameters the data determine (a finite uncertainty) and that are not zero.
+                if s.is_finite() && t.abs() > 0.0 {
+                    param_rel_errors.push(((v - t) / t).abs());
+                }
+            }
+        }
+    }
+    CaseOutcome {
+        name: case.name.clone(),
+        expectation: case.expectation.clone(),
+        verdict: d.verdict.as_str().to_string(),
+        ranked,
+        best_shrink: best.map(|b| b.shrink),
+        param_rel_errors,
+        elapsed_s,
+    }
+}
+
+/// Renders, diagnoses and scores one case in `work_dir/<case name>/`.
+pub fn run_case(
+    case: &Case,
+    work_dir: &Path,
+    options: &DiagnoseOptions,
+) -> Result<CaseOutcome, DiagnoseError> {
+    let dir = work_dir.join(&case.name);
+    let frames = dir.join("frames");
+    if frames.exists() {
+        std::fs::remove_dir_all(&frames).map_err(|e| DiagnoseError::Output {
+            file: frames.clone(),
+            message: e.to_string(),
+        })?;
+    }
+    render_case(case, &frames)?;
+    let mut o = options.clone();
+    o.effects = case.effects.clone();
+    let started = std::time::Instant::now();
+    let source = Source::Frames {
+        dir: frames.clone(),
+        timestamps: frames.join("timestamps.csv"),
+    };
+    let (d, _) = diagnose(
+        &case.nominal,
+        &source,
+        &dir.join("diagnosis"),
+        &o,
+        &|_, _, _| {},
+    )?;
+    let elapsed = started.elapsed().as_secs_f64();
+    // The frames are large and reproducible from the case: keep only the diagnosis.
+    if std::env::var_os("GENEVA_KEEP_FRAMES").is_none() {
+        let _ = std::fs::remove_dir_all(&frames);
+    }
+    Ok(outcome(case, &d, elapsed))
+}
+
+/// The self-check as a study of case units (resumable, shardable, merged like a sweep).
+pub struct SelfCheck {
+    pub cases: Vec<Case>,
+    pub options: DiagnoseOptions,
+    pub plan_text: String,
+    manifest: Manifest,
+}
+
+impl SelfCheck {
+    pub fn new(cases: Vec<Case>, options: DiagnoseOptions, plan_text: String) -> Self {
+        let mut inputs = BTreeMap::new();
+        for c in &cases {
+            inputs.insert(
+                c.name.clone(),
+                serde_json::json!({
+                    "data": serde_json::to_value(&c.data).unwrap_or_default(),
+                    "nominal": serde_json::to_value(&c.nominal).unwrap_or_default(),
+                    "post": format!("{:?}", c.post),
+                    "effects": c.effects.as_ref().map(|v| v.iter().map(|e| e.name()).collect::<Vec<_>>()),
+                }),
+            );
+        }
+        inputs.insert(
+            "options".into(),
+            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "pairs": options.pairs}),
+        );
+        let manifest = Manifest::new("diagnosis-selfcheck", cases.len(), inputs);
+        Self {
+            cases,
+            options,
+            plan_text,
+            manifest,
+        }
+    }
+}
+
+impl Study for SelfCheck {
+    type Error = DiagnoseError;
+
+    fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    fn run_unit(&self, unit: usize, work_dir: &Path) -> Result<String, DiagnoseError> {
+        let case = &self.cases[unit];
+        let outcome = run_case(case, &work_dir.join("cases"), &self.options)?;
+        serde_json::to_string(&outcome).map_err(|e| DiagnoseError::Output {
+            file: work_dir.to_path_buf(),
+            message: format!("{}: {e}", case.name),
+        })
+    }
+
+    fn finalize(
+        &self,
+        records: &[String],
+        _unit_dirs: UnitDirs,
+        out_dir: &Path,
+    ) -> Result<(), DiagnoseError> {
+        let outcomes: Vec<CaseOutcome> = records
+            .iter()
+            .map(|r| {
+                serde_json::from_str(r).map_err(|e| DiagnoseError::Output {
+                    file: out_dir.to_path_buf(),
+                    message: format!("a case record does not parse: {e}"),
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        write_summary(&outcomes, &self.plan_text, out_dir)
+    }
+
+    fn unit_name(&self, unit: usize) -> String {
+        self.cases
+            .get(unit)
+            .map_or_else(|| format!("case {unit}"), |c| c.name.clone())
+    }
+}
+
+fn pct(r: &Rate) -> String {
+    match (r.value(), r.wilson95()) {
+        (Some(v), Some((lo, hi))) => format!(
+            "{:.0} % ({}/{}; 95 % CI {:.0}–{:.0} %)",
+            100.0 * v,
+            r.k,
+            r.n,
+            100.0 * lo,
+            100.0 * hi
+        ),
+        _ => "– (no case)".into(),
+    }
+}
+
+/// Writes `README.md`, `summary.json`, `cases.csv` and `confusion.csv` of a self-check.
+pub fn write_summary(
+    outcomes: &[CaseOutcome],
+    plan_text: &str,
+    out_dir: &Path,
+) -> Result<(), DiagnoseError> {
+    let s = score(outcomes);
+    let w = |name: &str, text: String| {
+        let path = out_dir.join(name);
+        std::fs::write(&path, text).map_err(|e| DiagnoseError::Output {
+            file: path.clone(),
+            message: e.to_string(),
+        })
+    };
+    let opt = |v: Option<f64>, unit: &str, k: f64| {
+        v.map_or("–".into(), |v| format!("{:.2}{unit}", v * k))
+    };
+    let targets = [
+        ("top-1, strong", pct(&s.top1_strong), "≥ 90 %"),
+        ("top-3, strong", pct(&s.top3_strong), "≥ 98 %"),
+        ("gap found, strong", pct(&s.detected_strong), "–"),
+        ("top-1, near the limit", pct(&s.top1_weak), "–"),
+        ("top-3, near the limit", pct(&s.top3_weak), "–"),
+        ("gap found, near the limit", pct(&s.detected_weak), "–"),
+        ("false alarms on null cases", pct(&s.false_alarms), "≤ 5 %"),
+        (
+            "out of vocabulary → unexplained",
+            pct(&s.unexplained_recall),
+            "≥ 80 %",
+        ),
+        (
+            "median shrink of the top candidate, strong",
+            opt(s.median_shrink_strong, " %", 100.0),
+            "≥ 80 %",
+        ),
+        (
+            "median relative error of identifiable fitted parameters, strong (top-1 cases)",
+            opt(s.median_param_rel_error_strong, " %", 100.0),
+            "≤ 15 %",
+        ),
+    ];
+    let mut md = String::from(
+        "# Diagnosis self-check\n\nFootage with a known cause rendered by this project's renderer, diagnosed by \
+         `geneva diagnose` against a nominal without that cause (see \
+         `src/pipeline/diagnose/selfcheck.rs` for the cases). Every figure is a count over the cases \
+         below, with a 95 % Wilson interval; \"top-k\" counts a case only when a gap was found and the \
+         withheld effect (or its group, or an effect sharing its switch) is among the k best candidates. \
+         Generated by `cargo xtask reports` (`geneva diagnose-selfcheck`).\n\n",
+    );
+    md.push_str(plan_text);
+    md.push_str("\n\n| figure | measured | target (issue #11) |\n|---|---|---|\n");
+    for (name, v, t) in targets {
+        md.push_str(&format!("| {name} | {v} | {t} |\n"));
+    }
+    md.push_str(
+        "\n## Confusion matrix (rows: what the footage holds; columns: the diagnosis' answer)\n\n",
+    );
+    let mut cols: Vec<String> = s
+        .confusion
+        .values()
+        .flat_map(|r| r.keys().cloned())
+        .collect();
+    cols.sort();
+    cols.dedup();
+    md.push_str(&format!(
+        "| case | {} |\n|---|{}\n",
+        cols.join(" | "),
+        "---|".repeat(cols.len())
+    ));
+    let mut csv = format!("case,{}\n", cols.join(","));
+    for (row, counts) in &s.confusion {
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|c| counts.get(c).map_or(String::new(), |n| n.to_string()))
+            .collect();
+        md.push_str(&format!("| {row} | {} |\n", cells.join(" | ")));
+        csv.push_str(&format!(
+            "{row},{}\n",
+            cols.iter()
+                .map(|c| counts.get(c).copied().unwrap_or(0).to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ));
+    }
+    md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors | time |\n|---|---|---|---|---|---|\n");
+    let mut cases_csv =
+        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,elapsed_s\n");
+    for o in outcomes {
+        let ranking: Vec<String> = o.ranked.iter().take(4).map(|c| c.join("/")).collect();
+        let errs: Vec<String> = o
+            .param_rel_errors
+            .iter()
+            .map(|e| format!("{:.0} %", 100.0 * e))
+            .collect();
+        md.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {:.0} s |\n",
+            o.name,
+            o.verdict,
+            ranking.join(" > "),
+            o.best_shrink.map_or("–".into(), |v| format!("{:.2}", v)),
+            errs.join(", "),
+            o.elapsed_s
+        ));
+        let kind = match &o.expectation {
+            Expectation::Withheld { effect, strong, .. } => format!(
+                "withheld {effect} {}",
+                if *strong { "strong" } else { "weak" }
+            ),
+            Expectation::Null => "null".into(),
+            Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
+        };
+        cases_csv.push_str(&format!(
+            "{},{},{},{},{},{},{:.1}\n",
+            o.name,
+            kind,
+            o.verdict,
+            ranking.join(" > "),
+            o.best_shrink.map_or(String::new(), |v| format!("{v:.4}")),
+            o.param_rel_errors
+                .iter()
+                .map(|e| format!("{e:.4}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            o.elapsed_s
+        ));
+    }
+    let rate_json = |r: &Rate| serde_json::json!({"k": r.k, "n": r.n, "value": r.value()});
+    let summary = serde_json::json!({
+        "cases": outcomes.len(),
+        "top1_strong": rate_json(&s.top1_strong),
+        "top3_strong": rate_json(&s.top3_strong),
+        "top1_weak": rate_json(&s.top1_weak),
+        "top3_weak": rate_json(&s.top3_weak),
+        "detected_strong": rate_json(&s.detected_strong),
+        "detected_weak": rate_json(&s.detected_weak),
+        "false_alarms": rate_json(&s.false_alarms),
+        "unexplained_recall": rate_json(&s.unexplained_recall),
+        "median_shrink_strong": s.median_shrink_strong,
+        "median_param_rel_error_strong": s.median_param_rel_error_strong,
+    });
+    w("README.md", md)?;
+    w("confusion.csv", csv)?;
+    w("cases.csv", cases_csv)?;
+    w(
+        "summary.json",
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
+    )
+}
+
+/// The rig every self-check case starts from: the built-in `fast` rig (1280×720, 30 fps,
+/// 4-slot internal drive, optical blur, pixel noise and lighting on) filmed for `duration_s`.
+pub fn suite_base(duration_s: f64) -> Result<Scenario, DiagnoseError> {
+    let mut s =
+        crate::scenario::load_any("fast").map_err(|e| DiagnoseError::Nominal(e.to_string()))?;
+    s.name = "selfcheck-base".into();
+    s.duration_s = duration_s;
+    Ok(s)
+}
+
+impl SuitePlan {
+    /// The whole self-check of issue #11: every effect at two levels × `seeds` seeds, six null
+    /// cases, two flicker cases and three excluded-candidate cases.
+    pub fn full(seeds: usize) -> Self {
+        Self {
+            effects: withheld_effects(),
+            levels: vec![Level::Strong, Level::Weak],
+            seeds_per_case: seeds,
+            null_cases: 6,
+            flicker_cases: 2,
+            excluded_cases: 3,
+        }
+    }
+
+    /// A small case for CI: one strong withheld effect, one null case, one flicker case.
+    pub fn quick(effect: Effect) -> Self {
+        Self {
+            effects: vec![effect],
+            levels: vec![Level::Strong],
+            seeds_per_case: 1,
+            null_cases: 1,
+            flicker_cases: 1,
+            excluded_cases: 0,
+        }
+    }
+
+    /// The plan in words, for the report.
+    pub fn describe(&self, base: &Scenario, options: &DiagnoseOptions) -> String {
+        format!(
+            "Plan: {} withheld effect(s) ({}) × {} level(s) × {} seed(s), {} null case(s), {} flicker \
+             case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s; diagnosis with {} \
+             evaluation seeds and {} fit seeds{}.",
+            self.effects.len(),
+            self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
+            self.levels.len(),
+            self.seeds_per_case,
+            self.null_cases,
+            self.flicker_cases,
+            self.excluded_cases,
+            base.camera.width_px,
+            base.camera.height_px,
+            base.frame_timing.fps,
+            base.duration_s,
+            options.seeds,
+            options.fit_seeds,
+            options
+                .effects
+                .as_ref()
+                .map_or(String::new(), |e| format!(", candidates restricted to {}", e.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")))
+        )
+    }
+}

@@ -1,0 +1,182 @@
+//! Simulated measurements for the diagnosis: the aligned nominal (or a candidate) rendered at
+//! the real frame times through the same code as `geneva run`, detected, and turned into the
+//! same cells as the real measurement. Seeds are shared by every configuration (common random
+//! numbers), so two configurations differ by their settings, not by a new draw.
+
+use super::image::{frame_image, measures_image};
+use super::nominal::{motion_reference, Aligned};
+use super::DiagnoseError;
+use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
+use crate::diagnose::record::{FrameRecord, Record};
+use crate::estimate::{estimate, Estimate};
+use crate::imagestats::MarkerLayout;
+use crate::pipeline::frames::{detect_and_inspect_frames, FrameLoopOptions};
+use crate::pipeline::rig::Rig;
+use crate::scenario::Scenario;
+use crate::timing::{FrameTimingConfig, Timestamps};
+
+/// Where a configuration's footage timestamps come from (the timing channels).
+#[derive(Debug, Clone)]
+pub enum TimingSource {
+    /// Draws of a frame-timing model (a log model gives the log itself).
+    Model {
+        config: FrameTimingConfig,
+        log: Option<Timestamps>,
+        duration_s: f64,
+    },
+    /// The recorder wrote k / fps (the `timebase` hypothesis).
+    ConstantRate { fps_hz: f64, frames: usize },
+}
+
+impl TimingSource {
+    pub fn times(&self, seed: u64) -> Option<Vec<f64>> {
+        match self {
+            TimingSource::Model {
+                config,
+                log,
+                duration_s,
+            } => config
+                .schedule(*duration_s, seed, log.as_ref())
+                .ok()
+                .map(|t| t.into_vec()),
+            TimingSource::ConstantRate { fps_hz, frames } => {
+                Some((0..*frames).map(|k| k as f64 / fps_hz).collect())
+            }
+        }
+    }
+}
+
+/// One configuration to simulate: the scenario rendered (at its own frame schedule) and
+/// measured, the analysis times when they differ from the render times, and the timing source.
+#[derive(Debug, Clone)]
+pub struct Trial {
+    pub scenario: Scenario,
+    /// The footage's timestamps are k / fps (the `timebase` hypothesis: frames were taken on the
+    /// scenario's own schedule but stamped at a constant rate); `None`: the render times.
+    pub stamped_fps: Option<f64>,
+    pub timing: TimingSource,
+}
+
+/// Everything fixed across simulations of one diagnosis.
+pub struct SimContext<'a> {
+    pub aligned: &'a Aligned,
+    pub layout: &'a MarkerLayout,
+    pub with_images: bool,
+    pub nyquist_hz: f64,
+    pub height_px: f64,
+}
+
+/// Renders and detects every frame of `scenario` (seeded by its `seed`).
+pub fn simulate_record(
+    scenario: &Scenario,
+    layout: &MarkerLayout,
+    with_images: bool,
+) -> Result<Record, DiagnoseError> {
+    let rig = Rig::new(scenario).map_err(|e| DiagnoseError::Simulation(e.to_string()))?;
+    let n = rig.frame_times.len();
+    let mut frames: Vec<FrameRecord> = Vec::with_capacity(n);
+    detect_and_inspect_frames(
+        &rig,
+        0..n,
+        FrameLoopOptions::default(),
+        &|view, det| {
+            det.corners_px
+                .filter(|_| with_images && measures_image(det.frame, n))
+                .map(|c| frame_image(view, &c, layout))
+        },
+        |chunk| {
+            frames.extend(chunk.iter().map(|(d, img)| FrameRecord {
+                t_s: d.t_s,
+                corners_px: d.corners_px,
+                reference_px: d.reference_px,
+                image: *img,
+            }));
+            Ok(())
+        },
+        &|_| {},
+    )
+    .map_err(|e| DiagnoseError::Simulation(e.to_string()))?;
+    Ok(Record {
+        frames,
+        has_images: with_images,
+        has_reference: scenario.scene.reference_marker.enabled
+            && scenario.detector.reference_marker_id.is_some(),
+    })
+}
+
+/// The estimate of a record with `scenario`'s estimator.
+pub fn estimate_record(scenario: &Scenario, record: &Record) -> Result<Estimate, DiagnoseError> {
+    let with_reference = record.has_reference
+        && scenario.estimator.reference_compensation != crate::estimate::ReferenceCompensation::Off;
+    let refs = record.references();
+    estimate(
+        &scenario.estimator,
+        &record.t_s(),
+        &record.corners(),
+        with_reference.then_some(refs.as_slice()),
+    )
+    .map_err(|e| DiagnoseError::Simulation(format!("estimation: {e}")))
+}
+
+/// Track and image cells of a record measured with `scenario`'s estimator.
+pub fn measurement_cells(
+    ctx: &SimContext<'_>,
+    scenario: &Scenario,
+    record: &Record,
+) -> Result<Cells, DiagnoseError> {
+    let est = estimate_record(scenario, record)?;
+    let (reference, _) = motion_reference(&ctx.aligned.reference, record, &est);
+    let mut cells = track_cells(record, &est, &reference, ctx.nyquist_hz, ctx.height_px);
+    cells.extend(image_cells(
+        record,
+        ctx.aligned.geometry.rotation_centre_px,
+        &reference.phase,
+        ctx.nyquist_hz,
+    ));
+    Ok(cells)
+}
+
+/// Draws the sub-pixel placement of the marker for one seed: the rotation centre moves by up to
+/// ±½ px in x and y and the marker by up to ±½ px along its arc. Alignment knows positions only
+/// to a fraction of a pixel, and corner quantisation (most of the detection error of a still
+/// marker) depends on exactly that fraction, so the seeds must sample it.
+pub fn jitter_placement(s: &mut Scenario, seed: u64, marker_radius_px: f64) {
+    use rand::Rng;
+    let mut r = crate::rng::stream(seed, crate::rng::Stream::DiagnoseNuisance, 0);
+    let (u, v, w): (f64, f64, f64) = (r.gen(), r.gen(), r.gen());
+    if let Some(c) = s.camera.rotation_centre_px.as_mut() {
+        c[0] += u - 0.5;
+        c[1] += v - 0.5;
+    }
+    if marker_radius_px > 1.0 {
+        s.scene.marker.angle_on_disc_deg += ((w - 0.5) / marker_radius_px).to_degrees();
+    }
+}
+
+/// Cells of `trial` for each of `seeds` (simulated one after the other; frames in parallel).
+/// `images: false` skips the image statistics (when nothing that uses them is compared).
+pub fn trial_cells(
+    ctx: &SimContext<'_>,
+    trial: &Trial,
+    seeds: &[u64],
+    images: bool,
+) -> Result<Vec<Cells>, DiagnoseError> {
+    let mut out = Vec::with_capacity(seeds.len());
+    for &seed in seeds {
+        let mut s = trial.scenario.clone();
+        s.seed = seed;
+        jitter_placement(&mut s, seed, ctx.aligned.geometry.marker_radius_px);
+        let mut record = simulate_record(&s, ctx.layout, ctx.with_images && images)?;
+        if let Some(fps) = trial.stamped_fps {
+            for (k, f) in record.frames.iter_mut().enumerate() {
+                f.t_s = k as f64 / fps;
+            }
+        }
+        let mut cells = measurement_cells(ctx, &s, &record)?;
+        if let Some(t) = trial.timing.times(seed) {
+            cells.extend(timing_cells(&t));
+        }
+        out.push(cells);
+    }
+    Ok(out)
+}

@@ -1,0 +1,121 @@
+//! `geneva diagnose` end to end: bad input is refused before any long work with nothing
+//! written, and a small self-check (the CI case of `reports/diagnosis/`): a null case gives
+//! `no_gap`, a withheld strong pixel noise is found and explained, mains flicker (no effect of
+//! the vocabulary) is not explained by any candidate.
+
+use geneva_vision::diagnose::scoring::Expectation;
+use geneva_vision::pipeline::analyze::Source;
+use geneva_vision::pipeline::diagnose::selfcheck::{cases, run_case, suite_base, SuitePlan};
+use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
+use geneva_vision::scenario::effects::Effect;
+use std::path::Path;
+
+fn blank_frames(dir: &Path, n: usize, w: u32, h: u32) {
+    std::fs::create_dir_all(dir).unwrap();
+    let data = vec![128u8; (w * h) as usize];
+    let mut ts = String::from("frame,t_s\n");
+    for k in 0..n {
+        geneva_vision::io::png_out::write_gray_png(
+            &dir.join(format!("frame_{k:06}.png")),
+            w,
+            h,
+            &data,
+        )
+        .unwrap();
+        ts.push_str(&format!("{k},{}\n", k as f64 / 30.0));
+    }
+    std::fs::write(dir.join("timestamps.csv"), ts).unwrap();
+}
+
+fn run(
+    dir: &Path,
+    nominal: &geneva_vision::scenario::Scenario,
+    options: &DiagnoseOptions,
+) -> Result<(), DiagnoseError> {
+    let source = Source::Frames {
+        dir: dir.join("frames"),
+        timestamps: dir.join("frames/timestamps.csv"),
+    };
+    diagnose(nominal, &source, &dir.join("out"), options, &|_, _, _| {}).map(|_| ())
+}
+
+#[test]
+fn bad_input_is_refused_before_any_work_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let nominal = suite_base(2.0).unwrap();
+    let options = DiagnoseOptions::default();
+
+    // Footage of another size than the nominal's camera.
+    let small = tmp.path().join("small");
+    blank_frames(&small.join("frames"), 3, 64, 48);
+    let e = run(&small, &nominal, &options).unwrap_err().to_string();
+    assert!(e.contains("64×48") && e.contains("camera.width_px"), "{e}");
+    assert!(!small.join("out").exists());
+
+    // The marker is never found.
+    let blank = tmp.path().join("blank");
+    blank_frames(&blank.join("frames"), 40, 1280, 720);
+    let e = run(&blank, &nominal, &options).unwrap_err().to_string();
+    assert!(e.contains("never found") && e.contains("marker_id"), "{e}");
+    assert!(!blank.join("out").exists());
+
+    // Timestamps that disagree with the frame count.
+    let mut ts = std::fs::read_to_string(blank.join("frames/timestamps.csv")).unwrap();
+    ts = ts.lines().take(11).collect::<Vec<_>>().join("\n") + "\n";
+    std::fs::write(blank.join("frames/timestamps.csv"), ts).unwrap();
+    let e = run(&blank, &nominal, &options).unwrap_err().to_string();
+    assert!(e.contains("timestamps") || e.contains("10"), "{e}");
+    assert!(!blank.join("out").exists());
+
+    // Too few seeds for a spread.
+    let one = DiagnoseOptions {
+        seeds: 1,
+        ..Default::default()
+    };
+    let e = run(&blank, &nominal, &one).unwrap_err().to_string();
+    assert!(e.contains("--seeds 1"), "{e}");
+}
+
+#[test]
+fn small_self_check_null_withheld_and_out_of_vocabulary() {
+    let tmp = tempfile::tempdir().unwrap();
+    let keep = std::env::var_os("GENEVA_KEEP_SELFCHECK").map(std::path::PathBuf::from);
+    let work = keep.as_deref().unwrap_or(tmp.path());
+    let base = suite_base(4.0).unwrap();
+    let all = cases(&base, &SuitePlan::quick(Effect::PixelNoise), &[]);
+    let options = DiagnoseOptions {
+        seeds: 4,
+        fit_seeds: 2,
+        ..Default::default()
+    };
+    // A handful of candidates keeps CI short; the whole vocabulary runs in `cargo xtask reports`.
+    let candidates = vec![Effect::PixelNoise, Effect::OpticalBlur, Effect::Lighting];
+    let only = std::env::var("GENEVA_SELFCHECK_ONLY").ok();
+    for case in all
+        .iter()
+        .filter(|c| only.as_ref().is_none_or(|o| &c.name == o))
+    {
+        let mut case = case.clone();
+        case.effects = Some(candidates.clone());
+        let o = run_case(&case, work, &options).unwrap();
+        eprintln!(
+            "{}: {} {:?} shrink {:?}",
+            o.name, o.verdict, o.ranked, o.best_shrink
+        );
+        match &o.expectation {
+            Expectation::Null => assert_eq!(o.verdict, "no_gap", "{o:?}"),
+            Expectation::Withheld { .. } => {
+                assert_eq!(o.verdict, "explained", "{o:?}");
+                assert!(o.top_k(1), "{o:?}");
+                assert!(o.best_shrink.unwrap() > 0.7, "{o:?}");
+                assert!(o.param_rel_errors.iter().all(|e| *e < 0.5), "{o:?}");
+            }
+            Expectation::OutOfVocabulary => assert_ne!(o.verdict, "explained", "{o:?}"),
+        }
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(work.join(&o.name).join("diagnosis/diagnosis.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(json["verdict"], o.verdict.as_str());
+    }
+}
