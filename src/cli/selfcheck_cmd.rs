@@ -1,11 +1,11 @@
 //! `geneva diagnose-selfcheck --out DIR [--quick] [--seeds-per-case K] [--effects a,b]
-//! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
+//! [--levels strong|weak|both] [--nulls N] [--flicker N] [--excluded N] [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
 
 use anyhow::{Context, Result};
 use clap::Args;
 use geneva_vision::pipeline::diagnose::selfcheck::{
-    cases, phone_logs, suite_base, SelfCheck, SuitePlan,
+    cases, phone_logs, suite_base, Level, SelfCheck, SuitePlan,
 };
 use geneva_vision::pipeline::diagnose::DiagnoseOptions;
 use geneva_vision::scenario::effects::Effect;
@@ -25,6 +25,18 @@ pub struct SelfCheckArgs {
     /// Withheld effects (default: the vocabulary).
     #[arg(long, value_delimiter = ',')]
     effects: Option<Vec<String>>,
+    /// Levels of the withheld effects: `strong`, `weak` or `both`.
+    #[arg(long, default_value = "both")]
+    levels: String,
+    /// Null cases (default 6; 1 with --quick).
+    #[arg(long)]
+    nulls: Option<usize>,
+    /// Mains-flicker cases (default 2; 1 with --quick).
+    #[arg(long)]
+    flicker: Option<usize>,
+    /// Excluded-candidate cases (default 3; 0 with --quick).
+    #[arg(long)]
+    excluded: Option<usize>,
     /// Footage length, s.
     #[arg(long)]
     duration_s: Option<f64>,
@@ -64,6 +76,16 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     if let Some(e) = effects {
         plan.effects = e;
     }
+    plan.levels = match a.levels.as_str() {
+        "strong" => vec![Level::Strong],
+        "weak" => vec![Level::Weak],
+        "both" if !a.quick => vec![Level::Strong, Level::Weak],
+        "both" => plan.levels,
+        other => anyhow::bail!("--levels {other}: expected strong, weak or both"),
+    };
+    plan.null_cases = a.nulls.unwrap_or(plan.null_cases);
+    plan.flicker_cases = a.flicker.unwrap_or(plan.flicker_cases);
+    plan.excluded_cases = a.excluded.unwrap_or(plan.excluded_cases);
     let options = DiagnoseOptions {
         seeds: a.seeds,
         fit_seeds: 2,
