@@ -3,6 +3,8 @@
 //! `no_gap`, a withheld strong pixel noise is found and explained, mains flicker (no effect of
 //! the vocabulary) is not explained by any candidate.
 
+#![cfg(feature = "opencv-detector")]
+
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::pipeline::analyze::Source;
 use geneva_vision::pipeline::diagnose::selfcheck::{cases, run_case, suite_base, SuitePlan};
