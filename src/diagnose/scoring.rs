@@ -37,7 +37,6 @@ pub struct CaseOutcome {
     /// Relative errors |fitted − true| / |true| of the withheld effect's identifiable
     /// parameters, when the best candidate is that effect.
     pub param_rel_errors: Vec<f64>,
-    pub elapsed_s: f64,
 }
 
 impl CaseOutcome {
@@ -210,7 +209,6 @@ mod tests {
                 .collect(),
             best_shrink: Some(shrink),
             param_rel_errors: vec![0.1],
-            elapsed_s: 1.0,
         }
     }
 

@@ -129,6 +129,37 @@ fn bench(extra: &[String]) -> Result<(), String> {
     run(command)
 }
 
+/// The diagnosis self-check committed in `reports/diagnosis/` (`cargo xtask diagnosis` with no
+/// arguments runs the whole suite: every effect at two levels × 3 seeds).
+const DIAGNOSIS_REPORT_PLAN: &[&str] = &[
+    "--effects",
+    "pixel_noise,optical_blur,rolling_shutter,lighting,motion_blur,compression",
+    "--levels",
+    "strong",
+    "--seeds-per-case",
+    "1",
+    "--nulls",
+    "2",
+    "--flicker",
+    "1",
+    "--excluded",
+    "1",
+    "--duration-s",
+    "6",
+];
+
 fn reports(extra: &[String]) -> Result<(), String> {
-    geneva("reports", "reports", extra)
+    geneva("reports", "reports", extra)?;
+    // The diagnosis self-check with the committed plan, unless only some reports were asked for.
+    if extra
+        .iter()
+        .any(|a| a.starts_with("--only") || a == "--fast-only")
+    {
+        return Ok(());
+    }
+    let plan: Vec<String> = DIAGNOSIS_REPORT_PLAN
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    geneva("diagnose-selfcheck", "reports/diagnosis", &plan)
 }
