@@ -235,3 +235,40 @@ fn the_real_4k_frame_calibrates_levels_blur_and_noise_of_the_base_plate_marker()
         assert!(dir.path().join("cal").join(f).is_file(), "{f}");
     }
 }
+
+/// From a video (ffmpeg decode, ffprobe timestamps); a base naming the wrong mechanism is not
+/// taken silently: the misfit is reported.
+#[test]
+fn calibrate_reads_a_video_and_warns_when_the_base_does_not_fit_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = geneva(d, &["render", "fast", "--video", "fast.mp4", "--out", "r"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let right = BASE.replace("external", "internal");
+    std::fs::write(d.join("base.toml"), right).unwrap();
+    let args = [
+        "calibrate",
+        "--video",
+        "fast.mp4",
+        "--base",
+        "base.toml",
+        "--out",
+        "cal",
+    ];
+    let o = geneva(d, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let toml = std::fs::read_to_string(d.join("cal/scenario.toml")).unwrap();
+    assert!(toml.contains("omega1_rad_s = -1.55"), "{toml}");
+    // `fast` is an internal drive: an external base cannot reproduce it.
+    std::fs::write(d.join("base.toml"), BASE).unwrap();
+    let o = geneva(d, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("does not reproduce the footage"),
+        "{}",
+        stderr(&o)
+    );
+    let md = std::fs::read_to_string(d.join("cal/calibration.md")).unwrap();
+    assert!(md.contains("does not reproduce the footage"), "{md}");
+}

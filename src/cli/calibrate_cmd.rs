@@ -91,7 +91,11 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         );
     }
     for n in &c.notes {
-        println!("note: {n}");
+        if n.starts_with("warning:") {
+            eprintln!("{n}");
+        } else {
+            println!("note: {n}");
+        }
     }
     for f in &out.files {
         println!("wrote {}", f.display());

@@ -35,6 +35,8 @@ use toml::Value;
 
 /// At most this many static poses, and as many moving frames, get their marker edges fitted.
 pub const EDGE_FRAMES: usize = 96;
+/// A re-render residual above this many times the fitted noise is reported as a misfit.
+const MISFIT_RATIO: f64 = 2.5;
 /// Frames of the longest static run kept for the temporal noise and the overlay.
 const RUN_FRAMES: usize = 12;
 /// A marker whose centre moves less than this between frames may be static, px.
@@ -801,6 +803,15 @@ fn write_outputs(
     };
     if check.is_some() {
         files.push(out_dir.join("overlay.png"));
+    }
+    // A scenario that does not reproduce the footage is no calibration: most often the base
+    // names another mechanism (kind, slot count) or marker than the footage shows.
+    if let Some(k) = check.as_ref().filter(|k| k.ratio() > MISFIT_RATIO) {
+        cal.notes.push(format!(
+            "warning: the calibrated scenario does not reproduce the footage: re-rendered at frame {}, the residual is {:.1} × the fitted noise (expected ≈ 1); check the base's mechanism (kind, slots) and marker against the footage",
+            k.frame,
+            k.ratio()
+        ));
     }
     let md_path = out_dir.join("calibration.md");
     std::fs::write(&md_path, calibration_markdown(&cal, &ctx, check.as_ref()))
