@@ -156,7 +156,8 @@ proptest! {
         // regression case: ray z = −0.29). Refusing it is correct, so it is not a case here.
         let cam = match Camera::new(&cfg) {
             Err(crate::camera::CameraError::RotationCentreBehind) => {
-                prop_assume!(tilt, "only a tilted camera can look past the disc plane");
+                // An untilted camera looks straight at the plane: a refusal there is a bug.
+                prop_assert!(tilt, "an untilted camera was refused: {cfg:?}");
                 return Ok(());
             }
             other => other.unwrap(),
