@@ -118,6 +118,7 @@ pub const CHANNELS: &[ChannelSpec] = &[
     ch("interval_jitter", "s", Linear, 2e-5, 0.2, Timing, false, "robust spread of the frame intervals"),
     ch("first_interval", "s", Linear, 1e-3, 0.0, Timing, false, "interval between the first two frames"),
     ch("long_intervals", "–", Linear, 0.01, 0.0, Timing, false, "fraction of intervals > 1.5 × the median (drops)"),
+    ch("alternation", "s", Linear, 2e-5, 0.2, Timing, false, "paired alternation of consecutive intervals"),
 ];
 
 /// The channel called `name`.
