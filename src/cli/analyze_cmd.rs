@@ -1,27 +1,17 @@
 //! `geneva analyze (--video F | --frames DIR --timestamps F | --tracks F) [--scenario S] --out DIR`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use geneva_vision::estimate::{EstimatorConfig, Signal};
-use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions, Source};
+use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions};
 use geneva_vision::pipeline::defaults_study::defaults_reason;
 use geneva_vision::scenario;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
-    /// A video file (decoded with ffmpeg; timestamps from ffprobe; display rotation honoured).
-    #[arg(long, conflicts_with_all = ["frames", "tracks"])]
-    video: Option<PathBuf>,
-    /// A folder of image files (PNG/JPEG), taken in natural name order.
-    #[arg(long, requires = "timestamps", conflicts_with = "tracks")]
-    frames: Option<PathBuf>,
-    /// `frame, t_s` CSV (or any timing log) for --frames.
-    #[arg(long)]
-    timestamps: Option<PathBuf>,
-    /// An existing tracks CSV (frame, t_s, marker_id, x0_px … y3_px).
-    #[arg(long)]
-    tracks: Option<PathBuf>,
+    #[command(flatten)]
+    source: super::source_args::SourceArgs,
     /// Scenario (file or built-in name) supplying detector and estimator settings.
     #[arg(long)]
     scenario: Option<String>,
@@ -33,18 +23,7 @@ pub struct AnalyzeArgs {
 }
 
 pub fn run(a: AnalyzeArgs) -> Result<()> {
-    let source = match (&a.video, &a.frames, &a.tracks) {
-        (Some(v), None, None) => Source::Video(v.clone()),
-        (None, Some(d), None) => Source::Frames {
-            dir: d.clone(),
-            timestamps: a
-                .timestamps
-                .clone()
-                .context("--frames needs --timestamps")?,
-        },
-        (None, None, Some(t)) => Source::Tracks(t.clone()),
-        _ => bail!("give exactly one of --video, --frames (with --timestamps) or --tracks"),
-    };
+    let source = a.source.source()?;
     let mut options = AnalyzeOptions::default();
     let mut estimator_from = None;
     if let Some(spec) = &a.scenario {

@@ -1,7 +1,7 @@
 //! `geneva calibrate (--video F | --frames DIR --timestamps F | --image F) --base SCENARIO --out DIR
 //! [--single-frame]`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::Args;
 use geneva_vision::calibrate::CalibrateOptions;
 use geneva_vision::pipeline::calibrate::{calibrate, Footage};
@@ -9,17 +9,10 @@ use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct CalibrateArgs {
-    /// A video file (decoded with ffmpeg; timestamps from ffprobe).
-    #[arg(long, conflicts_with_all = ["frames", "image"])]
-    video: Option<PathBuf>,
-    /// A folder of image files (PNG/JPEG), taken in natural name order.
-    #[arg(long, requires = "timestamps", conflicts_with = "image")]
-    frames: Option<PathBuf>,
-    /// `frame, t_s` CSV (or any timing log) for --frames.
-    #[arg(long)]
-    timestamps: Option<PathBuf>,
+    #[command(flatten)]
+    footage: super::source_args::FootageArgs,
     /// One still image: image formation only (implies --single-frame).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["video", "frames"])]
     image: Option<PathBuf>,
     /// What you know about the rig: a scenario (file or built-in name) that states at least the
     /// marker's side `scene.marker.size_mm`, and the mechanism, marker dictionary and id.
@@ -33,18 +26,12 @@ pub struct CalibrateArgs {
 }
 
 pub fn run(a: CalibrateArgs) -> Result<()> {
-    let footage = match (&a.video, &a.frames, &a.image) {
-        (Some(v), None, None) => Footage::Video(v.clone()),
-        (None, Some(d), None) => Footage::Frames {
-            dir: d.clone(),
-            timestamps: a
-                .timestamps
-                .clone()
-                .context("--frames needs --timestamps")?,
-        },
-        (None, None, Some(i)) => Footage::Image(i.clone()),
-        _ => bail!("give exactly one of --video, --frames (with --timestamps) or --image"),
-    };
+    let footage = a.footage.one_of(
+        a.image.clone().map(Footage::Image),
+        "--image",
+        Footage::Video,
+        |dir, timestamps| Footage::Frames { dir, timestamps },
+    )?;
     let bar = super::run_cmd::progress_bar(0, "measure");
     let options = CalibrateOptions {
         single_frame: a.single_frame,

@@ -1,11 +1,10 @@
 //! `geneva diagnose --scenario NOMINAL (--video F | --frames DIR --timestamps F | --tracks F)
 //! --out DIR [--effects a,b,c] [--seeds N] [--max-minutes M]`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
-use geneva_vision::pipeline::analyze::Source;
-use geneva_vision::pipeline::diagnose::{candidate_name, diagnose, DiagnoseOptions};
-use geneva_vision::scenario::{self, effects::Effect};
+use geneva_vision::pipeline::diagnose::{candidate_name, diagnose, DiagnoseOptions, StageLog};
+use geneva_vision::scenario;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -13,18 +12,8 @@ pub struct DiagnoseArgs {
     /// The rig as believed: a scenario file or built-in name (often `geneva calibrate`'s output).
     #[arg(long)]
     scenario: String,
-    /// A video file.
-    #[arg(long, conflicts_with_all = ["frames", "tracks"])]
-    video: Option<PathBuf>,
-    /// A folder of frames (PNG/JPEG) in natural name order; needs --timestamps.
-    #[arg(long, requires = "timestamps", conflicts_with = "tracks")]
-    frames: Option<PathBuf>,
-    /// `frame, t_s` CSV (or any timing log) for --frames.
-    #[arg(long)]
-    timestamps: Option<PathBuf>,
-    /// A corner track (tracks.csv): only the track channels can be judged.
-    #[arg(long)]
-    tracks: Option<PathBuf>,
+    #[command(flatten)]
+    source: super::source_args::SourceArgs,
     /// Candidate effects, comma separated (default: the whole vocabulary).
     #[arg(long, value_delimiter = ',')]
     effects: Option<Vec<String>>,
@@ -39,35 +28,9 @@ pub struct DiagnoseArgs {
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
-    let source = match (&a.video, &a.frames, &a.tracks) {
-        (Some(v), None, None) => Source::Video(v.clone()),
-        (None, Some(d), None) => Source::Frames {
-            dir: d.clone(),
-            timestamps: a
-                .timestamps
-                .clone()
-                .context("--frames needs --timestamps")?,
-        },
-        (None, None, Some(t)) => Source::Tracks(t.clone()),
-        _ => bail!("give exactly one of --video, --frames (with --timestamps) or --tracks"),
-    };
+    let source = a.source.source()?;
     let nominal = scenario::load_any(&a.scenario)?;
-    let effects = match &a.effects {
-        None => None,
-        Some(names) => Some(
-            names
-                .iter()
-                .map(|n| {
-                    Effect::from_name(n).with_context(|| {
-                        format!(
-                            "--effects: `{n}` is not an effect; the vocabulary is: {}",
-                            Effect::names()
-                        )
-                    })
-                })
-                .collect::<Result<Vec<Effect>>>()?,
-        ),
-    };
+    let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
     if let Some(m) = a.max_minutes {
         if !(m.is_finite() && m > 0.0) {
             bail!("--max-minutes {m}: must be a positive number of minutes");
@@ -86,8 +49,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
     );
     // Without a terminal (logs, CI) each new stage is one line with the elapsed time.
     let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let started = std::time::Instant::now();
-    let last = std::cell::RefCell::new(String::new());
+    let log = StageLog::new();
     let (d, files) = diagnose(
         &nominal,
         &source,
@@ -95,9 +57,8 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         &options,
         &|stage, done, total| {
             if plain {
-                if *last.borrow() != stage {
-                    eprintln!("[{:7.1} s] {stage}", started.elapsed().as_secs_f64());
-                    *last.borrow_mut() = stage.to_string();
+                if let Some(line) = log.line(stage) {
+                    eprintln!("{line}");
                 }
             } else {
                 bar.set_message(stage.to_string());

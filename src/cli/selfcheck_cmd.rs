@@ -2,7 +2,7 @@
 //! [--levels strong|weak|both] [--nulls N] [--flicker N] [--excluded N] [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use geneva_vision::pipeline::diagnose::selfcheck::{
     cases, phone_logs, suite_base, Level, SelfCheck, SuitePlan,
@@ -51,22 +51,7 @@ pub struct SelfCheckArgs {
 }
 
 pub fn run(a: SelfCheckArgs) -> Result<()> {
-    let effects: Option<Vec<Effect>> = match &a.effects {
-        None => None,
-        Some(names) => Some(
-            names
-                .iter()
-                .map(|n| {
-                    Effect::from_name(n).with_context(|| {
-                        format!(
-                            "--effects: `{n}` is not an effect; the vocabulary is: {}",
-                            Effect::names()
-                        )
-                    })
-                })
-                .collect::<Result<_>>()?,
-        ),
-    };
+    let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
     let base = suite_base(a.duration_s.unwrap_or(if a.quick { 4.0 } else { 8.0 }))?;
     let mut plan = if a.quick {
         SuitePlan::quick(Effect::PixelNoise)

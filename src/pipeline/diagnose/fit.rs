@@ -40,7 +40,16 @@ pub struct Evaluated {
     pub outcome: Outcome,
 }
 
-/// Everything the fits need.
+/// What the real measurement gives every comparison and fit.
+pub struct RealSide<'a> {
+    pub cells: &'a Cells,
+    /// Frame times of all frames, s.
+    pub t_s: &'a [f64],
+    /// Times and primary angle of the detected frames.
+    pub theta_det: (&'a [f64], &'a [f64]),
+}
+
+/// Everything the fits need, and the nominal gap every candidate is judged against.
 pub struct Fitter<'a> {
     pub ctx: SimContext<'a>,
     /// The user's nominal (before alignment).
@@ -49,12 +58,13 @@ pub struct Fitter<'a> {
     /// Real frame times (all frames) and the primary angle of the detected frames.
     pub real_t_s: &'a [f64],
     pub real_theta_det: (&'a [f64], &'a [f64]),
-    pub nominal_gap: &'a GapMap,
+    /// The aligned nominal (`base`) on the evaluation seeds against the real data.
+    pub nominal_gap: GapMap,
     pub base: Trial,
     pub fit_seeds: Vec<u64>,
     pub eval_seeds: Vec<u64>,
     pub gap_options: GapOptions,
-    /// Simulations run so far (for the report).
+    /// Simulations run so far, the nominal's included (for the report).
     pub simulations: RefCell<usize>,
 }
 
@@ -62,7 +72,48 @@ fn aligned_of<'a>(f: &'a Fitter<'a>) -> &'a Aligned {
     f.ctx.aligned
 }
 
+/// Simulated cells of `trial` on `seeds`, counted in `simulations`.
+fn simulated_cells(
+    ctx: &SimContext<'_>,
+    trial: &Trial,
+    seeds: &[u64],
+    images: bool,
+    simulations: &RefCell<usize>,
+) -> Result<Vec<Cells>, DiagnoseError> {
+    *simulations.borrow_mut() += seeds.len();
+    trial_cells(ctx, trial, seeds, images)
+}
+
 impl<'a> Fitter<'a> {
+    /// Simulates the base trial (the aligned nominal) on `eval_seeds` and compares it with the
+    /// real cells: the fitter starts with the nominal gap that its fits and judgements refer to.
+    pub fn new(
+        ctx: SimContext<'a>,
+        nominal: &'a Scenario,
+        real: RealSide<'a>,
+        base: Trial,
+        fit_seeds: Vec<u64>,
+        eval_seeds: Vec<u64>,
+        gap_options: GapOptions,
+    ) -> Result<Self, DiagnoseError> {
+        let simulations = RefCell::new(0);
+        let sims = simulated_cells(&ctx, &base, &eval_seeds, true, &simulations)?;
+        let nominal_gap = compare(real.cells, &sims, gap_options);
+        Ok(Self {
+            ctx,
+            nominal,
+            real_cells: real.cells,
+            real_t_s: real.t_s,
+            real_theta_det: real.theta_det,
+            nominal_gap,
+            base,
+            fit_seeds,
+            eval_seeds,
+            gap_options,
+            simulations,
+        })
+    }
+
     /// The base trial: the aligned nominal at the real frame times, timestamps from the
     /// nominal's frame-timing model.
     pub fn base_trial(aligned: &Aligned, nominal: &Scenario, real_t_s: &[f64]) -> Trial {
@@ -156,8 +207,7 @@ impl<'a> Fitter<'a> {
         seeds: &[u64],
         images: bool,
     ) -> Result<Vec<Cells>, DiagnoseError> {
-        *self.simulations.borrow_mut() += seeds.len();
-        trial_cells(&self.ctx, trial, seeds, images)
+        simulated_cells(&self.ctx, trial, seeds, images, &self.simulations)
     }
 
     /// The comparison of the real data with a trial on `seeds`.

@@ -32,7 +32,7 @@ use crate::io::output_dir::OutputDir;
 use crate::pipeline::analyze::Source;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
-use fit::{Evaluated, Fitter};
+use fit::{Evaluated, Fitter, RealSide};
 use nominal::Aligned;
 use simulate::SimContext;
 use std::cell::RefCell;
@@ -135,6 +135,40 @@ pub struct Diagnosis {
 /// What a progress callback hears: the stage and how far it is.
 pub type Progress<'a> = dyn Fn(&str, usize, usize) + 'a;
 
+/// Progress for logs (no terminal, benchmarks): one line per new stage with the wall time since
+/// the start, so the time a stage took is the difference to the next line.
+pub struct StageLog {
+    started: Instant,
+    last: RefCell<String>,
+}
+
+impl StageLog {
+    pub fn new() -> Self {
+        Self {
+            started: Instant::now(),
+            last: RefCell::new(String::new()),
+        }
+    }
+
+    /// The line to print when `stage` differs from the previous stage, else `None`.
+    pub fn line(&self, stage: &str) -> Option<String> {
+        if *self.last.borrow() == stage {
+            return None;
+        }
+        *self.last.borrow_mut() = stage.to_string();
+        Some(format!(
+            "[{:7.1} s] {stage}",
+            self.started.elapsed().as_secs_f64()
+        ))
+    }
+}
+
+impl Default for StageLog {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Runs the whole diagnosis; writes the outputs into `out_dir` (all or nothing: a staging
 /// folder renamed into place at the end).
 pub fn diagnose(
@@ -215,26 +249,20 @@ pub fn diagnose(
         .collect();
     let base = Fitter::base_trial(&aligned, nominal, &t_all);
     progress("simulating the nominal", 0, seeds.len());
-    let placeholder = GapMap {
-        cells: Vec::new(),
-        total: 0.0,
-        options: options.gap,
-    };
-    let mut fitter = Fitter {
+    let fitter = Fitter::new(
         ctx,
         nominal,
-        real_cells: &real_cells,
-        real_t_s: &t_all,
-        real_theta_det: (&t_det, &th_det),
-        nominal_gap: &placeholder,
-        base: base.clone(),
-        fit_seeds: fit_seeds.clone(),
-        eval_seeds: seeds.clone(),
-        gap_options: options.gap,
-        simulations: RefCell::new(0),
-    };
-    let nominal_gap = fitter.gap(&base, &seeds)?;
-    fitter.nominal_gap = &nominal_gap;
+        RealSide {
+            cells: &real_cells,
+            t_s: &t_all,
+            theta_det: (&t_det, &th_det),
+        },
+        base,
+        fit_seeds.clone(),
+        seeds.clone(),
+        options.gap,
+    )?;
+    let nominal_gap = &fitter.nominal_gap;
     let d0 = nominal_gap.total;
 
     let candidates: Vec<Effect> = options
@@ -254,14 +282,14 @@ pub fn diagnose(
         // largest possible share of the gap first.
         let mut screened: Vec<(Effect, f64)> = candidates
             .iter()
-            .map(|&e| (e, plan::screening_share(e, &nominal_gap)))
+            .map(|&e| (e, plan::screening_share(e, nominal_gap)))
             .collect();
         screened.sort_by(|a, b| b.1.total_cmp(&a.1));
         let deadline = options.max_minutes.map(|m| m * 60.0);
         let total = screened.len();
         let mut best_score = f64::NEG_INFINITY;
         for (i, (e, share)) in screened.into_iter().enumerate() {
-            if !plan::signature_significant(e, &nominal_gap) {
+            if !plan::signature_significant(e, nominal_gap) {
                 screened_out.push((e, share));
                 continue;
             }
@@ -279,7 +307,7 @@ pub fn diagnose(
             progress(&format!("fitting {}", e.name()), i, total);
             let fitted = fitter.fit(e, &[])?;
             let evaluated = fitter.evaluate(vec![fitted])?;
-            let r = ranked(&nominal_gap, evaluated);
+            let r = ranked(nominal_gap, evaluated);
             progress(
                 &format!("{}: shrink {:.2}, score {:.2}", e.name(), r.shrink, r.score),
                 i + 1,
@@ -313,7 +341,7 @@ pub fn diagnose(
                     );
                     let second = fitter.fit(e, &prior)?;
                     let evaluated = fitter.evaluate(vec![first.clone(), second])?;
-                    ranking.push(ranked(&nominal_gap, evaluated));
+                    ranking.push(ranked(nominal_gap, evaluated));
                 }
                 sort_ranking(d0, &mut ranking);
             }

@@ -1,0 +1,101 @@
+//! The input options shared by the commands that measure real data (`src/cli/source_args.rs`,
+//! `src/cli/effects_arg.rs`): exactly one of `--video`, `--frames` with `--timestamps`, or the
+//! command's own third input (`--tracks` for analyze and diagnose, `--image` for calibrate), and
+//! `--effects` names checked against the vocabulary. Every case fails before any work.
+#![cfg(feature = "opencv-detector")]
+
+mod common;
+use common::{geneva, stderr};
+
+/// The commands with their own arguments (besides the source) and their third input.
+const COMMANDS: [(&[&str], &str); 3] = [
+    (&["analyze"], "--tracks"),
+    (&["diagnose", "--scenario", "fast"], "--tracks"),
+    (&["calibrate", "--base", "fast"], "--image"),
+];
+
+fn with(command: &[&str], extra: &[&str]) -> Vec<String> {
+    command
+        .iter()
+        .chain(extra)
+        .chain(&["--out", "out"])
+        .map(|s| s.to_string())
+        .collect()
+}
+
+fn fails_with(dir: &std::path::Path, args: &[String], wanted: &[&str]) {
+    let a: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = geneva(dir, &a);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{a:?} succeeded");
+    for w in wanted {
+        assert!(e.contains(w), "{a:?}: `{w}` not in: {e}");
+    }
+    assert!(!dir.join("out").exists(), "{a:?} wrote its output folder");
+}
+
+#[test]
+fn exactly_one_source_is_required() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (command, third) in COMMANDS {
+        // None at all: the command names its three choices.
+        fails_with(
+            d,
+            &with(command, &[]),
+            &[&format!(
+                "give exactly one of --video, --frames (with --timestamps) or {third}"
+            )],
+        );
+        // Two at once: refused by the argument parser, naming both.
+        fails_with(
+            d,
+            &with(command, &["--video", "a.mp4", third, "b"]),
+            &["--video", third, "cannot be used with"],
+        );
+        fails_with(
+            d,
+            &with(
+                command,
+                &["--frames", "f", "--timestamps", "t.csv", third, "b"],
+            ),
+            &["--frames", third, "cannot be used with"],
+        );
+        fails_with(
+            d,
+            &with(
+                command,
+                &["--video", "a.mp4", "--frames", "f", "--timestamps", "t.csv"],
+            ),
+            &["--video", "--frames", "cannot be used with"],
+        );
+        // Frames without their timestamps.
+        fails_with(d, &with(command, &["--frames", "f"]), &["--timestamps"]);
+    }
+}
+
+#[test]
+fn effects_must_be_names_of_the_vocabulary() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let wanted = [
+        "--effects: `backlashes` is not an effect; the vocabulary is:",
+        "rolling_shutter",
+    ];
+    fails_with(
+        d,
+        &with(
+            &["diagnose", "--scenario", "fast"],
+            &["--tracks", "t.csv", "--effects", "pixel_noise,backlashes"],
+        ),
+        &wanted,
+    );
+    fails_with(
+        d,
+        &with(
+            &["diagnose-selfcheck"],
+            &["--quick", "--effects", "backlashes"],
+        ),
+        &wanted,
+    );
+}
