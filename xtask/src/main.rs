@@ -6,7 +6,9 @@
 //!   `-D warnings` (default features and `--no-default-features`), the whole test suite, the
 //!   library's tests without OpenCV and, as root on Debian, the real-Slurm integration test
 //!   (`slurm.rs`).
-//! - `cargo xtask bench`   — run the benchmarks and print their figures.
+//! - `cargo xtask bench`   — run the benchmarks and print their figures, then again the ones
+//!   that state their target (extra arguments go to `cargo bench`: `cargo xtask bench --bench
+//!   diagnose` runs one).
 //! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
 //! - `cargo xtask deps`    — only check/install the system packages.
 //!
@@ -122,11 +124,43 @@ fn test(extra: &[String]) -> Result<(), String> {
     slurm::integration_test(&slurm::test_binary()?)
 }
 
+/// `cargo bench --workspace EXTRA…` (e.g. `--bench diagnose --bench decompose` for two of them),
+/// its output passed through as it comes, then the lines that state a target gathered at the end:
+/// the figures to compare, with what each is measured against, after pages of progress.
 fn bench(extra: &[String]) -> Result<(), String> {
+    use std::io::{BufRead, BufReader};
     let mut command = cargo();
     command.args(["bench", "--workspace"]);
     command.args(extra);
-    run(command)
+    command.stdout(std::process::Stdio::piped());
+    eprintln!("xtask: running {command:?}");
+    let mut child = command
+        .spawn()
+        .map_err(|e| format!("could not start {command:?}: {e}"))?;
+    let mut figures = Vec::new();
+    if let Some(stdout) = child.stdout.take() {
+        for line in BufReader::new(stdout).lines() {
+            let line = line.map_err(|e| format!("reading the benchmarks' output: {e}"))?;
+            println!("{line}");
+            if line.contains("target") {
+                figures.push(line);
+            }
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| format!("waiting for {command:?}: {e}"))?;
+    if !figures.is_empty() {
+        println!("\nxtask bench: the figures with a target");
+        for f in &figures {
+            println!("  {}", f.trim());
+        }
+    }
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{command:?} failed with {status}"))
+    }
 }
 
 /// The diagnosis self-check committed in `reports/diagnosis/` (`cargo xtask diagnosis` with no
