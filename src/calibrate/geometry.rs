@@ -73,6 +73,23 @@ pub struct GeometryFit {
 
 type Corners = [[f64; 2]; 4];
 
+/// Groups of consecutive poses left out in turn for the tilt's jackknife interval.
+const JACKKNIFE_GROUPS: usize = 8;
+
+/// Two-sided 95 % quantile of Student's t with `dof` degrees of freedom.
+pub(crate) fn student_t95(dof: usize) -> f64 {
+    const T: [f64; 10] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+    ];
+    match dof {
+        0 => f64::INFINITY,
+        1..=10 => T[dof - 1],
+        11..=20 => 2.228 - (dof - 10) as f64 * (2.228 - 2.086) / 10.0,
+        21..=30 => 2.086 - (dof - 20) as f64 * (2.086 - 2.042) / 10.0,
+        _ => 1.96 + 2.5 / dof as f64,
+    }
+}
+
 /// Corner error the pose fit assumes at least, px: edge-fitted corners agree with the renderer
 /// to a few hundredths of a pixel, an error that does not average out over poses.
 const CORNER_FLOOR_PX: f64 = 0.03;
@@ -319,12 +336,15 @@ pub fn fit_geometry(
         .fold((0.0, 0.0), |a, o| (a.0 + o.sin(), a.1 + o.cos()));
     let o0 = so.atan2(co);
     let (w, h) = (stats.width_px as u32, stats.height_px as u32);
-    let run = |tilt: bool, start: &[f64]| -> Option<(lm::LmFit, PoseModelShape)> {
+    let run = |tilt: bool,
+               start: &[f64],
+               poses: &[(f64, Corners)]|
+     -> Option<(lm::LmFit, PoseModelShape)> {
         let model = PoseModel {
             base,
             width: w,
             height: h,
-            poses: &poses,
+            poses,
             tilt,
             centre: single_frame.then_some(base_centre),
             inset: !from_edges,
@@ -367,7 +387,7 @@ pub fn fit_geometry(
     };
     // Tilt is fitted when the poses can tell it (several, spread over the image).
     let try_tilt = !single_frame && poses.len() >= 8;
-    let (mut fit, mut shape) = run(false, &start).ok_or_else(no_fit)?;
+    let (mut fit, mut shape) = run(false, &start, &poses).ok_or_else(no_fit)?;
     let mut tilt_fit = TiltFit {
         tilt_x_deg: Fitted::new(0.0, 0.0),
         tilt_y_deg: Fitted::new(0.0, 0.0),
@@ -379,10 +399,42 @@ pub fn fit_geometry(
         let v = shape.values(&fit.params);
         let mut s2 = vec![v[0], 0.0, 0.0, v[3], v[4], v[5], v[6], v[7]];
         s2.extend_from_slice(&fit.params[shape.globals..]);
-        if let Some((tf, tshape)) = run(true, &s2) {
+        if let Some((tf, tshape)) = run(true, &s2, &poses) {
             let se = tf.std_errors_with_floor(CORNER_FLOOR_PX);
             let (tx, ty) = (tf.params[1], tf.params[2]);
-            let u = |i: usize| Fitted::from_sigma(tf.params[i], se[i], 0.02);
+            // The Jacobian's errors assume independent corner errors; the corners of nearby
+            // poses share errors (edge-fit biases that follow the marker's angle on the pixel
+            // grid), so the interval comes from the scatter of the tilt over the poses: a
+            // delete-a-group jackknife with a Student t quantile, never narrower than the
+            // Jacobian's.
+            let v = tshape.values(&tf.params);
+            let phis = &tf.params[tshape.globals..];
+            let groups = JACKKNIFE_GROUPS.min(poses.len() / 4);
+            let mut reps: Vec<[f64; 2]> = Vec::new();
+            for g in 0..groups {
+                let (lo, hi) = (g * poses.len() / groups, (g + 1) * poses.len() / groups);
+                let kept: Vec<(f64, Corners)> =
+                    poses[..lo].iter().chain(&poses[hi..]).copied().collect();
+                let mut st = v.to_vec();
+                st.extend(phis[..lo].iter().chain(&phis[hi..]));
+                if let Some((jf, _)) = run(true, &st, &kept) {
+                    reps.push([jf.params[1], jf.params[2]]);
+                }
+            }
+            let jack = |i: usize| -> Option<(f64, f64)> {
+                let g = reps.len();
+                if g < 3 || g < groups {
+                    return None;
+                }
+                let mean = reps.iter().map(|r| r[i]).sum::<f64>() / g as f64;
+                let var = reps.iter().map(|r| (r[i] - mean).powi(2)).sum::<f64>() * (g - 1) as f64
+                    / g as f64;
+                Some((var.sqrt(), student_t95(g - 1)))
+            };
+            let u = |i: usize| match jack(i - 1) {
+                Some((sj, t)) => Fitted::new(tf.params[i], t * sj.max(se[i]).hypot(0.02)),
+                None => Fitted::from_sigma(tf.params[i], se[i], 0.02),
+            };
             tilt_fit.tilt_x_deg = u(1);
             tilt_fit.tilt_y_deg = u(2);
             tilt_fit.fitted = true;

@@ -2,10 +2,9 @@
 //! pixel noise (shot + read) and JPEG compression, and their mapping onto the renderer's
 //! parameters (levels and radiances, `optical_blur.sigma_px`, `pixel_noise` electrons).
 
-use super::{CalibrateError, Fitted, FootageStats};
+use super::{blur_model, CalibrateError, Fitted, FootageStats};
 use crate::imagestats::{EdgeProfile, RegionStats};
 use crate::render::effects::compression::jpeg_round_trip;
-use crate::render::effects::optical_blur::sigma_for_effective_px;
 use crate::render::effects::pixel_noise::{frame_key, normal_at};
 
 /// The noise model: measured σ at the ink and paper levels and the renderer's electrons.
@@ -25,6 +24,70 @@ pub struct NoiseFit {
     /// clipping, at the ink and the paper (1 on plain footage; found while matching by
     /// simulation, smaller under JPEG or clipping, where the measured σ tells less).
     pub sensitivity: [f64; 2],
+    /// |σ measured on the calibrated scenario's render − σ measured on the footage| at the ink
+    /// and the paper after the match, DN: what the two-parameter (shot + read) model leaves
+    /// unexplained, a bias the interval must carry.
+    pub match_residual_dn: [f64; 2],
+    /// Why the sensor's σ before compression cannot be measured to 10 % (`None`: it can).
+    pub not_identifiable: Option<String>,
+    /// Under JPEG: how far the σ before compression moves over the quality range the quantiser
+    /// allows, at the ink and the paper, DN (0 without compression).
+    pub compression_u_dn: [f64; 2],
+    /// The measured σ at the ink / the paper is below [`QUANTISATION_LIMITED_DN`]: the 8-bit
+    /// values of the region take essentially two adjacent levels, whose shares the mean level
+    /// fixes whatever the σ before quantisation, so that σ is not identifiable there.
+    pub quantisation_limited: [bool; 2],
+}
+
+/// Below this measured σ (DN) the sensor's σ before quantisation is not identifiable: two
+/// adjacent 8-bit levels hold the region's pixels (two levels of shares p and 1 − p have σ
+/// √(p(1 − p)) ≤ ½).
+pub const QUANTISATION_LIMITED_DN: f64 = 0.5;
+
+/// The total σ (sensor and quantisation) whose region still shows mostly two levels: a sensor σ
+/// of ½ DN, √(½² + 1/12) DN.
+const QUANTISED_TOTAL_MAX_DN: f64 = 0.577_350_269_189_625_8;
+
+/// The quantisation floor: σ of rounding to whole DN, 1/√12 DN.
+const QUANTISATION_FLOOR_DN: f64 = 0.288_675_134_594_812_9;
+
+impl NoiseFit {
+    /// The sensor's noise σ at `level_dn` of material `m` (0 ink, 1 paper) before compression,
+    /// with the 1/√12 DN quantisation floor, from the fitted electrons under `black`/`white`,
+    /// and its 95 % interval: the measured σ's uncertainty through the match's sensitivity,
+    /// twice over (the footage's sample and the simulation's), plus the match residual through
+    /// the same sensitivity (a bias, added linearly).
+    pub fn sensor_sigma_dn(&self, m: usize, level_dn: f64, black: f64, white: f64) -> Fitted {
+        let value = sensor_sigma(level_dn, black, white, self.full_well_e, self.read_noise_e);
+        let measured = if m == 0 {
+            self.ink_sigma_dn
+        } else {
+            self.paper_sigma_dn
+        };
+        if self.quantisation_limited[m] {
+            // Anything from the floor (no sensor noise) to the largest σ that still keeps the
+            // pixels on two levels is consistent with the footage.
+            return Fitted::new(
+                value,
+                (value - QUANTISATION_FLOOR_DN).max(QUANTISED_TOTAL_MAX_DN - value),
+            );
+        }
+        let sens = self.sensitivity[m].max(1e-3);
+        Fitted::new(
+            value,
+            (std::f64::consts::SQRT_2 * measured.u95 + self.match_residual_dn[m]) / sens
+                + self.compression_u_dn[m],
+        )
+    }
+}
+
+/// The renderer's noise σ at `level_dn`, DN: shot + read through the tone span, plus the
+/// quantisation to whole DN (variance 1/12).
+pub fn sensor_sigma(level_dn: f64, black: f64, white: f64, full_well_e: f64, read_e: f64) -> f64 {
+    let span = white - black;
+    let s = ((level_dn - black) / span).max(0.0);
+    (span * span * (s * full_well_e + read_e * read_e) / (full_well_e * full_well_e) + 1.0 / 12.0)
+        .sqrt()
 }
 
 /// Image formation of the footage.
@@ -342,16 +405,40 @@ pub fn fit_imaging(
     let span = white - black;
     let rad = |dn: f64| ((dn - black) / span).clamp(0.0, 1.0);
     // Undo the JPEG's smoothing of the noise (simulated on a flat patch at each level).
-    let pre = |level: f64, s: f64| -> f64 {
-        let Some((q, _, _)) = jpeg_quality else {
-            return s;
-        };
+    let pre_at = |level: f64, s: f64, q: u8| -> f64 {
         let mut guess = s;
         for _ in 0..3 {
             let r = jpeg_noise_ratio(level, guess, q).max(0.05);
             guess = s / r;
         }
         guess
+    };
+    let pre = |level: f64, s: f64| -> f64 {
+        match jpeg_quality {
+            Some((q, _, _)) => pre_at(level, s, q),
+            None => s,
+        }
+    };
+    let (compression_u_dn, not_identifiable) = match jpeg_quality {
+        Some((q, (lo, hi), _)) => {
+            let spread = |level: f64, s: f64| {
+                let p = pre_at(level, s, q);
+                [lo, hi]
+                    .iter()
+                    .map(|&b| (pre_at(level, s, b) - p).abs())
+                    .fold(0.0, f64::max)
+            };
+            (
+                [
+                    spread(ink_dn.value, ink_sigma.value),
+                    spread(paper_dn.value, paper_sigma.value),
+                ],
+                Some(format!(
+                    "JPEG at quality {q} ({lo}–{hi}) quantises the 8×8 block DCT coefficients and                      so removes part of the noise, by an amount that depends on the quality and                      on what else the blocks hold (the marker's edges): the σ after compression                      is matched by simulation, the sensor's σ before it is not measured to 10 %"
+                )),
+            )
+        }
+        None => ([0.0, 0.0], None),
     };
     let var = |level: f64, s: f64| (pre(level, s).powi(2) - 1.0 / 12.0).max(0.0);
     let (vi, vp) = (
@@ -370,6 +457,16 @@ pub fn fit_imaging(
     );
     if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
         eprintln!("imaging: ink {ink_dn} paper {paper_dn} σ {ink_sigma} {paper_sigma} vars {vi} {vp} black {black} white {white} u {u_diff} → {full_well_e} {read_noise_e} {shot_resolved}");
+    }
+    for (what, sigma) in [("ink", ink_sigma), ("paper", paper_sigma)] {
+        if sigma.value < QUANTISATION_LIMITED_DN {
+            notes.push(format!(
+                "pixel noise at the {what}: the measured σ {sigma} DN is below \
+                 {QUANTISATION_LIMITED_DN} DN, the region's pixels sit on two adjacent 8-bit \
+                 levels: the sensor's σ there is not identifiable (anything from 0 to 0.5 DN \
+                 before quantisation fits the footage)"
+            ));
+        }
     }
     if !shot_resolved {
         notes.push(format!(
@@ -401,7 +498,19 @@ pub fn fit_imaging(
                 .into(),
         );
     }
-    let blur_sigma_param_px = blur_sigma_px.map(|b| b.map(sigma_for_effective_px));
+    // The scenario's σ whose rendered edges the fit measures as the footage's, at the edges'
+    // own orientations (`blur_model`: the kernel sampled at whole pixels is not a Gaussian).
+    let mut bins = [0usize; blur_model::ANGLE_BINS];
+    for e in &edges {
+        bins[blur_model::angle_bin(e.normal)] += 1;
+    }
+    let jpeg_edges = jpeg_quality.map(|(q, _, _)| blur_model::JpegEdges {
+        ink_dn: ink_dn.value,
+        paper_dn: paper_dn.value,
+        quality: q,
+    });
+    let blur_sigma_param_px = blur_sigma_px
+        .map(|b| b.map(|m| blur_model::sigma_param_for_measured(m, &bins, jpeg_edges.as_ref())));
     let ref_edges: Vec<&EdgeProfile> = stats.reference_edges.iter().collect();
     let ref_level = |f: fn(&crate::imagestats::MarkerLevels) -> f64| {
         robust_level(
@@ -430,6 +539,13 @@ pub fn fit_imaging(
             shot_resolved,
             source,
             sensitivity: [1.0, 1.0],
+            match_residual_dn: [0.0, 0.0],
+            not_identifiable,
+            compression_u_dn,
+            quantisation_limited: [
+                ink_sigma.value < QUANTISATION_LIMITED_DN,
+                paper_sigma.value < QUANTISATION_LIMITED_DN,
+            ],
         },
         blockiness,
         jpeg_quality,

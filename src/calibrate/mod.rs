@@ -24,6 +24,7 @@
 //! The frame timing is the footage's own timestamps, replayed exactly by the calibrated scenario,
 //! with the VFR model fitted by [`crate::timing::fit::fit_vfr`] reported beside them.
 
+mod blur_model;
 mod geometry;
 mod imaging;
 mod motion;
@@ -33,7 +34,7 @@ pub mod output;
 mod tests;
 
 pub use geometry::{fit_geometry, GeometryFit, TiltFit};
-pub use imaging::{fit_imaging, noise_electrons, ImagingFit, NoiseFit};
+pub use imaging::{fit_imaging, noise_electrons, sensor_sigma, ImagingFit, NoiseFit};
 pub use motion::{fit_motion, MotionFit, MotionInput};
 
 use crate::imagestats::{Blockiness, EdgeProfile, JpegQuality, MarkerLevels, TemporalNoise};

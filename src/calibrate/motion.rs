@@ -20,6 +20,9 @@ pub struct MotionInput {
     pub track: Vec<(f64, f64)>,
     /// The same on every frame (dense, for the angle noise and the count of moving frames).
     pub dense: Vec<(f64, f64)>,
+    /// 95 % uncertainty the rotation centre's position gives every marker angle (the angles
+    /// are measured about the fitted centre): U(centre)/R, rad.
+    pub centre_angle_u95_rad: f64,
 }
 
 impl MotionInput {
@@ -29,6 +32,12 @@ impl MotionInput {
             slots: base.mechanism.slots,
             track: g.track.clone(),
             dense: g.raw_track.clone(),
+            centre_angle_u95_rad: match g.centre_px {
+                Some([x, y]) => {
+                    x.u95.hypot(y.u95) / (g.radius_mm.value / g.mm_per_px.value).max(1.0)
+                }
+                None => 0.0,
+            },
         })
     }
 }
@@ -83,6 +92,21 @@ fn angle_noise(track: &[(f64, f64)]) -> f64 {
     }
     d2.sort_by(f64::total_cmp);
     d2[d2.len() / 2] / 0.6745 / 6f64.sqrt()
+}
+
+/// Standard-error inflation for residuals that are correlated from pose to pose: √((1 + ρ)/(1 − ρ))
+/// with ρ the lag-1 autocorrelation of the residuals in time order (an AR(1) process has
+/// (1 − ρ)/(1 + ρ) as many independent samples). Pose errors that follow the marker's angle
+/// on the pixel grid, and wheel dynamics the kinematic model does not have, are smooth in time:
+/// the Jacobian's errors, which assume independent residuals, are too small by this factor.
+pub(crate) fn ar1_inflation(residuals: &[f64]) -> f64 {
+    let ss: f64 = residuals.iter().map(|r| r * r).sum();
+    if residuals.len() < 3 || ss <= 0.0 {
+        return 1.0;
+    }
+    let lag: f64 = residuals.windows(2).map(|w| w[0] * w[1]).sum();
+    let rho = (lag / ss).clamp(0.0, 0.95);
+    ((1.0 + rho) / (1.0 - rho)).sqrt()
 }
 
 /// Fits the crank motion to the marker angle track.
@@ -179,7 +203,8 @@ pub fn fit_motion(
         what: "motion".into(),
         reason: "the kinematic model could not be fitted to the marker angle".into(),
     })?;
-    let se = fit.std_errors();
+    let inflate = ar1_inflation(&fit.residuals);
+    let se: Vec<f64> = fit.std_errors().iter().map(|s| s * inflate).collect();
     let n = track.len() as f64;
     let rms = (fit.cost / n).sqrt();
     // Which engagements lie within the footage (crank angle 0 mod 2π is the middle of one).
@@ -239,12 +264,13 @@ pub fn fit_motion(
             100,
         ) {
             if let Some(cov) = pf.covariance() {
+                let pinflate = ar1_inflation(&pf.residuals);
                 let diff = pf.params[2] - pf.params[1];
-                let sd = (cov[1][1] + cov[2][2] - 2.0 * cov[1][2]).max(0.0).sqrt();
-                let d = Fitted::from_sigma(dir * diff, sd, 0.0);
+                let sd = (cov[1][1] + cov[2][2] - 2.0 * cov[1][2]).max(0.0).sqrt() * pinflate;
+                let d = Fitted::from_sigma(dir * diff, sd, 1e-4 * (pf.params[1] + pf.params[2]));
                 polynomial_difference = Some(d);
                 if diff.abs() > d.u95 && pf.cost < fit.cost {
-                    let pse = pf.std_errors();
+                    let pse: Vec<f64> = pf.std_errors().iter().map(|s| s * pinflate).collect();
                     theta1 = Fitted::from_sigma(wrap_pi(pf.params[0]), pse[0], floor_th);
                     angle_first = Fitted::from_sigma(
                         wrap_pi(pf.params[3]).to_degrees(),
@@ -253,8 +279,17 @@ pub fn fit_motion(
                     );
                     rms = (pf.cost / n).sqrt();
                     polynomial = Some((
-                        Fitted::from_sigma(dir * pf.params[1], cov[1][1].max(0.0).sqrt(), 0.0),
-                        Fitted::from_sigma(dir * pf.params[2], cov[2][2].max(0.0).sqrt(), 0.0),
+                        // The same floor as the constant speed's.
+                        Fitted::from_sigma(
+                            dir * pf.params[1],
+                            cov[1][1].max(0.0).sqrt() * pinflate,
+                            1e-4 * pf.params[1],
+                        ),
+                        Fitted::from_sigma(
+                            dir * pf.params[2],
+                            cov[2][2].max(0.0).sqrt() * pinflate,
+                            1e-4 * pf.params[2],
+                        ),
                     ));
                 } else {
                     notes.push(format!(
@@ -269,13 +304,20 @@ pub fn fit_motion(
             "per-engagement speed variation not tested: too few frames inside an engagement".into(),
         );
     }
+    // The fit takes the centre as exact; its uncertainty moves the marker angle with it.
+    let angle_first_deg = Fitted::new(
+        angle_first.value,
+        angle_first
+            .u95
+            .hypot(input.centre_angle_u95_rad.to_degrees()),
+    );
     Ok(MotionFit {
         sense,
         theta1_start_rad: theta1,
         omega1_rad_s: omega,
         polynomial,
         polynomial_difference,
-        angle_first_deg: angle_first,
+        angle_first_deg,
         engagements,
         moving_frames,
         rms_residual_rad: rms,

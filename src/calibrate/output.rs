@@ -677,6 +677,34 @@ pub fn calibration_markdown(
             "σ does not grow with the level: read noise only".into()
         },
     );
+    let sensor =
+        |m: usize, level: f64| n.sensor_sigma_dn(m, level, im.black_level_dn, im.white_level_dn);
+    row(
+        "sensor noise σ at the ink / paper (before compression, with the 1/√12 DN quantisation)",
+        match &n.not_identifiable {
+            None => {
+                let show = |m: usize, level: f64| {
+                    let f = sensor(m, level);
+                    if n.quantisation_limited[m] {
+                        format!("{:.2} (not identifiable below ½ DN: {f})", f.value)
+                    } else {
+                        f.to_string()
+                    }
+                };
+                format!("{} / {}", show(0, im.ink_dn.value), show(1, im.paper_dn.value))
+            }
+            Some(_) => format!(
+                "not identifiable (the scenario's electrons give {:.2} / {:.2})",
+                sensor(0, im.ink_dn.value).value,
+                sensor(1, im.paper_dn.value).value
+            ),
+        },
+        "DN",
+        match &n.not_identifiable {
+            None => "the fitted electrons; interval: the measured σ's through the match's sensitivity (footage and simulation) plus the match's residual".into(),
+            Some(why) => why.clone(),
+        },
+    );
     match im.jpeg_quality {
         Some((q, (lo, hi), k)) => row(
             "JPEG quality",

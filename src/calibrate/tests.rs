@@ -46,6 +46,7 @@ fn motion_fit_recovers_phase_speed_and_angle_within_its_uncertainty() {
             slots,
             track: track(kind, slots, th0, w, a, 2e-4, 240, 30.0),
             dense: Vec::new(),
+            centre_angle_u95_rad: 0.0,
         };
         let mut notes = Vec::new();
         let m = fit_motion(&input, &mut notes).unwrap();
@@ -107,6 +108,7 @@ fn motion_fit_resolves_the_per_engagement_polynomial() {
             slots: 4,
             track: tr,
             dense: Vec::new(),
+            centre_angle_u95_rad: 0.0,
         },
         &mut notes,
     )
@@ -125,6 +127,7 @@ fn a_wheel_that_does_not_turn_is_an_error_naming_the_motion() {
         slots: 4,
         track: (0..50).map(|k| (k as f64 / 30.0, 0.3)).collect(),
         dense: Vec::new(),
+        centre_angle_u95_rad: 0.0,
     };
     let e = fit_motion(&input, &mut Vec::new()).unwrap_err();
     assert!(e.to_string().contains("single-frame"), "{e}");

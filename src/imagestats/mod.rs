@@ -43,6 +43,7 @@ mod shape;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use edge::step_response;
 pub use edge::{
     fit_grid_edge, inner_edge_profiles, normal_cdf, outer_edge_profiles, refined_corners,
     EdgeOptions, EdgeProfile, GridEdge,

@@ -753,6 +753,7 @@ fn write_outputs(
     };
     let first = typed(&ovs)?;
     // Below the printed precision it is no correction worth a note.
+    let mut offset_deg = None;
     if let Some(d) = dynamics_offset_rad(&first, times).filter(|d| d.to_degrees().abs() >= 5e-5) {
         if let Some(o) = ovs
             .iter_mut()
@@ -760,6 +761,7 @@ fn write_outputs(
         {
             if let Some(v) = o.value.as_float() {
                 o.value = Value::Float(v - d.to_degrees());
+                offset_deg = Some(d.to_degrees());
                 o.comment.push_str(&format!(
                     "; minus {:.4}° that the base's wheel dynamics add on average",
                     d.to_degrees()
@@ -773,6 +775,14 @@ fn write_outputs(
     }
     let mut cal = cal;
     cal.notes = notes;
+    // The reported marker angle is the scenario's (the same correction), not the kinematic
+    // fit's, which includes the wheel's mean dynamic displacement.
+    if let Some(d) = offset_deg {
+        match cal.motion.as_mut() {
+            Some(m) => m.angle_first_deg.value -= d,
+            None => cal.geometry.angle_first_deg.value -= d,
+        }
+    }
     if let Some((frame, crop, corners)) = &overlay {
         let layout = layout_of(
             base.scene.marker.dictionary,
@@ -1100,9 +1110,16 @@ fn match_by_simulation(
         Value::Float((read / c * 100.0).round() / 100.0),
     );
     let mut sensitivity = [1.0, 1.0];
+    let mut match_residual = [0.0, 0.0];
     if let (Some((_, s1)), Some((_, s2)), Some(li), Some(lp)) =
         (sim(ovs), sim(&scaled), levels[0], levels[1])
     {
+        for m in 0..2 {
+            let d = (s1[m] - target_sigmas[m]).abs();
+            if d.is_finite() {
+                match_residual[m] = d;
+            }
+        }
         let span = white - black;
         for (m, l) in [li, lp].into_iter().enumerate() {
             let s = ((l - black) / span).max(0.0);
@@ -1116,6 +1133,7 @@ fn match_by_simulation(
     let span = white - black;
     let im = &mut cal.imaging;
     im.noise.sensitivity = sensitivity;
+    im.noise.match_residual_dn = match_residual;
     im.black_level_dn = black;
     im.white_level_dn = white;
     im.noise.full_well_e = fw;
