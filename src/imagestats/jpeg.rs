@@ -206,10 +206,6 @@ fn log_likelihood(coefs: &[f64], q: f64, sigma: f64, b: f64) -> f64 {
         .sum()
 }
 
-/// Fewest AC coefficients at a non-zero multiple of their step (in frequencies the table
-/// quantises) that count as evidence of a quantiser.
-const MIN_REACHING_COEFFICIENTS: usize = 16;
-
 /// Estimates the JPEG quality from the block-DCT coefficients of `rect ∩ view` (whole view when
 /// `None`) on the absolute 8-px grid, using at most `max_blocks` blocks (evenly spread; blocks
 /// with clipped pixels are skipped). `Ok(None)` when the coefficients show no quantisation
@@ -317,32 +313,7 @@ pub fn jpeg_quality(
     }
     let gain = (best.0 - baseline) / used as f64;
     let coarse = ZIGZAG15.iter().any(|&idx| tables[best.1][idx] > 1);
-    // A quantiser shows only where coefficients reach its steps: coefficients that all round to
-    // zero are what a quiet uncompressed region gives too (8-bit rounding noise of ~0.3 DN),
-    // and any coarse table "explains" them. The coefficients at a non-zero multiple of their
-    // step must sit on the lattice: better explained by it than without quantisation.
-    let (mut reaching, mut reaching_gain) = (0usize, 0.0);
-    for (k, &idx) in ZIGZAG15.iter().enumerate() {
-        let q = tables[best.1][idx];
-        if q <= 1 {
-            continue;
-        }
-        let cs = &coefs[k];
-        let b = (cs.iter().map(|v| v.abs()).sum::<f64>() / cs.len() as f64).max(0.5);
-        let r: Vec<f64> = cs
-            .iter()
-            .copied()
-            .filter(|c| c.abs() >= 0.5 * q as f64)
-            .collect();
-        reaching += r.len();
-        let without = sigmas
-            .iter()
-            .map(|&s| log_likelihood(&r, 1.0, s, b))
-            .fold(f64::NEG_INFINITY, f64::max);
-        reaching_gain += log_likelihood(&r, q as f64, sigmas[best.2], b) - without;
-    }
-    let on_lattice = reaching >= MIN_REACHING_COEFFICIENTS && reaching_gain > 0.1 * reaching as f64;
-    if !(gain > 0.3 && coarse && on_lattice) {
+    if !(gain > 0.3 && coarse) {
         return Ok(None);
     }
     let close: Vec<usize> = (0..tables.len())
