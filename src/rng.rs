@@ -15,6 +15,8 @@ pub enum Stream {
     Compression = 6,
     /// Sub-pixel placement of the aligned nominal in a diagnosis's simulations.
     DiagnoseNuisance = 7,
+    /// Generated inputs of the parser fuzzing harness (`fuzz`).
+    Fuzz = 8,
 }
 
 /// SplitMix64 finaliser: decorrelates nearby (seed, stream, index) triples.

@@ -158,10 +158,10 @@ pub fn main() -> Result<()> {
     }
 }
 
-/// The error and its causes joined with ": ", leaving out a cause whose text is already in the
-/// message: library errors state their source inside their own message (so they read whole on
-/// their own) and also expose it as `source()`, which anyhow's `{:#}` would print a second time
-/// ("Not a directory (os error 20): Not a directory (os error 20)").
+/// The error and its causes joined with ": ", as anyhow's `{:#}`. Library errors return their
+/// cause from `source()` without repeating it in their message (`geneva_vision::errors`); a
+/// cause whose text a context added here already states is still left out, so that nothing is
+/// printed twice ("Not a directory (os error 20): Not a directory (os error 20)").
 pub fn error_text(error: &anyhow::Error) -> String {
     let mut text = String::new();
     for cause in error.chain() {

@@ -31,7 +31,7 @@ pub enum DetectError {
         expected: usize,
         got: usize,
     },
-    #[error("OpenCV: {0}")]
+    #[error("OpenCV")]
     OpenCv(#[from] opencv::Error),
 }
 

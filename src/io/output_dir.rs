@@ -28,7 +28,7 @@ const MARKER_HEADER: &str =
 
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    #[error("{path}: cannot {action}: {source}")]
+    #[error("{path}: cannot {action}")]
     Io {
         path: PathBuf,
         action: &'static str,

@@ -9,12 +9,12 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum TimingLogError {
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read")]
     Read {
         file: String,
         source: std::io::Error,
     },
-    #[error("{file}: {source}")]
+    #[error("{file}")]
     Parse { file: String, source: TimingError },
 }
 
@@ -187,7 +187,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let bad = dir.path().join("bad.csv");
         std::fs::write(&bad, "frame,t_s\n0,0.1\n1,0.05\n").unwrap();
-        let msg = read_timing_log(&bad, None).unwrap_err().to_string();
+        let msg = crate::errors::full(&read_timing_log(&bad, None).unwrap_err());
         assert!(msg.contains("bad.csv") && msg.contains("frame 1"), "{msg}");
         assert!(read_timing_log(&dir.path().join("none"), None).is_err());
     }

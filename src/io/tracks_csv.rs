@@ -77,7 +77,7 @@ impl TracksWriter {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TracksReadError {
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read")]
     Read {
         file: PathBuf,
         source: std::io::Error,
@@ -140,6 +140,8 @@ pub const MAX_FRAME: usize = 1_000_000_000;
 /// Largest corner coordinate magnitude, px: far outside any image, small enough that every
 /// derived quantity (squared distances, circle fits) stays finite.
 pub const MAX_COORDINATE_PX: f64 = 1e6;
+/// Longest line accepted, bytes (a row of 19 numbers is a few hundred).
+pub const MAX_LINE_BYTES: usize = 1 << 16;
 /// Largest timestamp magnitude, s (about 30 years).
 pub const MAX_TIME_S: f64 = 1e9;
 
@@ -149,19 +151,44 @@ pub fn read_tracks(
     path: &Path,
     expected_marker_id: Option<i32>,
 ) -> Result<Vec<TrackRow>, TracksReadError> {
-    use std::io::BufRead;
+    let file = std::fs::File::open(path).map_err(|source| TracksReadError::Read {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    read_tracks_from(std::io::BufReader::new(file), path, expected_marker_id)
+}
+
+/// [`read_tracks`] from any reader (bytes need not be UTF-8: such a line is an error naming
+/// it); `path` only names the source in errors.
+pub fn read_tracks_from<R: std::io::BufRead>(
+    mut reader: R,
+    path: &Path,
+    expected_marker_id: Option<i32>,
+) -> Result<Vec<TrackRow>, TracksReadError> {
+    use std::io::{BufRead, Read};
     let read_err = |source| TracksReadError::Read {
         file: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(read_err)?;
     let mut parser = TracksParser::new(path, expected_marker_id);
-    let mut reader = std::io::BufReader::new(file);
     let mut buf = Vec::new();
     loop {
         buf.clear();
-        if reader.read_until(b'\n', &mut buf).map_err(read_err)? == 0 {
+        let limit = MAX_LINE_BYTES as u64 + 1;
+        if (&mut reader)
+            .take(limit)
+            .read_until(b'\n', &mut buf)
+            .map_err(read_err)?
+            == 0
+        {
             break;
+        }
+        if buf.len() > MAX_LINE_BYTES {
+            return Err(TracksReadError::Header {
+                file: path.to_path_buf(),
+                line: parser.line_no + 1,
+                message: format!("line longer than {MAX_LINE_BYTES} bytes: not a tracks file"),
+            });
         }
         match std::str::from_utf8(&buf) {
             Ok(line) => parser.line(line)?,
@@ -245,8 +272,10 @@ impl TracksParser {
 
     fn header(&self, line: &str) -> Result<Columns, TracksReadError> {
         let names: Vec<&str> = line.split(',').map(str::trim).collect();
-        for (k, n) in names.iter().enumerate() {
-            if !n.is_empty() && names[..k].contains(n) {
+        // A set, not a scan of the names before each: a hostile header of 10⁵ columns.
+        let mut seen = std::collections::HashSet::with_capacity(names.len());
+        for n in &names {
+            if !n.is_empty() && !seen.insert(*n) {
                 return Err(TracksReadError::Header {
                     file: self.file.clone(),
                     line: self.line_no,

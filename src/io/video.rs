@@ -17,13 +17,13 @@ pub enum VideoError {
         tool: &'static str,
         package: &'static str,
     },
-    #[error("{path}: cannot run {tool}: {source}")]
+    #[error("{path}: cannot run {tool}")]
     Spawn {
         path: PathBuf,
         tool: &'static str,
         source: std::io::Error,
     },
-    #[error("{path}: cannot open: {source}")]
+    #[error("{path}: cannot open")]
     Open {
         path: PathBuf,
         source: std::io::Error,
@@ -57,7 +57,7 @@ pub enum VideoError {
         path: PathBuf,
         frames_expected: usize,
     },
-    #[error("{path}: frame {frame}: read error: {source}")]
+    #[error("{path}: frame {frame}: read error")]
     Read {
         path: PathBuf,
         frame: usize,
@@ -174,6 +174,11 @@ fn spawn_error(path: &Path, tool: &'static str, e: std::io::Error) -> VideoError
     }
 }
 
+/// Largest frame side accepted from a container, px (16K video is 15,360).
+pub const MAX_SIDE_PX: usize = 1 << 15;
+/// Largest frame accepted from a container, px (16K × 8K).
+pub const MAX_FRAME_PIXELS: usize = 1 << 27;
+
 /// Runs ffprobe on `path` (decodes every frame to list timestamps).
 pub fn probe(path: &Path) -> Result<VideoInfo, VideoError> {
     probe_with(path, "ffprobe")
@@ -220,7 +225,8 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
         path: path.into(),
         message,
     };
-    let v: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| bad(crate::errors::full(&e)))?;
     let stream = v["streams"]
         .get(0)
         .ok_or_else(|| bad("no video stream".into()))?;
@@ -231,6 +237,13 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
             .ok_or_else(|| bad(format!("no stream {k}")))
     };
     let (coded_w, coded_h) = (dim("width")? as usize, dim("height")? as usize);
+    // Refused before any frame buffer is sized from them (a damaged header of 10¹² px).
+    if coded_w > MAX_SIDE_PX || coded_h > MAX_SIDE_PX || coded_w * coded_h > MAX_FRAME_PIXELS {
+        return Err(bad(format!(
+            "stream size {coded_w}x{coded_h} px is beyond any camera (at most {MAX_SIDE_PX} px a \
+             side and {MAX_FRAME_PIXELS} px a frame)"
+        )));
+    }
     let side_rotation = stream["side_data_list"]
         .as_array()
         .and_then(|l| l.iter().find_map(|s| s["rotation"].as_f64()));

@@ -52,7 +52,7 @@ impl Default for AnalyzeOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum AnalyzeError {
-    #[error("{dir}: cannot create output directory: {source}")]
+    #[error("{dir}: cannot create output directory")]
     OutDir {
         dir: PathBuf,
         source: std::io::Error,
@@ -76,13 +76,13 @@ pub enum AnalyzeError {
     },
     #[error("detector: {0}")]
     Detector(DetectError),
-    #[error("{file}: frame {frame}: detection failed: {source}")]
+    #[error("{file}: frame {frame}: detection failed")]
     Detect {
         file: PathBuf,
         frame: usize,
         source: DetectError,
     },
-    #[error("{source} (the {frames} frames read so far are in {tracks})")]
+    #[error("stopped after {frames} frames (the frames read so far are in {tracks})")]
     Interrupted {
         source: VideoError,
         frames: usize,
@@ -97,7 +97,7 @@ pub enum AnalyzeError {
         gap_end: usize,
         limit: usize,
     },
-    #[error("estimation: {source} ({frames} frames read, tracks in {tracks})")]
+    #[error("estimation failed ({frames} frames read, tracks in {tracks})")]
     Estimate {
         source: crate::estimate::EstimateError,
         frames: usize,

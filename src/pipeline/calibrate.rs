@@ -77,8 +77,14 @@ pub enum CalibrateJobError {
         frame: usize,
         message: String,
     },
-    #[error("{0}")]
+    #[error(transparent)]
     Calibrate(#[from] CalibrateError),
+    #[error(transparent)]
+    Image(#[from] crate::io::images::ImageError),
+    #[error(transparent)]
+    Video(#[from] crate::io::video::VideoError),
+    #[error(transparent)]
+    TimingLog(#[from] crate::io::timing_log::TimingLogError),
     #[error("{path}: {message}")]
     Output { path: PathBuf, message: String },
 }
@@ -248,7 +254,7 @@ impl Measurer {
                 self.marker_id,
                 self.last.as_ref().map(corners_bbox_px),
             )
-            .map_err(|e| e.to_string())?
+            .map_err(|e| crate::errors::full(&e))?
             .detection
             .map(|d| d.corners_px);
         let mut obs = FrameObservation {
@@ -324,7 +330,7 @@ impl Measurer {
             let r = self
                 .detector
                 .detect_marker(view, id, self.last_ref.as_ref().map(corners_bbox_px))
-                .map_err(|e| e.to_string())?
+                .map_err(|e| crate::errors::full(&e))?
                 .detection
                 .map(|d| d.corners_px);
             if let Some(c) = r {
@@ -464,7 +470,7 @@ impl Measurer {
 fn read_times(path: &Path) -> Result<Vec<f64>, CalibrateJobError> {
     crate::io::timing_log::read_timing_log(path, None)
         .map(|t| t.into_vec())
-        .map_err(|e| CalibrateJobError::Input(e.to_string()))
+        .map_err(CalibrateJobError::from)
 }
 
 /// Reads the footage frame by frame into `measurer`; returns the timestamps (from the first).
@@ -476,8 +482,7 @@ fn read_footage(
     let mut times = Vec::new();
     match footage {
         Footage::Image(path) => {
-            let img = crate::io::images::read_gray(path)
-                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            let img = crate::io::images::read_gray(path).map_err(CalibrateJobError::from)?;
             measurer
                 .observe(0, 0.0, &img.data, img.width, img.height)
                 .map_err(|message| CalibrateJobError::Frame {
@@ -489,8 +494,8 @@ fn read_footage(
             progress(1, 1);
         }
         Footage::Frames { dir, timestamps } => {
-            let files = crate::io::images::list_image_files(dir)
-                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            let files =
+                crate::io::images::list_image_files(dir).map_err(CalibrateJobError::from)?;
             let t = read_times(timestamps)?;
             if files.len() != t.len() {
                 return Err(CalibrateJobError::Input(format!(
@@ -514,7 +519,7 @@ fn read_footage(
                     let img = img.map_err(|e| CalibrateJobError::Frame {
                         file: file.clone(),
                         frame: i,
-                        message: e.to_string(),
+                        message: crate::errors::full(&e),
                     })?;
                     if i > 0
                         && (img.width, img.height)
@@ -545,8 +550,8 @@ fn read_footage(
             }
         }
         Footage::Video(path) => {
-            let mut frames = crate::io::video::VideoFrames::open(path)
-                .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+            let mut frames =
+                crate::io::video::VideoFrames::open(path).map_err(CalibrateJobError::from)?;
             let (w, h, total) = (
                 frames.info().width_px,
                 frames.info().height_px,
@@ -568,7 +573,7 @@ fn read_footage(
                         progress(f.index + 1, total);
                     }
                     Ok(None) => break,
-                    Err(e) => return Err(CalibrateJobError::Input(e.to_string())),
+                    Err(e) => return Err(e.into()),
                 }
             }
         }
@@ -600,7 +605,7 @@ pub fn load_base(spec: &str) -> Result<Scenario, CalibrateJobError> {
         spec: spec.to_string(),
         message,
     };
-    let stated = crate::scenario::stated_fields(spec).map_err(|e| err(e.to_string()))?;
+    let stated = crate::scenario::stated_fields(spec).map_err(|e| err(crate::errors::full(&e)))?;
     let side = stated
         .get("scene")
         .and_then(|s| s.get("marker"))
@@ -612,7 +617,7 @@ pub fn load_base(spec: &str) -> Result<Scenario, CalibrateJobError> {
                 .into(),
         ));
     }
-    crate::scenario::load_any(spec).map_err(|e| err(e.to_string()))
+    crate::scenario::load_any(spec).map_err(|e| err(crate::errors::full(&e)))
 }
 
 /// Measures the footage: every frame's observation plus the footage-wide statistics.
@@ -639,10 +644,10 @@ fn measure(
     Ok((stats, times, overlay))
 }
 
-fn out_err(path: &Path, e: impl std::fmt::Display) -> CalibrateJobError {
+fn out_err(path: &Path, e: impl std::error::Error) -> CalibrateJobError {
     CalibrateJobError::Output {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     }
 }
 

@@ -155,9 +155,10 @@ pub fn render_and_calibrate(
         },
         &|_, _| {},
     )
-    .map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+    .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
     let base = dir.join("base.toml");
-    std::fs::write(&base, base_toml(truth)).map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+    std::fs::write(&base, base_toml(truth))
+        .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
     calibrate(
         &Footage::Frames {
             dir: frames.clone(),
@@ -180,7 +181,8 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         let text = case_toml(seed, index * 100 + k);
         k += 1;
         let path = dir.join("truth.toml");
-        std::fs::write(&path, &text).map_err(|e| CalibrateJobError::Input(e.to_string()))?;
+        std::fs::write(&path, &text)
+            .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
         if let Ok(s) = crate::scenario::load(&path) {
             if super::rig::Rig::new(&s).is_ok() {
                 break (text, s);

@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 pub enum DecompositionError {
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
-    #[error("run `{run}`, seed {seed}: {source}")]
+    #[error("run `{run}`, seed {seed}")]
     Run {
         run: String,
         seed: u64,

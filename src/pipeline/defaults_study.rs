@@ -36,9 +36,9 @@ const SEED_ORBIT_IN_MARKERS: f64 = 744.0 / 164.8;
 pub enum DefaultsError {
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
-    #[error("{point}: {source}")]
+    #[error("{point}")]
     Rig { point: String, source: RigError },
-    #[error("{point}: {source}")]
+    #[error("{point}")]
     Frames { point: String, source: FramesError },
     #[error(transparent)]
     Csv(#[from] CsvError),
@@ -355,7 +355,8 @@ pub fn evaluate_point(
     let errors = candidates
         .par_iter()
         .map(|c| {
-            let est = estimate(&c.estimator, &t, &corners, None).map_err(|e| e.to_string())?;
+            let est =
+                estimate(&c.estimator, &t, &corners, None).map_err(|e| crate::errors::full(&e))?;
             let signals = signal_errors(&est, &truths.geometry, &truths.truth, &truths.resolvable);
             let fused = &signals[Signal::Fused.index()];
             let only = |v: &[f64], keep: &dyn Fn(&str) -> bool| -> Vec<f64> {
@@ -530,7 +531,7 @@ pub fn run_study(
 fn write_text(path: &Path, text: &str) -> Result<PathBuf, DefaultsError> {
     std::fs::write(path, text).map_err(|e| DefaultsError::Write {
         file: path.to_path_buf(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     Ok(path.to_path_buf())
 }

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 pub enum DynamicsReportError {
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
-    #[error("{label}: {source}")]
+    #[error("{label}")]
     Mechanism {
         label: String,
         source: MechanismError,
@@ -192,7 +192,7 @@ fn plots(
 pub fn dynamics_report(out_dir: &Path) -> Result<Vec<PathBuf>, DynamicsReportError> {
     std::fs::create_dir_all(out_dir).map_err(|e| DynamicsReportError::Write {
         file: out_dir.into(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     let old = simulate("old default (penalty)", |d| {
         d.contact_model = ContactModel::Penalty
@@ -504,7 +504,7 @@ pub fn dynamics_report(out_dir: &Path) -> Result<Vec<PathBuf>, DynamicsReportErr
     let readme = out_dir.join("README.md");
     std::fs::write(&readme, md).map_err(|e| DynamicsReportError::Write {
         file: readme.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     let mut all = files;
     all.push(readme);

@@ -38,7 +38,7 @@ pub struct FrameDetection {
 }
 
 #[derive(Debug, thiserror::Error)]
-#[error("frame {frame} (t = {t_s:.4} s): detection failed: {source}")]
+#[error("frame {frame} (t = {t_s:.4} s): detection failed")]
 pub struct FrameError {
     pub frame: usize,
     pub t_s: f64,

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum MonteCarloError {
-    #[error("seed {seed}: {source}")]
+    #[error("seed {seed}")]
     Run { seed: u64, source: RunError },
     #[error("monte carlo needs at least one seed")]
     NoSeeds,
@@ -253,7 +253,7 @@ impl Study for McStudy<'_> {
         toml::to_string(&r).map_err(|e| MonteCarloError::Record {
             file: work_dir.into(),
             unit,
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })
     }
 
@@ -270,7 +270,7 @@ impl Study for McStudy<'_> {
                 toml::from_str::<SeedRecord>(text).map_err(|e| MonteCarloError::Record {
                     file: unit_dirs(unit),
                     unit,
-                    message: e.to_string(),
+                    message: crate::errors::full(&e),
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderJobError {
-    #[error("{0}")]
+    #[error(transparent)]
     Rig(#[from] RigError),
-    #[error("{dir}: cannot create output directory: {source}")]
+    #[error("{dir}: cannot create output directory")]
     OutDir {
         dir: PathBuf,
         source: std::io::Error,

@@ -32,7 +32,7 @@ pub const SEED_ALPHA_DOUBLED_RAD_S2: f64 = 1.73;
 pub enum ReportsError {
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
-    #[error("{name}: {source}")]
+    #[error("{name}")]
     MonteCarlo {
         name: String,
         source: MonteCarloError,
@@ -99,7 +99,7 @@ impl Default for ReportsOptions {
 fn write_text(path: &Path, text: &str) -> Result<PathBuf, ReportsError> {
     std::fs::write(path, text).map_err(|e| ReportsError::Write {
         file: path.to_path_buf(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     Ok(path.to_path_buf())
 }
@@ -933,7 +933,7 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
                 &|_, _| {},
             )
             .map(|_| ())
-            .map_err(|e| ReportsError::Calibration(e.to_string()))
+            .map_err(|e| ReportsError::Calibration(crate::errors::full(&e)))
         })?);
     }
     if wanted("defaults") {
@@ -962,12 +962,12 @@ pub fn seed_camera_report(sweep_file: &Path, out_dir: &Path) -> Result<(), Repor
     )?;
     let entries = std::fs::read_dir(&run_dir).map_err(|e| ReportsError::Write {
         file: run_dir.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     for entry in entries {
         let entry = entry.map_err(|e| ReportsError::Write {
             file: run_dir.clone(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
         let name = entry.file_name();
         let keep = !matches!(
@@ -982,12 +982,12 @@ pub fn seed_camera_report(sweep_file: &Path, out_dir: &Path) -> Result<(), Repor
         };
         moved.map_err(|e| ReportsError::Write {
             file: entry.path(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
     }
     std::fs::remove_dir(&run_dir).map_err(|e| ReportsError::Write {
         file: run_dir.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     Ok(())
 }

@@ -14,13 +14,13 @@ use crate::timing::{Timestamps, TimingError};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
-    #[error("mechanism: {0}")]
+    #[error("mechanism")]
     Mechanism(#[from] MechanismError),
-    #[error("camera: {0}")]
+    #[error("camera")]
     Camera(#[from] CameraError),
-    #[error("scene: {0}")]
+    #[error("scene")]
     Scene(#[from] SceneError),
-    #[error("frame timing: {0}")]
+    #[error("frame timing")]
     Timing(#[from] TimingError),
     #[error(
         "frame {frame} (t = {t_s:.4} s): the marker leaves the image (its paper spans x {x0:.1}..{x1:.1}, y {y0:.1}..{y1:.1} px in a {w}x{h} frame); move the camera or the marker"

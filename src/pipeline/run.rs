@@ -19,9 +19,9 @@ use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    #[error("{0}")]
+    #[error(transparent)]
     Rig(#[from] RigError),
-    #[error("{dir}: cannot create output directory: {source}")]
+    #[error("{dir}: cannot create output directory")]
     OutDir {
         dir: PathBuf,
         source: std::io::Error,
@@ -214,11 +214,11 @@ fn judge(
         let json_path = out_dir.join("budget.json");
         let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json {
             file: json_path.clone(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
         std::fs::write(&json_path, text + "\n").map_err(|e| RunError::Json {
             file: json_path.clone(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
         files.extend([tracks_path.to_path_buf(), kin, json_path]);
         if options.plots {

@@ -8,13 +8,13 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum TruthError {
-    #[error("mechanism: {0}")]
+    #[error("mechanism")]
     Mechanism(#[from] MechanismError),
     #[error(transparent)]
     Csv(#[from] crate::io::csv_out::CsvError),
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
-    #[error("{dir}: cannot create output directory: {source}")]
+    #[error("{dir}: cannot create output directory")]
     OutDir {
         dir: PathBuf,
         source: std::io::Error,

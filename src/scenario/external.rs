@@ -64,7 +64,7 @@ fn read_text(reference: &str, file: &Path, field: &str) -> Result<String, Scenar
             external("no such built-in data (builtin:model_test1 … builtin:model_test9)".into())
         });
     }
-    let bytes = std::fs::read(reference).map_err(|e| external(e.to_string()))?;
+    let bytes = std::fs::read(reference).map_err(|e| external(crate::errors::full(&e)))?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
 }
 
@@ -82,7 +82,7 @@ pub fn load_external(scenario: &mut Scenario, file: &Path) -> Result<(), Scenari
                 file: file.to_path_buf(),
                 field: "drive_speed.file".into(),
                 path: PathBuf::from(table.as_str()),
-                message: e.to_string(),
+                message: crate::errors::full(&e),
             })?;
             *t_s = t;
             *omega1_rad_s = w;
@@ -94,7 +94,7 @@ pub fn load_external(scenario: &mut Scenario, file: &Path) -> Result<(), Scenari
             file: file.to_path_buf(),
             field: "frame_timing.model.file".into(),
             path: PathBuf::from(log.file.as_str()),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
         scenario.timing_log = Some(ts);
     }

@@ -252,7 +252,7 @@ fn parse_toml(text: &str, file: &Path) -> Result<Value, ScenarioError> {
         .map(Value::Table)
         .map_err(|e| ScenarioError::Syntax {
             file: file.to_path_buf(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })
 }
 

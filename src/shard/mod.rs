@@ -112,7 +112,7 @@ pub enum ShardError {
     BadShard { text: String, message: String },
     #[error(transparent)]
     Output(#[from] crate::io::output_dir::OutputError),
-    #[error("{path}: cannot {action}: {source}")]
+    #[error("{path}: cannot {action}")]
     Io {
         path: PathBuf,
         action: &'static str,

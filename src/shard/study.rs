@@ -207,7 +207,7 @@ fn read_shard_info(folder: &Path) -> Result<Option<Shard>, ShardError> {
             .map_err(|e| ShardError::Log {
                 file: path.clone(),
                 line: e.line(),
-                message: e.to_string(),
+                message: crate::errors::full(&e),
             }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(io_err(&path, "read")(e)),

@@ -142,7 +142,7 @@ impl<'a, E: Evaluator> SweepStudy<'a, E> {
             error: String::new(),
         };
         match &self.scenarios[point] {
-            Err(e) => row.error = one_line(&e.to_string()),
+            Err(e) => row.error = one_line(&crate::errors::full(&e)),
             Ok(sc) => {
                 // The run's scenario carries the run's seed, so seed-driven streams follow it.
                 let mut sc = sc.clone();
@@ -154,7 +154,7 @@ impl<'a, E: Evaluator> SweepStudy<'a, E> {
                     }
                     Err(e) => {
                         row.status = Status::Failed;
-                        row.error = one_line(&e.to_string());
+                        row.error = one_line(&crate::errors::full(&e));
                     }
                 }
             }

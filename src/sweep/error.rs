@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read")]
     Read {
         file: PathBuf,
         source: std::io::Error,
@@ -21,7 +21,7 @@ pub enum SweepError {
         file: PathBuf,
         problems: Vec<Problem>,
     },
-    #[error("{file}: field `base`: {source}")]
+    #[error("{file}: field `base`")]
     Base {
         file: PathBuf,
         source: crate::scenario::ScenarioError,
@@ -34,7 +34,7 @@ pub enum SweepError {
         expected: String,
         found: String,
     },
-    #[error("{file}: point `{point}`: {source} (a mistake in the sweep file: nothing was run)")]
+    #[error("{file}: point `{point}` is not a valid scenario (a mistake in the sweep file: nothing was run)")]
     Point {
         file: PathBuf,
         point: String,

@@ -218,7 +218,7 @@ fn to_line(cells: &[String]) -> Result<String, csv::Error> {
     w.write_record(cells)?;
     let bytes = w
         .into_inner()
-        .map_err(|e| csv::Error::from(std::io::Error::other(e.to_string())))?;
+        .map_err(|e| csv::Error::from(std::io::Error::other(crate::errors::full(&e))))?;
     let mut line = String::from_utf8_lossy(&bytes).into_owned();
     line.pop(); // the terminator
     Ok(line)

@@ -122,7 +122,7 @@ pub fn summarise(
                     scenario
                         .as_ref()
                         .err()
-                        .map(|e| e.to_string().replace('\n', " "))
+                        .map(|e| crate::errors::full(&e).replace('\n', " "))
                 })
                 .unwrap_or_default();
             let status = if scenario.is_err() || mine.iter().any(|r| r.status == Status::Invalid) {

@@ -609,7 +609,7 @@ fn an_unknown_axis_field_is_an_error_before_any_run() {
     let fake = Fake::new();
     let e = run_sweep(&spec, &path, &root.path().join("o"), &fake, no_progress()).unwrap_err();
     assert!(matches!(e, SweepError::Point { .. }), "{e}");
-    let msg = e.to_string();
+    let msg = crate::errors::full(&e);
     assert!(
         msg.contains("fpss") && msg.contains("point `fps=30`"),
         "{msg}"
@@ -620,7 +620,7 @@ fn an_unknown_axis_field_is_an_error_before_any_run() {
     let text = "base = \"fast\"\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [\"thirty\"]\n";
     let spec = SweepSpec::from_str(text, &path).unwrap();
     let e = run_sweep(&spec, &path, &root.path().join("o"), &fake, no_progress()).unwrap_err();
-    assert!(e.to_string().contains("frame_timing.fps"), "{e}");
+    assert!(crate::errors::full(&e).contains("frame_timing.fps"), "{e}");
 }
 
 #[test]

@@ -9,6 +9,9 @@
 //! - `cargo xtask bench`   — run the benchmarks and print their figures, then again the ones
 //!   that state their target (extra arguments go to `cargo bench`: `cargo xtask bench --bench
 //!   diagnose` runs one).
+//! - `cargo xtask fuzz [--inputs N] [--seed S]` — every parser of user input on N generated
+//!   inputs (default 1,000,000 each; `tests/fuzz.rs`), printing count, wall time and peak
+//!   allocation per parser.
 //! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
 //! - `cargo xtask deps`    — only check/install the system packages.
 //!
@@ -31,12 +34,13 @@ fn main() {
         "slurm-test" => system::ensure_packages()
             .and_then(|_| slurm::integration_test(&slurm::geneva_binary()?)),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
+        "fuzz" => fuzz(rest),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
         "diagnosis" => system::ensure_packages()
             .and_then(|_| geneva("diagnose-selfcheck", "reports/diagnosis", rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  reports  regenerate reports/ deterministically\n  diagnosis  the diagnosis self-check into reports/diagnosis/ (hours for the whole suite; resumable, --shard I/N)\n  deps     check and install the system packages"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate reports/ deterministically\n  diagnosis  the diagnosis self-check into reports/diagnosis/ (hours for the whole suite; resumable, --shard I/N)\n  deps     check and install the system packages"
             );
             Ok(())
         }
@@ -161,6 +165,41 @@ fn bench(extra: &[String]) -> Result<(), String> {
     } else {
         Err(format!("{command:?} failed with {status}"))
     }
+}
+
+/// The parser fuzzing campaign of `tests/fuzz.rs`, long: `--inputs N` per parser (default one
+/// million), `--seed S` for other inputs. The test profile is optimised (opt-level 2), so this
+/// reuses `cargo test`'s build.
+fn fuzz(extra: &[String]) -> Result<(), String> {
+    let mut inputs = "1000000".to_string();
+    let mut seed = None;
+    let mut args = extra.iter();
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--inputs" => inputs = args.next().ok_or("--inputs needs a number")?.clone(),
+            "--seed" => seed = Some(args.next().ok_or("--seed needs a number")?.clone()),
+            other => return Err(format!("unknown argument `{other}` (--inputs N, --seed S)")),
+        }
+    }
+    inputs
+        .parse::<u64>()
+        .map_err(|_| format!("--inputs {inputs}: not a count"))?;
+    let mut command = cargo();
+    command.args([
+        "test",
+        "--test",
+        "fuzz",
+        "--",
+        "--nocapture",
+        "--test-threads",
+        "1",
+        "every_parser_survives_generated_inputs",
+    ]);
+    command.env("GENEVA_FUZZ_INPUTS", &inputs);
+    if let Some(seed) = seed {
+        command.env("GENEVA_FUZZ_SEED", seed);
+    }
+    run(command)
 }
 
 /// The diagnosis self-check committed in `reports/diagnosis/` (`cargo xtask diagnosis` with no

@@ -53,6 +53,10 @@ pub enum DiagnoseError {
     Output { file: PathBuf, message: String },
     #[error(transparent)]
     Shard(#[from] crate::shard::ShardError),
+    #[error(transparent)]
+    Image(#[from] crate::io::images::ImageError),
+    #[error(transparent)]
+    Video(#[from] crate::io::video::VideoError),
 }
 
 /// Options of a diagnosis.
@@ -185,12 +189,12 @@ pub fn diagnose(
             options.seeds
         )));
     }
-    let layout =
-        image::marker_layout(nominal).map_err(|e| DiagnoseError::Nominal(e.to_string()))?;
+    let layout = image::marker_layout(nominal)
+        .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
     real::check_source(nominal, source)?;
     let staging = OutputDir::create(out_dir).map_err(|e| DiagnoseError::Output {
         file: out_dir.to_path_buf(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
 
     progress("measuring the real footage", 0, 1);
@@ -395,7 +399,7 @@ pub fn diagnose(
     let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
     staging.commit().map_err(|e| DiagnoseError::Output {
         file: out_dir.to_path_buf(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     Ok((diagnosis, files))
 }

@@ -128,7 +128,7 @@ pub fn align(
         .map(|(t, th)| (*t, *th))
         .unzip();
     let motion = align_motion(nominal, &t_det, &th_det, sign)
-        .map_err(|e| DiagnoseError::Alignment(e.to_string()))?;
+        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
     let mut s = apply_motion(nominal, &motion);
     at_frame_times(&mut s, &t_all)?;
     let mut geometry = align_geometry(&mut s, record, sign)?;
@@ -254,7 +254,7 @@ fn align_geometry(
     let mut dyn_off = s.dynamics.clone();
     dyn_off.enabled = false;
     let mech = Mechanism::new(&s.mechanism, &s.drive_speed, &dyn_off, s.duration_s + 1.0)
-        .map_err(|e| DiagnoseError::Alignment(e.to_string()))?;
+        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
     let theta2: Vec<f64> = shapes
         .iter()
         .map(|(k, _, _)| mech.ideal(record.frames[*k].t_s).theta2_rad)
@@ -391,7 +391,7 @@ impl ReferenceTable {
             &aligned.dynamics,
             t1 + 0.1,
         )
-        .map_err(|e| DiagnoseError::Alignment(e.to_string()))?;
+        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
         let n = ((t1 - t0_s) / step_s).ceil() as usize + 1;
         let samples: Vec<_> = (0..n)
             .map(|k| mech.actual(t0_s + k as f64 * step_s))

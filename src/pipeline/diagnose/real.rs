@@ -28,18 +28,15 @@ fn first_frame_size(source: &Source) -> Result<Option<(usize, usize)>, DiagnoseE
     match source {
         Source::Tracks(_) => Ok(None),
         Source::Frames { dir, .. } => {
-            let files = crate::io::images::list_image_files(dir)
-                .map_err(|e| DiagnoseError::Input(e.to_string()))?;
+            let files = crate::io::images::list_image_files(dir).map_err(DiagnoseError::from)?;
             let first = files.first().ok_or_else(|| {
                 DiagnoseError::Input(format!("{}: no image files", dir.display()))
             })?;
-            let img = crate::io::images::read_gray(first)
-                .map_err(|e| DiagnoseError::Input(e.to_string()))?;
+            let img = crate::io::images::read_gray(first).map_err(DiagnoseError::from)?;
             Ok(Some((img.width, img.height)))
         }
         Source::Video(path) => {
-            let info =
-                crate::io::video::probe(path).map_err(|e| DiagnoseError::Input(e.to_string()))?;
+            let info = crate::io::video::probe(path).map_err(DiagnoseError::from)?;
             Ok(Some((info.width_px, info.height_px)))
         }
     }
@@ -158,8 +155,7 @@ fn image_pass(
     };
     match source {
         Source::Frames { dir, .. } => {
-            let files = crate::io::images::list_image_files(dir)
-                .map_err(|e| DiagnoseError::Input(e.to_string()))?;
+            let files = crate::io::images::list_image_files(dir).map_err(DiagnoseError::from)?;
             for (k, file) in files.iter().enumerate() {
                 if !measures_image(k, n) {
                     continue;
@@ -171,8 +167,7 @@ fn image_pass(
             }
         }
         Source::Video(path) => {
-            let mut v = crate::io::video::VideoFrames::open(path)
-                .map_err(|e| DiagnoseError::Input(e.to_string()))?;
+            let mut v = crate::io::video::VideoFrames::open(path).map_err(DiagnoseError::from)?;
             let (w, h) = (v.info().width_px, v.info().height_px);
             while let Ok(Some(f)) = v.next_frame() {
                 visit(f.index, &f.data, w, h);

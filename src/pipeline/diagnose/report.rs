@@ -626,16 +626,16 @@ pub fn write(
     let md_path = dir.join("diagnosis.md");
     std::fs::write(&md_path, markdown(d, &figures)).map_err(|e| DiagnoseError::Output {
         file: md_path.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     let json_path = dir.join("diagnosis.json");
     let text = serde_json::to_string_pretty(&to_json(d)).map_err(|e| DiagnoseError::Output {
         file: json_path.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     std::fs::write(&json_path, text + "\n").map_err(|e| DiagnoseError::Output {
         file: json_path.clone(),
-        message: e.to_string(),
+        message: crate::errors::full(&e),
     })?;
     files.insert(0, md_path);
     files.insert(0, json_path);

@@ -376,7 +376,7 @@ pub fn run_case(
     if frames.exists() {
         std::fs::remove_dir_all(&frames).map_err(|e| DiagnoseError::Output {
             file: frames.clone(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })?;
     }
     render_case(case, &frames)?;
@@ -510,7 +510,7 @@ pub fn write_summary(
         let path = out_dir.join(name);
         std::fs::write(&path, text).map_err(|e| DiagnoseError::Output {
             file: path.clone(),
-            message: e.to_string(),
+            message: crate::errors::full(&e),
         })
     };
     let opt = |v: Option<f64>, unit: &str, k: f64| {
@@ -649,8 +649,8 @@ pub fn write_summary(
 /// The rig every self-check case starts from: the built-in `fast` rig (1280×720, 30 fps,
 /// 4-slot internal drive, optical blur, pixel noise and lighting on) filmed for `duration_s`.
 pub fn suite_base(duration_s: f64) -> Result<Scenario, DiagnoseError> {
-    let mut s =
-        crate::scenario::load_any("fast").map_err(|e| DiagnoseError::Nominal(e.to_string()))?;
+    let mut s = crate::scenario::load_any("fast")
+        .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
     s.name = "selfcheck-base".into();
     s.duration_s = duration_s;
     Ok(s)

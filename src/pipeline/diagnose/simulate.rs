@@ -72,7 +72,7 @@ pub fn simulate_record(
     layout: &MarkerLayout,
     with_images: bool,
 ) -> Result<Record, DiagnoseError> {
-    let rig = Rig::new(scenario).map_err(|e| DiagnoseError::Simulation(e.to_string()))?;
+    let rig = Rig::new(scenario).map_err(|e| DiagnoseError::Simulation(crate::errors::full(&e)))?;
     let n = rig.frame_times.len();
     let mut frames: Vec<FrameRecord> = Vec::with_capacity(n);
     detect_and_inspect_frames(
@@ -95,7 +95,7 @@ pub fn simulate_record(
         },
         &|_| {},
     )
-    .map_err(|e| DiagnoseError::Simulation(e.to_string()))?;
+    .map_err(|e| DiagnoseError::Simulation(crate::errors::full(&e)))?;
     Ok(Record {
         frames,
         has_images: with_images,
