@@ -77,7 +77,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         ..Default::default()
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let all = cases(&base, &plan, &phone_logs(repo));
+    let all = cases(&base, &plan, &phone_logs(repo)?);
     let text = plan.describe(&base, &options);
     eprintln!("diagnose-selfcheck: {} case(s). {text}", all.len());
     let study = SelfCheck::new(all, options, text);

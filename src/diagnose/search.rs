@@ -1,6 +1,7 @@
 //! Bounded one-dimensional minimisation for parameter fits whose objective is expensive (each
-//! evaluation runs simulations): bracket from a start value, then golden-section search, then a
-//! parabola through the best three points for the minimum's curvature (the uncertainty).
+//! evaluation runs simulations): bracket from a start value, then Brent-style steps (parabolic
+//! interpolation, golden section when a parabola is not trusted), then a parabola through the
+//! best three points for the minimum's curvature (the uncertainty).
 //!
 //! The search runs on a coordinate u: log10 of the parameter for scale-like parameters, the
 //! parameter itself otherwise, always inside [lo, hi]. Deterministic: the same objective values
@@ -119,31 +120,52 @@ pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) ->
         }
     }
     let (mut a, mut c) = (clamp(a), clamp(c));
-    // Golden-section inside [a, c] around b.
+    let (mut fa, mut fc) = (eval(a, &mut evals), eval(c, &mut evals));
+    // Brent-style: a parabolic step through (a, b, c) when it lands well inside the bracket,
+    // a golden-section step otherwise. The objective is a sum of squared z-scores, close to a
+    // parabola near its minimum, so parabolic steps reach the minimum in a few evaluations where
+    // golden section alone shrinks the bracket by only 0.618 each.
     const R: f64 = 0.381_966_011_250_105_1;
+    let mut last_was_parabolic = false;
     while evals.len() < budget && (c - a) > o.tol_u {
-        let (x, fx) = if (c - b) > (b - a) {
-            let x = b + R * (c - b);
-            (x, eval(x, &mut evals))
+        let parabolic = if last_was_parabolic {
+            None
         } else {
-            let x = b - R * (b - a);
-            (x, eval(x, &mut evals))
+            parabola_vertex((a, fa), (b, fb), (c, fc))
+                .filter(|&x| x > a + 0.5 * o.tol_u && x < c - 0.5 * o.tol_u)
+                .map(|x| {
+                    // Never evaluate (almost) at b again: step at least half the tolerance away.
+                    if (x - b).abs() < 0.5 * o.tol_u {
+                        if c - b > b - a {
+                            b + 0.5 * o.tol_u
+                        } else {
+                            b - 0.5 * o.tol_u
+                        }
+                    } else {
+                        x
+                    }
+                })
         };
+        last_was_parabolic = parabolic.is_some();
+        let x = parabolic.unwrap_or(if (c - b) > (b - a) {
+            b + R * (c - b)
+        } else {
+            b - R * (b - a)
+        });
+        let fx = eval(x, &mut evals);
         if fx < fb {
             if x > b {
-                a = b;
+                (a, fa) = (b, fb);
             } else {
-                c = b;
+                (c, fc) = (b, fb);
             }
             (b, fb) = (x, fx);
         } else if x > b {
-            c = x;
+            (c, fc) = (x, fx);
         } else {
-            a = x;
+            (a, fa) = (x, fx);
         }
     }
-    let _ = fa;
-    let _ = fc;
     // Curvature from a parabola through the best point and its nearest evaluated neighbours.
     let mut sorted = evals.clone();
     sorted.sort_by(|p, q| p.0.total_cmp(&q.0));
@@ -180,6 +202,24 @@ pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) ->
     }
 }
 
+/// The vertex of the parabola through three points of distinct abscissae, when it opens
+/// upwards.
+fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64> {
+    let ((x0, y0), (x1, y1), (x2, y2)) = (p0, p1, p2);
+    if !(y0.is_finite() && y1.is_finite() && y2.is_finite()) {
+        return None;
+    }
+    let num = (x1 - x0).powi(2) * (y1 - y2) - (x1 - x2).powi(2) * (y1 - y0);
+    let den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0);
+    // Upward opening: the second divided difference is positive.
+    let curvature = ((y2 - y1) / (x2 - x1) - (y1 - y0) / (x1 - x0)) / (x2 - x0);
+    if den == 0.0 || !(curvature > 0.0) {
+        return None;
+    }
+    let x = x1 - 0.5 * num / den;
+    x.is_finite().then_some(x)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -199,6 +239,26 @@ mod tests {
             "{} vs {expected_std}",
             r.std
         );
+    }
+
+    #[test]
+    fn nine_evaluations_locate_a_smooth_minimum_to_a_few_percent() {
+        // The fits' budget: a χ²-like objective that is not an exact parabola in log10(v)
+        // (quartic term), minimum up to 0.6 decades from the start.
+        for (truth, start) in [(0.8f64, 0.2f64), (0.03, 0.12), (2.5, 1.0)] {
+            let f = |v: f64| {
+                let d = (v.log10() - truth.log10()) / 0.05;
+                d * d + 0.02 * d.powi(4) + 3.0
+            };
+            let mut o = SearchOptions::new(0.01, 10.0, true);
+            o.max_evaluations = 9;
+            let r = minimise(f, start, &o);
+            assert!(
+                (r.value / truth - 1.0).abs() < 0.03,
+                "truth {truth} from {start}: {r:?}"
+            );
+            assert!(r.evaluations.len() <= 9);
+        }
     }
 
     #[test]

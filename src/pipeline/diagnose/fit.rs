@@ -481,7 +481,7 @@ impl<'a> Fitter<'a> {
                 for &i in &searched {
                     let spec = specs[i];
                     let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
-                    o.max_evaluations = 7;
+                    o.max_evaluations = 9;
                     let base = values.clone();
                     let r = minimise(
                         |x| {

@@ -18,11 +18,15 @@ use crate::scenario::effects::Effect;
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 
+/// A cell's band edges, rounded to 1 mHz: the edges are fractions of the Nyquist rate and
+/// carry float noise (15.000000000000053) that means nothing to a reader.
 fn band_hz(key: &CellKey, nyquist_hz: f64) -> [f64; 2] {
-    match key.band {
+    let round = |v: f64| (v * 1e3).round() / 1e3;
+    let [lo, hi] = match key.band {
         Some(b) => band_edges_hz(nyquist_hz)[b as usize],
         None => [0.0, nyquist_hz],
-    }
+    };
+    [round(lo), round(hi)]
 }
 
 fn cell_json(c: &CellGap, nyquist_hz: f64) -> Value {

@@ -13,8 +13,10 @@
 //!   light with the frame rate: no effect of the vocabulary draws it), and a withheld effect that
 //!   `--effects` excludes from the candidates.
 //!
-//! Every case perturbs the data's nuisance by a seeded draw, so the alignment is exercised in
-//! every case and the nominal is never the data's exact twin.
+//! Every case perturbs the data's nuisance by a seeded draw ([`perturb_nuisance`]), so the
+//! alignment is exercised in every case, and its rendering within what two renderers of one rig
+//! differ by ([`perturb_rendering`]), so the nominal is never the data's exact twin and the
+//! model tolerances of the gap map are tested for robustness, not only on this renderer.
 //!
 //! A case's frames are deleted once diagnosed (they are reproducible from the case); set
 //! `GENEVA_KEEP_FRAMES` to keep them for inspection.
@@ -104,6 +106,34 @@ pub fn perturb_nuisance(s: &mut Scenario, seed: u64) {
     s.scene.marker.angle_on_disc_deg += u(3.0);
 }
 
+/// Moves the data's rendering by a seeded draw within what two renderers of the same rig may
+/// differ by with no effect at work: the edge profile (optical blur σ ±15 %, the size of
+/// anti-aliasing and edge-model differences), the tone curve (black level ±3 DN, white level
+/// ±4 DN, gamma ±4 %) and the sensor (full well and read noise ±10 %). Only effects already on
+/// in the data are moved; a withheld effect is applied afterwards, so its own values stand.
+/// The diagnosis is told none of this: it is the "nominal that differs from reality in small
+/// ways that are no effect" every real comparison has.
+pub fn perturb_rendering(s: &mut Scenario, seed: u64) {
+    let mut r = crate::rng::stream(seed, crate::rng::Stream::DiagnoseNuisance, 2);
+    let mut u = |a: f64| a * (2.0 * r.gen::<f64>() - 1.0);
+    let (blur, black, white, gamma, well, read) =
+        (u(0.15), u(3.0), u(4.0), u(0.04), u(0.1), u(0.1));
+    let fx = &mut s.effects;
+    if fx.optical_blur.enabled {
+        fx.optical_blur.sigma_px *= 1.0 + blur;
+    }
+    if fx.lighting.enabled {
+        fx.lighting.black_level_dn = (fx.lighting.black_level_dn + black).clamp(0.0, 250.0);
+        fx.lighting.white_level_dn =
+            (fx.lighting.white_level_dn + white).clamp(fx.lighting.black_level_dn + 5.0, 255.0);
+        fx.lighting.gamma *= 1.0 + gamma;
+    }
+    if fx.pixel_noise.enabled {
+        fx.pixel_noise.full_well_e *= 1.0 + well;
+        fx.pixel_noise.read_noise_e *= 1.0 + read;
+    }
+}
+
 /// The effects a withheld case is made of: every effect of the vocabulary except the one that
 /// only shares another's switch (`overrotation` is `backlash`'s contact dynamics seen at exit).
 pub fn withheld_effects() -> Vec<Effect> {
@@ -114,19 +144,35 @@ pub fn withheld_effects() -> Vec<Effect> {
         .collect()
 }
 
+/// A phone's frame-timing log, loaded.
+#[derive(Debug, Clone)]
+pub struct PhoneLog {
+    pub path: PathBuf,
+    pub timestamps: crate::timing::Timestamps,
+}
+
 /// The seed's phone logs (`../shared/real/phone-frame-timing/*.showinfo.log`) found next to the
-/// repository, sorted.
-pub fn phone_logs(repo: &Path) -> Vec<PathBuf> {
+/// repository, sorted and loaded; a log that does not parse is an error naming it (a null case
+/// silently without real timing would test less than it says).
+pub fn phone_logs(repo: &Path) -> Result<Vec<PhoneLog>, DiagnoseError> {
     let dir = repo.join("../shared/real/phone-frame-timing");
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map(|d| {
             d.filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|p| p.to_string_lossy().ends_with(".showinfo.log"))
                 .collect()
         })
         .unwrap_or_default();
-    v.sort();
-    v
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|path| {
+            let timestamps = crate::io::timing_log::read_timing_log(&path, None).map_err(|e| {
+                DiagnoseError::Simulation(format!("phone log {}: {e}", path.display()))
+            })?;
+            Ok(PhoneLog { path, timestamps })
+        })
+        .collect()
 }
 
 /// Size of a self-check.
@@ -142,7 +188,7 @@ pub struct SuitePlan {
 
 /// The cases of a self-check built on `base` (the rig every case starts from, with the
 /// effects it has on kept on in both data and nominal).
-pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
+pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> {
     let mut out = Vec::new();
     let mut case_seed = base.seed;
     let mut next_seed = || {
@@ -160,6 +206,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
                     other.switch_off(&mut nominal);
                 }
                 let mut data = nominal.clone();
+                perturb_rendering(&mut data, seed);
                 let mut post = PostProcess::None;
                 if e == Effect::Timebase {
                     post = PostProcess::ConstantRateStamps { fps_hz: values[0] };
@@ -200,17 +247,21 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
         let seed = next_seed();
         let mut data = base.clone();
         let mut nominal = base.clone();
-        if k % 2 == 1 && !logs.is_empty() {
-            let log = &logs[(k / 2) % logs.len()];
-            let model = TimingModel::Log(LogModel {
-                file: log.to_string_lossy().into_owned(),
-                ..Default::default()
-            });
-            data.frame_timing.model = model.clone();
-            nominal.frame_timing.model = model;
+        if k % 2 == 1 {
+            if let Some(log) = logs.get((k / 2) % logs.len().max(1)) {
+                let model = TimingModel::Log(LogModel {
+                    file: log.path.to_string_lossy().into_owned(),
+                    ..Default::default()
+                });
+                data.frame_timing.model = model.clone();
+                nominal.frame_timing.model = model;
+                data.timing_log = Some(log.timestamps.clone());
+                nominal.timing_log = Some(log.timestamps.clone());
+            }
         }
         data.seed = seed;
         perturb_nuisance(&mut data, seed);
+        perturb_rendering(&mut data, seed);
         out.push(Case {
             name: format!("null-{k}"),
             expectation: Expectation::Null,
@@ -226,6 +277,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
         let mut data = base.clone();
         data.seed = seed;
         perturb_nuisance(&mut data, seed);
+        perturb_rendering(&mut data, seed);
         out.push(Case {
             name: format!("oov-flicker-{k}"),
             expectation: Expectation::OutOfVocabulary,
@@ -251,6 +303,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PathBuf]) -> Vec<Case> {
         let mut nominal = base.clone();
         e.switch_off(&mut nominal);
         let mut data = nominal.clone();
+        perturb_rendering(&mut data, seed);
         e.apply(&mut data, &level_values(e, Level::Strong));
         data.seed = seed;
         perturb_nuisance(&mut data, seed);
