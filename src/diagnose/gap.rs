@@ -265,12 +265,14 @@ pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
             .collect();
         let m = t.iter().sum::<f64>() / n;
         let s2 = t.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (n - 1.0);
+        let x_t = transform(spec.compare, spec.tol_abs, x);
         let tol = match spec.compare {
+            Compare::Log if x_t < m => spec.tol_rel_below().ln_1p(),
             Compare::Log => spec.tol_rel.ln_1p(),
             Compare::Linear => spec.tol_abs + spec.tol_rel * raw_mean.abs(),
         };
         let v_sim = s2 * (1.0 + 1.0 / n);
-        let z = (transform(spec.compare, spec.tol_abs, x) - m) / (v_sim + tol * tol).sqrt();
+        let z = (x_t - m) / (v_sim + tol * tol).sqrt();
         // The seeds' variance is estimated from N draws: z is Student-t like with the
         // Welch–Satterthwaite degrees of freedom (the tolerance is known exactly).
         let dof = if v_sim > 0.0 {
@@ -397,6 +399,36 @@ mod tests {
         let spec = key("noise_paper").spec();
         let expected = ((4.0 + spec.tol_abs) / (2.0 + spec.tol_abs)).ln() / spec.tol_rel.ln_1p();
         assert!((c.z - expected).abs() < 1e-9, "{} vs {expected}", c.z);
+    }
+
+    #[test]
+    fn a_cleaner_track_residual_is_tolerated_more_than_a_larger_one() {
+        // The real angle residual 3× below the simulations' (a cleaner renderer) is within the
+        // lower-side tolerance; 3× above is a gap.
+        let z_of = |real: f64| {
+            let mut r = Cells::new();
+            r.insert(key("theta"), real);
+            let sims: Vec<Cells> = [0.99e-3, 1.0e-3, 1.01e-3, 1.0e-3]
+                .iter()
+                .map(|&v| {
+                    let mut c = Cells::new();
+                    c.insert(key("theta"), v);
+                    c
+                })
+                .collect();
+            compare(&r, &sims, GapOptions::default())
+                .cell(&key("theta"))
+                .unwrap()
+                .z
+        };
+        let (below, above) = (z_of(1.0e-3 / 3.0), z_of(3.0e-3));
+        assert!(below < 0.0 && below > -1.5, "{below}");
+        assert!(above > 3.0, "{above}");
+        // Other scale channels stay symmetric.
+        assert_eq!(
+            key("noise_ink").spec().tol_rel_below(),
+            key("noise_ink").spec().tol_rel
+        );
     }
 
     #[test]

@@ -7,6 +7,7 @@ pub mod align;
 pub mod bands;
 pub mod cells;
 pub mod gap;
+pub mod moments;
 pub mod plan;
 pub mod record;
 pub mod scoring;

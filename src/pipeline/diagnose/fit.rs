@@ -10,6 +10,7 @@ use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::cells::Cells;
 use crate::diagnose::gap::{compare, excess, GapMap, GapOptions};
+use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::search::{minimise, SearchOptions};
 use crate::diagnose::verdict::Outcome;
@@ -393,6 +394,15 @@ impl<'a> Fitter<'a> {
         let specs = e.params();
         let mut values = self.start_values(e);
         let mut stds = vec![f64::INFINITY; specs.len()];
+        if let Some((v, sd, method)) = self.fit_by_moments(e, prior, &values)? {
+            return Ok(Fitted {
+                effect: e,
+                values: v,
+                stds: sd,
+                method,
+                simulations: *self.simulations.borrow() - before,
+            });
+        }
         let method: String;
         match e {
             Effect::FrameTiming => {
@@ -512,6 +522,180 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
         })
+    }
+
+    /// Fits `e` by moment matching ([`moments`]) when one statistic of the gap map carries its
+    /// parameter: optical blur (edge width along the motion, on σ²), motion blur (extra edge
+    /// variance across the motion during the drive, on T²), rolling shutter (the readout implied
+    /// by stretch against velocity) and pixel noise (noise at the ink and paper levels, on the
+    /// coordinates where the variance is linear). `None` for other effects, or when the data do
+    /// not give the statistic (the caller then searches Σ z²).
+    #[allow(clippy::type_complexity)] // (values, stds, method), as in `Fitted`
+    fn fit_by_moments(
+        &self,
+        e: Effect,
+        prior: &[(Effect, Vec<f64>)],
+        start: &[f64],
+    ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, DiagnoseError> {
+        const SIMULATIONS: usize = 3;
+        let motion = ["dwell", "entry", "drive", "exit"];
+        let sims_factor = (1.0 + 1.0 / self.fit_seeds.len() as f64).sqrt();
+        let gap_at = |v: &[f64]| -> Result<GapMap, DiagnoseError> {
+            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+            applied.push((e, v.to_vec()));
+            let trial = self.trial_with(&applied)?;
+            self.gap(&trial, &self.fit_seeds)
+        };
+        let method = |what: &str, n: usize| {
+            format!(
+                "moment matching: {what} of the simulation set equal to the footage's ({n} \
+                 simulations of {} fit seeds, secant steps)",
+                self.fit_seeds.len()
+            )
+        };
+        if e == Effect::PixelNoise {
+            // Noise variance at radiance s in DN²: span²·(a·s + b) (+ quantisation, constant),
+            // linear in (a, b) = (1/FW, RN²/FW²): Newton steps with the model's Jacobian on the
+            // variances at the ink and paper levels. Clipping, blur and compression bend the
+            // real map; the simulations in the loop absorb that.
+            let s = &aligned_of(self).scenario;
+            let span = if s.effects.lighting.enabled {
+                s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
+            } else {
+                255.0
+            };
+            let (si, sp) = (s.scene.ink_radiance, s.scene.paper_radiance);
+            let det = span * span * (si - sp);
+            if det.abs() < 1e-12 {
+                return Ok(None);
+            }
+            let (mut a, mut b) = moments::noise_to_linear(start[0], start[1]);
+            for k in 0..SIMULATIONS {
+                let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
+                    return Ok(None);
+                };
+                let g = gap_at(&[fw, rn])?;
+                let (Some(ink), Some(paper)) = (
+                    moments::channel_means(&g, "noise_ink", &[]),
+                    moments::channel_means(&g, "noise_paper", &[]),
+                ) else {
+                    return Ok(None);
+                };
+                let dvi = ink.real * ink.real - ink.sim * ink.sim;
+                let dvp = paper.real * paper.real - paper.sim * paper.sim;
+                // [si 1; sp 1]·span²·(da, db) = (dvi, dvp).
+                let da = (dvi - dvp) / det;
+                let db = (si * dvp - sp * dvi) / det;
+                let (a1, b1) = ((a + da).max(1e-9), (b + db).max(0.0));
+                let converged = (da / a).abs() < 0.005 && db.abs() <= 0.005 * b.max(1e-12);
+                (a, b) = (a1, b1);
+                if converged || k + 1 == SIMULATIONS {
+                    let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
+                        return Ok(None);
+                    };
+                    // The real variances' sampling error through the same linear map.
+                    let (svi, svp) = (
+                        2.0 * ink.real * ink.real_std * sims_factor,
+                        2.0 * paper.real * paper.real_std * sims_factor,
+                    );
+                    let sa = ((svi * svi + svp * svp).sqrt() / det).abs();
+                    let sb = ((si * svp).powi(2) + (sp * svi).powi(2)).sqrt() / det.abs();
+                    // FW = 1/a; RN = √b/a.
+                    let sd_fw = sa / (a * a);
+                    let sd_rn = if b > 0.0 {
+                        ((sb / (2.0 * b.sqrt() * a)).powi(2) + (b.sqrt() * sa / (a * a)).powi(2))
+                            .sqrt()
+                    } else {
+                        f64::INFINITY
+                    };
+                    let specs = e.params();
+                    let v = vec![
+                        fw.clamp(specs[0].search.0, specs[0].search.1),
+                        rn.clamp(specs[1].search.0, specs[1].search.1),
+                    ];
+                    return Ok(Some((
+                        v,
+                        vec![sd_fw, sd_rn],
+                        method("noise variance at the ink and paper levels", k + 1),
+                    )));
+                }
+            }
+            return Ok(None);
+        }
+        // One-parameter effects: coordinate x = T(v), moment m(gap) → (real target, simulated,
+        // the target's standard error), model slope dm/dx.
+        let speed = self.drive_speed_px_s();
+        let (squared, slope0, what): (bool, f64, &str) = match e {
+            Effect::OpticalBlur => (true, 1.0, "edge width² along the motion"),
+            Effect::MotionBlur => (
+                true,
+                (speed * speed / 12.0).max(1e-9),
+                "extra edge variance across the motion during the drive",
+            ),
+            Effect::RollingShutter => (false, 1.0, "rolling-shutter readout implied by stretch"),
+            _ => return Ok(None),
+        };
+        let moment = |g: &GapMap| -> Option<(f64, f64, f64)> {
+            match e {
+                Effect::OpticalBlur => {
+                    let c = moments::channel_means(g, "edge_along", &motion)?;
+                    Some((
+                        c.real * c.real,
+                        c.sim * c.sim,
+                        2.0 * c.real.abs() * c.real_std,
+                    ))
+                }
+                Effect::MotionBlur => {
+                    let a = moments::channel_means(g, "edge_across", &["drive"])?;
+                    let l = moments::channel_means(g, "edge_along", &["drive"])?;
+                    Some((
+                        a.real * a.real - l.real * l.real,
+                        a.sim * a.sim - l.sim * l.sim,
+                        2.0 * ((a.real * a.real_std).powi(2) + (l.real * l.real_std).powi(2))
+                            .sqrt(),
+                    ))
+                }
+                _ => {
+                    let c = moments::channel_means(g, "rs_readout", &["all"])?;
+                    Some((c.real, c.sim, c.real_std))
+                }
+            }
+        };
+        let spec = e.params()[0];
+        let to_x = |v: f64| if squared { v * v } else { v };
+        let from_x = |x: f64| if squared { x.max(0.0).sqrt() } else { x };
+        let (x_lo, x_hi) = (to_x(spec.search.0), to_x(spec.search.1));
+        let mut v = start.to_vec();
+        let mut history: Vec<(f64, f64)> = Vec::new();
+        for k in 0..SIMULATIONS {
+            let x = to_x(v[0]);
+            let Some((target, m, m_std)) = moment(&gap_at(&v)?) else {
+                return Ok(None);
+            };
+            history.push((x, m));
+            let Some((x1, slope)) = moments::secant_step(&history, target, slope0) else {
+                return Ok(None);
+            };
+            let x1 = x1.clamp(x_lo, x_hi);
+            let done = (m - target).abs() < 0.25 * m_std || k + 1 == SIMULATIONS;
+            v[0] = from_x(x1);
+            if done {
+                let sd_x = m_std * sims_factor / slope.abs();
+                let sd_v = if squared {
+                    sd_x / (2.0 * v[0].max(1e-12))
+                } else {
+                    sd_x
+                };
+                let mut sd = vec![f64::INFINITY; v.len()];
+                sd[0] = if sd_v.is_finite() {
+                    sd_v
+                } else {
+                    f64::INFINITY
+                };
+                return Ok(Some((v, sd, method(what, k + 1))));
+            }
+        }
+        Ok(None)
     }
 
     /// The strongest frequency of the real angle residual above the low band, with its power.
