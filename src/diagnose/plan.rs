@@ -190,9 +190,58 @@ pub fn guess_levels(ink_dn: f64, paper_dn: f64, s_ink: f64, s_paper: f64) -> Opt
     Some((black, black + span))
 }
 
+/// Black level, white level (DN) and gamma of the tone curve DN = black + (white − black)·s^(1/γ)
+/// that put radiances `s_ink`, `s_paper` and a mid-tone `s_mid` (the disc around the marker) at
+/// the measured levels: γ by bisection on [0.3, 3] (the mid-tone's predicted level rises
+/// monotonically with γ), then the two levels. `None` when the mid-tone is not strictly between
+/// ink and paper or no γ in range fits it.
+pub fn guess_tone(
+    levels_dn: [f64; 3],
+    s_ink: f64,
+    s_paper: f64,
+    s_mid: f64,
+) -> Option<(f64, f64, f64)> {
+    let [ink, paper, mid] = levels_dn;
+    if !(s_ink < s_mid && s_mid < s_paper && ink < mid && mid < paper && s_ink >= 0.0) {
+        return None;
+    }
+    let predicted = |gamma: f64| {
+        let u = |s: f64| s.powf(1.0 / gamma);
+        ink + (paper - ink) * (u(s_mid) - u(s_ink)) / (u(s_paper) - u(s_ink))
+    };
+    let (mut lo, mut hi) = (0.3f64, 3.0f64);
+    if !(predicted(lo) <= mid && mid <= predicted(hi)) {
+        return None;
+    }
+    for _ in 0..60 {
+        let m = (lo * hi).sqrt();
+        if predicted(m) < mid {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    let gamma = (lo * hi).sqrt();
+    let (ui, up) = (s_ink.powf(1.0 / gamma), s_paper.powf(1.0 / gamma));
+    let span = (paper - ink) / (up - ui);
+    let black = ink - span * ui;
+    Some((black, black + span, gamma))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tone_is_recovered_from_three_levels() {
+        let (b, w, g) = (90.0, 170.0, 1.6);
+        let dn = |s: f64| b + (w - b) * f64::powf(s, 1.0 / g);
+        let (s_i, s_p, s_m) = (0.04, 1.0, 0.55);
+        let (b2, w2, g2) = guess_tone([dn(s_i), dn(s_p), dn(s_m)], s_i, s_p, s_m).unwrap();
+        assert!((b2 - b).abs() < 1e-6 && (w2 - w).abs() < 1e-6 && (g2 - g).abs() < 1e-6);
+        // A mid level outside ink..paper has no tone.
+        assert!(guess_tone([50.0, 200.0, 210.0], s_i, s_p, s_m).is_none());
+    }
 
     #[test]
     fn every_effect_has_a_signature_of_known_channels() {

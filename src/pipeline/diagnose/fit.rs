@@ -438,43 +438,87 @@ impl<'a> Fitter<'a> {
             Effect::Lighting => {
                 let s = &aligned_of(self).scenario;
                 let all = ["dwell", "entry", "drive", "exit"];
+                let (s_i, s_p, s_m) = (
+                    s.scene.ink_radiance,
+                    s.scene.paper_radiance,
+                    s.scene.disc_radiance,
+                );
+                // Levels and gamma from ink, paper and the disc around the marker (a mid-tone);
+                // levels alone (gamma as the nominal's) when the mid-tone does not resolve gamma.
+                let gamma0 = values[2];
+                let tone = |ink: f64, paper: f64, mid: Option<f64>| {
+                    mid.and_then(|m| plan::guess_tone([ink, paper, m], s_i, s_p, s_m))
+                        .or_else(|| {
+                            plan::guess_levels(ink, paper, s_i, s_p).map(|(b, w)| (b, w, gamma0))
+                        })
+                };
+                let real_mid = self.channel_pair("background", &all).map(|p| p.0);
                 if let (Some((ink, _)), Some((paper, _))) = (
                     self.channel_pair("ink", &all),
                     self.channel_pair("paper", &all),
                 ) {
-                    if let Some((b, w)) =
-                        plan::guess_levels(ink, paper, s.scene.ink_radiance, s.scene.paper_radiance)
-                    {
-                        values = vec![b, w, 1.0];
+                    if let Some((b, w, g)) = tone(ink, paper, real_mid) {
+                        values = vec![b, w, g];
                     }
                 }
-                // One correction with simulations (blur and noise move the measured levels).
+                // One correction with simulations (blur, noise and the surround's own model
+                // error move the measured levels): the tone solved on the simulations is moved
+                // onto the tone solved on the footage.
                 let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                 applied.push((e, values.clone()));
                 let trial = self.trial_with(&applied)?;
                 let g = self.gap(&trial, &self.fit_seeds)?;
-                let pair = |ch: &str| {
-                    let c: Vec<_> = g.cells.iter().filter(|c| c.key.channel == ch).collect();
-                    let n = c.len().max(1) as f64;
-                    (
-                        c.iter().map(|c| c.real).sum::<f64>() / n,
-                        c.iter().map(|c| c.sim_mean).sum::<f64>() / n,
-                    )
-                };
-                let ((ri, si), (rp, sp)) = (pair("ink"), pair("paper"));
-                let (s_i, s_p) = (s.scene.ink_radiance, s.scene.paper_radiance);
-                // Levels are linear in (black, white): DN = black + (white − black)·s.
-                let d_ink = ri - si;
-                let d_paper = rp - sp;
-                let d_span = (d_paper - d_ink) / (s_p - s_i);
-                let d_black = d_ink - d_span * s_i;
-                values[0] += d_black;
-                values[1] += d_black + d_span;
+                let means = |ch: &str| moments::channel_means(&g, ch, &all);
+                let gamma_resolved;
+                if let (Some(ink), Some(paper)) = (means("ink"), means("paper")) {
+                    let mid = means("background");
+                    let r = tone(ink.real, paper.real, mid.map(|m| m.real));
+                    let m = tone(ink.sim, paper.sim, mid.map(|m| m.sim));
+                    gamma_resolved = mid.is_some_and(|m| {
+                        plan::guess_tone([ink.real, paper.real, m.real], s_i, s_p, s_m).is_some()
+                            && plan::guess_tone([ink.sim, paper.sim, m.sim], s_i, s_p, s_m)
+                                .is_some()
+                    });
+                    if let (Some(r), Some(m)) = (r, m) {
+                        values[0] += r.0 - m.0;
+                        values[1] += r.1 - m.1;
+                        if gamma_resolved {
+                            values[2] = (values[2] * r.2 / m.2).clamp(0.3, 3.0);
+                        }
+                    }
+                } else {
+                    gamma_resolved = false;
+                }
                 let tol = crate::diagnose::cells::channel("ink").map_or(4.0, |c| c.tol_abs);
-                stds = vec![tol, tol, f64::INFINITY];
-                method =
-                    "levels inverted from the measured ink and paper, corrected once by simulation"
-                        .into();
+                // Gamma's uncertainty: the mid-tone moved by the level tolerance.
+                let gamma_std = if gamma_resolved {
+                    let (ink, paper) = (means("ink"), means("paper"));
+                    match (ink, paper, means("background")) {
+                        (Some(i), Some(p), Some(m)) => {
+                            let at = |d: f64| {
+                                plan::guess_tone([i.real, p.real, m.real + d], s_i, s_p, s_m)
+                                    .map(|t| t.2)
+                            };
+                            match (at(tol), at(-tol)) {
+                                (Some(a), Some(b)) => 0.5 * (a - b).abs(),
+                                _ => f64::INFINITY,
+                            }
+                        }
+                        _ => f64::INFINITY,
+                    }
+                } else {
+                    f64::INFINITY
+                };
+                stds = vec![tol, tol, gamma_std];
+                method = if gamma_resolved {
+                    "levels and gamma inverted from the measured ink, paper and disc (a mid-tone), \
+                     corrected once by simulation"
+                        .into()
+                } else {
+                    "levels inverted from the measured ink and paper (gamma as the nominal's), \
+                     corrected once by simulation"
+                        .into()
+                };
             }
             _ => {
                 if e == Effect::DiscVibration {
@@ -569,6 +613,18 @@ impl<'a> Fitter<'a> {
             if det.abs() < 1e-12 {
                 return Ok(None);
             }
+            // Only where the footage follows the model's shape (more noise on the paper than on
+            // the ink): clipping, denoising or compression can invert that, and Newton steps on
+            // a map of the wrong shape run to the bounds; the Σ z² search handles those.
+            let model_shaped = self
+                .channel_pair("noise_ink", &[])
+                .zip(self.channel_pair("noise_paper", &[]))
+                .is_some_and(|((ni, _), (np, _))| {
+                    plan::guess_noise(ni, np, si, sp, span).is_some()
+                });
+            if !model_shaped {
+                return Ok(None);
+            }
             let (mut a, mut b) = moments::noise_to_linear(start[0], start[1]);
             for k in 0..SIMULATIONS {
                 let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
@@ -609,10 +665,12 @@ impl<'a> Fitter<'a> {
                         f64::INFINITY
                     };
                     let specs = e.params();
-                    let v = vec![
-                        fw.clamp(specs[0].search.0, specs[0].search.1),
-                        rn.clamp(specs[1].search.0, specs[1].search.1),
-                    ];
+                    let inside = |v: f64, r: (f64, f64)| v > r.0 && v < r.1;
+                    if !(inside(fw, specs[0].search) && inside(rn, specs[1].search)) {
+                        // Ran to a bound: the map is not the model's; search instead.
+                        return Ok(None);
+                    }
+                    let v = vec![fw, rn];
                     return Ok(Some((
                         v,
                         vec![sd_fw, sd_rn],
