@@ -213,7 +213,7 @@ fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64
     let den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0);
     // Upward opening: the second divided difference is positive.
     let curvature = ((y2 - y1) / (x2 - x1) - (y1 - y0) / (x1 - x0)) / (x2 - x0);
-    if den == 0.0 || !(curvature > 0.0) {
+    if den == 0.0 || curvature.is_nan() || curvature <= 0.0 {
         return None;
     }
     let x = x1 - 0.5 * num / den;

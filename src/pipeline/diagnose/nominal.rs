@@ -211,10 +211,21 @@ fn refine_by_simulation(
             geometry.rotation_centre_px = *c;
         }
     }
+    disc_holds_marker(s);
     let scene = scene_of(s)?;
     geometry.mm_per_px = scene.camera().image_scale_mm_per_px();
     geometry.marker_radius_mm = s.scene.marker.radius_mm;
     Ok(())
+}
+
+/// Grows the disc when a fitted marker radius or image scale puts the marker's paper past its
+/// edge (lens distortion or a nominal a few per cent off does): the diagnosis measures the
+/// marker, never the disc, whose radius only has to hold the marker.
+fn disc_holds_marker(s: &mut Scenario) {
+    let extent_mm = s.scene.marker.paper_extent_mm();
+    if extent_mm.is_finite() && extent_mm > s.scene.disc_radius_mm {
+        s.scene.disc_radius_mm = extent_mm * 1.02;
+    }
 }
 
 /// Fits the image geometry of `s` (already motion-aligned) to the real marker track.
@@ -293,6 +304,7 @@ fn align_geometry(
         let r_sim = (mc_sim.x - rc_sim.x).hypot(mc_sim.y - rc_sim.y);
         if r_sim > 0.0 {
             s.scene.marker.radius_mm *= r_real / r_sim;
+            disc_holds_marker(s);
         }
         let psi_sim = screen_angle_rad([mc_sim.x, mc_sim.y], [rc_sim.x, rc_sim.y]);
         s.scene.marker.angle_on_disc_deg =

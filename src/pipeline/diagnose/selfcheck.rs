@@ -440,13 +440,34 @@ pub fn run_case(
         dir: frames.clone(),
         timestamps: frames.join("timestamps.csv"),
     };
-    let (d, _) = diagnose(
+    let (d, _) = match diagnose(
         &case.nominal,
         &source,
         &dir.join("diagnosis"),
         &o,
         &|_, _, _| {},
-    )?;
+    ) {
+        Ok(d) => d,
+        // A diagnosis that fails on footage this renderer made is a miss of the self-check,
+        // scored as such (verdict `error`, no ranking), not the end of the suite.
+        Err(e) => {
+            eprintln!(
+                "diagnose-selfcheck: {}: the diagnosis failed: {e}",
+                case.name
+            );
+            if std::env::var_os("GENEVA_KEEP_FRAMES").is_none() {
+                let _ = std::fs::remove_dir_all(&frames);
+            }
+            return Ok(CaseOutcome {
+                name: case.name.clone(),
+                expectation: case.expectation.clone(),
+                verdict: "error".into(),
+                ranked: Vec::new(),
+                best_shrink: None,
+                param_rel_errors: Vec::new(),
+            });
+        }
+    };
     // Wall time goes to the terminal, not into the records: outputs stay bit-identical.
     eprintln!(
         "diagnose-selfcheck: {}: {} in {:.0} s",
