@@ -217,6 +217,32 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     Some(v[v.len() / 2])
 }
 
+/// How far from a phase change a still marker's frames are kept out of the dwell cells: the
+/// reach of the slowest band filter (4σ of its Gaussian). Within it, the filter spreads the
+/// moving neighbour's motion and the step between two quantisation draws into the dwell, whose
+/// own statistic (noise on a still marker) is tiny; a frame of phase misalignment then made
+/// significant dwell cells on null cases (`reports/diagnosis/`, null-0 and null-1).
+pub fn dwell_guard_s(nyquist_hz: f64) -> f64 {
+    4.0 * bands::gaussian_sigma_for_cutoff_s(bands::band_edges_hz(nyquist_hz)[0][1])
+}
+
+/// For each frame, whether a frame of another phase lies within `guard_s` of it.
+pub fn near_a_phase_change(t_s: &[f64], phases: &[Phase], guard_s: f64) -> Vec<bool> {
+    let changes: Vec<f64> = t_s
+        .windows(2)
+        .zip(phases.windows(2))
+        .filter(|(_, p)| p[0] != p[1])
+        .map(|(t, _)| 0.5 * (t[0] + t[1]))
+        .collect();
+    t_s.iter()
+        .map(|&t| {
+            let i = changes.partition_point(|&c| c < t);
+            let near = |j: usize| changes.get(j).is_some_and(|&c| (c - t).abs() <= guard_s);
+            near(i) || (i > 0 && near(i - 1))
+        })
+        .collect()
+}
+
 /// Band RMS per phase of a per-frame series (NaN where missing) into `cells`.
 fn banded_cells(
     cells: &mut Cells,
@@ -230,13 +256,15 @@ fn banded_cells(
         return;
     }
     let parts = bands::split(t_s, x, nyquist_hz);
+    let guarded = near_a_phase_change(t_s, phases, dwell_guard_s(nyquist_hz));
     for (b, part) in parts.iter().enumerate() {
         for p in [Phase::Dwell, Phase::Entry, Phase::Drive, Phase::Exit] {
             let v = part
                 .iter()
                 .zip(phases)
-                .filter(|(_, q)| **q == p)
-                .map(|(v, _)| *v);
+                .zip(&guarded)
+                .filter(|((_, q), g)| **q == p && !(p == Phase::Dwell && **g))
+                .map(|((v, _), _)| *v);
             if let Some(r) = rms(v) {
                 cells.insert(
                     CellKey {
@@ -433,11 +461,20 @@ pub fn track_cells(
 /// few draws, which seeds cannot pin down and which a renderer with another anti-aliasing or
 /// pixel origin moves at will; the faster bands of the same tracks (noise, shake) and every
 /// moving phase stay in the map.
+///
+/// The marker's side length and centre radius are left out of the dwell in every band: with
+/// corners at whole pixels (no refinement), a still marker's side and centre jump only when
+/// noise flips an edge pixel, which happens in a dwell whose edges sit near the threshold and
+/// not in the next; four seeds cannot pin that down, and it raised significant dwell cells on
+/// null cases (real 0.1 px of side jitter against 0.001 px simulated).
 pub fn still_quantisation_cell(key: &CellKey) -> bool {
     key.phase == "dwell"
         && key.spec().source == Source::Track
         && (key.band == Some(0)
-            || matches!(key.channel, "rigid_residual" | "stretch_x" | "stretch_diag"))
+            || matches!(
+                key.channel,
+                "rigid_residual" | "stretch_x" | "stretch_diag" | "side" | "radius"
+            ))
 }
 
 /// Readout time (s) implied by the marker's image-frame stretch against its image velocity:
@@ -592,6 +629,23 @@ pub fn timing_cells(t_s: &[f64]) -> Cells {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frames_near_a_phase_change_are_flagged_on_both_sides() {
+        let t: Vec<f64> = (0..20).map(|k| k as f64 * 0.1).collect();
+        let phases: Vec<Phase> = (0..20)
+            .map(|k| if k < 10 { Phase::Dwell } else { Phase::Entry })
+            .collect();
+        // The change sits at 0.95 s: frames 0.7–1.2 s are within 0.25 s of it.
+        let g = near_a_phase_change(&t, &phases, 0.25);
+        let flagged: Vec<usize> = (0..20).filter(|&k| g[k]).collect();
+        assert_eq!(flagged, vec![7, 8, 9, 10, 11, 12]);
+        assert!(near_a_phase_change(&t, &[Phase::Dwell; 20], 0.25)
+            .iter()
+            .all(|g| !g));
+        // At 30 fps the guard is the slowest band filter's reach, about a third of a second.
+        assert!((dwell_guard_s(15.0) - 0.353).abs() < 0.001);
+    }
 
     #[test]
     fn every_channel_is_named_once_with_sane_tolerances() {
