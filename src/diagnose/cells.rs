@@ -636,11 +636,11 @@ mod tests {
         let phases: Vec<Phase> = (0..20)
             .map(|k| if k < 10 { Phase::Dwell } else { Phase::Entry })
             .collect();
-        // The change sits at 0.95 s: frames 0.7–1.2 s are within 0.25 s of it.
-        let g = near_a_phase_change(&t, &phases, 0.25);
+        // The change sits at 0.95 s: frames 0.7–1.2 s are within 0.26 s of it.
+        let g = near_a_phase_change(&t, &phases, 0.26);
         let flagged: Vec<usize> = (0..20).filter(|&k| g[k]).collect();
         assert_eq!(flagged, vec![7, 8, 9, 10, 11, 12]);
-        assert!(near_a_phase_change(&t, &[Phase::Dwell; 20], 0.25)
+        assert!(near_a_phase_change(&t, &[Phase::Dwell; 20], 0.26)
             .iter()
             .all(|g| !g));
         // At 30 fps the guard is the slowest band filter's reach, about a third of a second.
