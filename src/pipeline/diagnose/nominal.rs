@@ -491,7 +491,7 @@ pub fn motion_reference(
     let t = record.t_s();
     let primary = &est.primary_series().theta_rad;
     let loss = |shift: f64| offset_and_rms(primary, &table.at(&t, shift).0).1;
-    // Grid over ±MAX_TIME_SHIFT_S, then golden section around the best point.
+    // Grid over ±MAX_TIME_SHIFT_S first.
     let steps = 40;
     let h = 2.0 * MAX_TIME_SHIFT_S / steps as f64;
     let mut best = (f64::INFINITY, 0.0);
@@ -502,27 +502,10 @@ pub fn motion_reference(
             best = (l, s);
         }
     }
-    let (mut a, mut b) = (best.1 - h, best.1 + h);
-    const R: f64 = 0.618_033_988_749_894_8;
-    let (mut c, mut d) = (b - R * (b - a), a + R * (b - a));
-    let (mut fc, mut fd) = (loss(c), loss(d));
-    for _ in 0..30 {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - R * (b - a);
-            fc = loss(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + R * (b - a);
-            fd = loss(d);
-        }
-    }
-    let shift = if fc.min(fd) < best.0 {
-        0.5 * (a + b)
+    // Golden section around the best grid point; kept only when it improves on that point.
+    let refined = crate::estimate::golden::golden_section_min(loss, best.1 - h, best.1 + h, 30);
+    let shift = if loss(refined) < best.0 {
+        refined
     } else {
         best.1
     };
