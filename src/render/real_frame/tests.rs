@@ -4,7 +4,12 @@ use crate::render::frame::{render_frame, FrameRequest, RenderSettings};
 use crate::render::test_scenes::{half_plane_left_of, single_layer, Moving};
 use glam::DVec2;
 
-const REAL_FRAME: &str = "/work/shared/real/annotated-frame-4k.jpg";
+/// The seed rig's real 4K frame, copied into the repository (from `shared/real/`) so that every
+/// checkout, CI's clean clone included, measures it: a missing file fails the test.
+const REAL_FRAME: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/data/real/annotated-frame-4k.jpg"
+);
 /// Regions of the large base-plate marker in the 3840×2160 frame (located on a downscaled
 /// copy): paper left of the marker, the marker's left black border, and a strip across the
 /// paper → ink edge (near-vertical) between them.
@@ -112,10 +117,7 @@ fn flat_noise_estimate_matches_rendered_noise() {
 /// Measures the real frame and checks the documented defaults against it (prints the numbers).
 #[test]
 fn defaults_match_the_real_frame_measurement() {
-    let Ok(bytes) = std::fs::read(REAL_FRAME) else {
-        eprintln!("{REAL_FRAME} not available; skipping");
-        return;
-    };
+    let bytes = std::fs::read(REAL_FRAME).unwrap_or_else(|e| panic!("{REAL_FRAME}: {e}"));
     let img = decode_jpeg_luma(&bytes).unwrap();
     assert_eq!((img.window.width, img.window.height), (3840, 2160));
     let (paper_dn, paper_noise_dn) = flat_level_and_noise(&img, &PAPER).unwrap();
