@@ -206,9 +206,12 @@ fn roi_corners_equal_full_frame_corners_bitwise() {
             "{method:?}: detector found only {found} of {present}"
         );
         match method {
+            // The prediction is within 3 px of the truth and the window's margin is 4 px, so
+            // every marker the full frame finds lies inside its window: each detection must come
+            // by the ROI path (a fallback would mean the window is cut too small).
             CornerRefinement::None | CornerRefinement::Subpix => {
-                assert!(
-                    roi_used * 10 >= found * 8,
+                assert_eq!(
+                    roi_used, found,
                     "{method:?}: ROI used for only {roi_used} of {found}"
                 )
             }
@@ -284,6 +287,18 @@ fn naive_window_detection_is_exact_only_without_float_refinement() {
         );
         if method == CornerRefinement::None {
             assert_eq!(differ, 0);
+        } else {
+            // The reason for the fallback: the float refinements depend on the image origin, so
+            // most windowed corners differ from the full frame's, though only in their last bits
+            // (measured 44/44 and 43/44 frames, at most 5.4e-4 px), not by a different corner.
+            assert!(
+                differ * 4 >= compared * 3,
+                "{method:?}: only {differ} of {compared} windowed detections differ"
+            );
+            assert!(
+                max_diff < 1e-2,
+                "{method:?}: windowed corners {max_diff} px away"
+            );
         }
     }
 }

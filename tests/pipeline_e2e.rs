@@ -3,7 +3,7 @@
 #![cfg(feature = "opencv-detector")]
 
 use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions, Source};
-use geneva_vision::pipeline::frames::{detect_frames, FrameDetection, FrameLoopOptions};
+use geneva_vision::pipeline::frames::{detect_frames, FrameDetection, FrameLoopOptions, FramePath};
 use geneva_vision::pipeline::render_job::{render_job, RenderJob};
 use geneva_vision::pipeline::rig::Rig;
 use geneva_vision::pipeline::run::{run, RunOptions};
@@ -155,9 +155,15 @@ fn roi_detection_equals_full_frame_detection_on_rendered_frames() {
         let n = rig.frame_times.len();
         let roi = detections(&rig, 0..n, true, 2);
         let full = detections(&rig, 0..n, false, 2);
+        assert_eq!((roi.len(), full.len()), (n, n), "{v}");
         for (a, b) in roi.iter().zip(&full) {
             assert_eq!(a.corners_px, b.corners_px, "frame {} of {v}", a.frame);
             assert!(a.corners_px.is_some(), "frame {} detected", a.frame);
+            // Equal corners prove nothing if the ROI run fell back to (or never left) the whole
+            // frame: the window comes from the true marker position and these configurations
+            // are ROI-exact, so every frame must have been detected in its window.
+            assert_eq!(a.path, FramePath::Roi, "frame {} of {v}", a.frame);
+            assert_eq!(b.path, FramePath::FullFrame, "frame {} of {v}", b.frame);
         }
         compared += n;
     }
