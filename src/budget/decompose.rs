@@ -321,6 +321,73 @@ mod tests {
         assert!((a.left_out.unwrap().mean - 1.0).abs() < 1e-12);
     }
 
+    /// Three seeds worked by hand, with per-seed spread and an interaction, so the shares are
+    /// ratios of sums (not means of per-seed ratios) and the intervals the delta-method ones with
+    /// Student's t for 2 dof (4.303, tables). V(none) = 1 each seed, V(all) = 4, 5, 6; `a` alone
+    /// 2, 2, 3 (contributions 1, 1, 2), `b` alone 2, 3, 3 (1, 2, 2); the interaction is what
+    /// is left, 1 per seed. Share of `a` = 4/15; its residuals a_i − (4/15)·all_i are −1/15, −1/3,
+    /// 2/5, whose squares sum to 62/225, variance 31/225; half-width 4.303·√(31/225/3)/5.
+    /// Interaction share 3/15; residuals 1 − all_i/5 = 0.2, 0, −0.2, variance 0.04.
+    #[test]
+    fn shares_and_intervals_match_a_hand_computed_case() {
+        let runs = PairedRuns {
+            none: vec![1.0; 3],
+            all: vec![4.0, 5.0, 6.0],
+            alone: vec![
+                ("a".into(), vec![2.0, 2.0, 3.0]),
+                ("b".into(), vec![2.0, 3.0, 3.0]),
+            ],
+            left_out: vec![
+                ("a".into(), vec![3.0, 4.0, 4.0]),
+                ("b".into(), vec![3.0, 3.0, 4.0]),
+            ],
+        };
+        let d = decompose(&runs).unwrap();
+        let close = |x: f64, y: f64| (x - y).abs() < 1e-12;
+        let check = |name: &str, share: f64, half: f64| {
+            let r = d.row(name).unwrap();
+            assert!(
+                close(r.share.mean, share),
+                "{name}: {:?} vs {share}",
+                r.share
+            );
+            assert!(
+                close(r.share.ci95_low, share - half) && close(r.share.ci95_high, share + half),
+                "{name}: {:?} vs {share} ± {half}",
+                r.share
+            );
+        };
+        check(
+            QUANTISATION,
+            3.0 / 15.0,
+            4.303 * (0.04f64 / 3.0).sqrt() / 5.0,
+        );
+        check(
+            "a",
+            4.0 / 15.0,
+            4.303 * (31.0f64 / 225.0 / 3.0).sqrt() / 5.0,
+        );
+        // b: residuals 1 − (5/15)·4, 2 − (5/15)·5, 2 − (5/15)·6 = −1/3, 1/3, 0; variance 1/9.
+        check("b", 5.0 / 15.0, 4.303 * (1.0f64 / 9.0 / 3.0).sqrt() / 5.0);
+        check(
+            INTERACTION,
+            3.0 / 15.0,
+            4.303 * (0.04f64 / 3.0).sqrt() / 5.0,
+        );
+        // Row variances: plain means with t intervals; a's contributions 1, 1, 2 have mean 4/3
+        // and standard deviation 1/√3. Its left-out cost: all − (all without a) = 1, 1, 2.
+        let a = d.row("a").unwrap();
+        assert!(close(a.variance.mean, 4.0 / 3.0), "{:?}", a.variance);
+        let half = 4.303 * (1.0f64 / 3.0).sqrt() / 3f64.sqrt();
+        assert!(
+            close(a.variance.ci95_high - a.variance.mean, half),
+            "{:?}",
+            a.variance
+        );
+        assert!(close(a.left_out.unwrap().mean, 4.0 / 3.0));
+        assert!(close(d.row(INTERACTION).unwrap().variance.mean, 1.0));
+    }
+
     /// The share intervals cover the true shares at about the nominal 95 % (binomial tolerance
     /// over 1000 repetitions: ±3σ ≈ ±2.1 %), for the sources and for the interaction, with
     /// paired noise of the size of the contributions.
