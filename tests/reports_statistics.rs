@@ -45,6 +45,18 @@ fn budget(seed: u64, mm_per_px: f64, extra: &[(&str, Value)]) -> Budget {
     run(&s, Path::new(""), &options, &|_, _| {}).unwrap().budget
 }
 
+/// Standard errors of ln(measured/predicted) for ω and α when the angle error is white noise
+/// over `n` frames (the null hypothesis the prediction rests on). The measured σ_ω of the
+/// central difference ω_i = (θ_{i+1} − θ_{i−1})/2h has autocorrelations ρ(0) = 1, ρ(±2) = −1/2
+/// (Σρ² = 3/2); the prediction scales the measured σ_θ (Σρ² = 1), which is correlated with it
+/// (cross-correlations ±1/√2 at lags ±1: Σρ² = 1). With Var(ln s) = Σρ²/(2n) and
+/// Cov(ln s_x, ln s_y) = Σρ_xy²/(2n): Var(ln r_ω) = (3/2 + 1 − 2)/(2n) = 1/(4n). For
+/// α_i = (θ_{i+1} − 2θ_i + θ_{i−1})/h²: ρ(±1) = −2/3, ρ(±2) = 1/6 (Σρ² = 35/18), cross
+/// −2/√6 at lag 0 and 1/√6 at ±1 (Σρ² = 1): Var(ln r_α) = (35/18 − 1)/(2n) = 17/(36n).
+fn white_noise_se(n: f64) -> (f64, f64) {
+    ((0.25 / n).sqrt(), (17.0 / 36.0 / n).sqrt())
+}
+
 fn ratios(b: &BoundsReport) -> (f64, f64) {
     (
         b.measured_omega_std_rad_s / b.statistical.sigma_omega_rad_s,
@@ -58,8 +70,9 @@ fn ratios(b: &BoundsReport) -> (f64, f64) {
 /// dominated by corner quantisation (contour pixels, no refinement), a deterministic function
 /// of the marker's sub-pixel pose: constant through a dwell and slowly varying, so it inflates
 /// the θ error σ (which the prediction scales) more than the derivatives. What holds is that the
-/// prediction is an upper bound: measured/predicted ≤ 1 + 4·√(1/(2N)) (N frames: the relative
-/// sampling σ of a standard deviation), and the same order of magnitude (> 0.3).
+/// prediction is an upper bound: measured/predicted ≤ exp(3·SE) with SE the ratio's sampling
+/// error under white noise ([`white_noise_se`]: 4.6 % for ω, 6.3 % for α at 120 frames), and the
+/// same order of magnitude (> 0.3).
 #[test]
 fn pixel_noise_only_prediction_is_an_upper_bound() {
     let mut rng =
@@ -69,34 +82,52 @@ fn pixel_noise_only_prediction_is_an_upper_bound() {
         let mm_per_px = rng.gen_range(0.4..0.6);
         let b = budget(seed, mm_per_px, &[]);
         let n = b.frames.detected as f64;
-        let tol = 4.0 * (1.0 / (2.0 * n)).sqrt();
+        let (se_w, se_a) = white_noise_se(n);
         for signal in ["centre", "fused"] {
             let (w, a) = ratios(&b.bounds[signal]);
-            for (q, r) in [("ω", w), ("α", a)] {
+            for (q, r, se) in [("ω", w, se_w), ("α", a, se_a)] {
+                let high = (3.0 * se).exp();
                 assert!(
-                    r < 1.0 + tol && r > 0.3,
-                    "seed {seed}, {mm_per_px:.3} mm/px, {signal}: {q} measured/predicted {r:.3}, allowed (0.3, {:.3})",
-                    1.0 + tol
+                    r < high && r > 0.3,
+                    "seed {seed}, {mm_per_px:.3} mm/px, {signal}: {q} measured/predicted {r:.3}, allowed (0.3, {high:.3})"
                 );
             }
         }
     }
 }
 
-/// At the `fast` scale (0.5 mm/px) the prediction does match within the frame-count tolerance
-/// 4·√(1/(2N)) for several seeds.
+/// At the `fast` scale (0.5 mm/px) the prediction comes closest, but it is still an upper bound,
+/// not a match: over 8 seeds the mean measured/predicted ratio (measured 0.92 for ω and 0.93 for
+/// α) lies further below 1 than white noise allows for a mean of 8 seeds (3·SE/√8 ≈ 5 % for ω),
+/// the mark of the correlated quantisation part; yet within one seed's white-noise band (3·SE),
+/// and no seed exceeds the upper bound.
 #[test]
-fn prediction_matches_at_the_fast_scale() {
-    for seed in [1u64, 2, 3] {
+fn prediction_is_a_close_upper_bound_at_the_fast_scale() {
+    let seeds = 8;
+    let (mut sum_w, mut sum_a, mut n) = (0.0, 0.0, 0.0);
+    for seed in 1..=seeds {
         let b = budget(seed, 0.5, &[]);
-        let n = b.frames.detected as f64;
-        let tol = 4.0 * (1.0 / (2.0 * n)).sqrt();
+        n = b.frames.detected as f64;
+        let (se_w, se_a) = white_noise_se(n);
         let (w, a) = ratios(&b.bounds["centre"]);
         assert!(
-            (w - 1.0).abs() < tol && (a - 1.0).abs() < tol,
-            "seed {seed}: ω {w:.3}, α {a:.3}, ±{tol:.3}"
+            w.ln() < 3.0 * se_w && a.ln() < 3.0 * se_a,
+            "seed {seed}: ω {w:.3}, α {a:.3} over the white-noise bound"
         );
+        sum_w += w.ln();
+        sum_a += a.ln();
     }
+    let (mean_w, mean_a) = (sum_w / seeds as f64, sum_a / seeds as f64);
+    let (se_w, se_a) = white_noise_se(n);
+    let k = (seeds as f64).sqrt();
+    assert!(
+        mean_w < -3.0 * se_w / k && mean_a < -3.0 * se_a / k,
+        "mean ln ratio ω {mean_w:.3}, α {mean_a:.3}: no longer below the white-noise band of a mean"
+    );
+    assert!(
+        mean_w > -3.0 * se_w && mean_a > -3.0 * se_a,
+        "mean ln ratio ω {mean_w:.3}, α {mean_a:.3}: further than one seed's white-noise band"
+    );
 }
 
 /// Why: switching pixel noise off changes the ω error σ by little — quantisation, not noise,

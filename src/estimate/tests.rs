@@ -335,44 +335,68 @@ proptest! {
     }
 }
 
+/// On a 30° arc with 2 px corner noise the geometric fit beats Kåsa, and its reported centre σ
+/// is honest when the tracks' noise is independent (the σ formula's assumption): over N = 1000
+/// trials the measured RMS centre error over the RMS reported σ is 1 within 3.5 standard errors.
+/// The standard error is derived from the trials: a mean of N squared errors has relative
+/// standard error sd(e²)/(mean(e²)·√N) (about √(2/N) here, the error lying nearly along one
+/// direction), its square root half that: ±2 %, so the band is ±7 % and a σ 10 % off fails.
+///
+/// Finding (pinned, reported in issue #14): the pipeline fits five tracks, the fifth being the
+/// corners' mean, which is not independent of the other four; the formula counts it as new data
+/// and reports a σ 9.5 ± 2 % too small (measured ratio 1.095), pinned here: a fix updates it.
 #[test]
 fn geometric_beats_kasa_on_short_arcs_and_sigma_is_honest() {
     let c = [1800.0, 1100.0];
-    let trials = 200;
-    let (mut e_kasa, mut e_geo, mut s_geo) = (0.0, 0.0, 0.0);
-    for k in 0..trials {
-        let mut rng = stream(5, Stream::MonteCarlo, k);
-        let frames: Vec<Corners> = (0..40)
-            .map(|i| {
-                noisy(
-                    &mut rng,
-                    marker_at(c, 300.0, 100.0, 30f64.to_radians() * i as f64 / 39.0),
-                    2.0,
-                )
-            })
-            .collect();
-        let tr = tracks_of(&frames);
-        let ka = kasa(&tr).unwrap();
-        let rc = fit_rotation_centre(&tr, RotationCentreMethod::Geometric, 10.0).unwrap();
-        e_kasa += (ka[0] - c[0]).powi(2) + (ka[1] - c[1]).powi(2);
-        e_geo += (rc.centre_px[0] - c[0]).powi(2) + (rc.centre_px[1] - c[1]).powi(2);
-        s_geo += rc.centre_sigma_px[0].powi(2) + rc.centre_sigma_px[1].powi(2);
+    let trials = 1000u64;
+    for tracks in [4usize, 5] {
+        let (mut e_kasa, mut e_geo, mut s_geo) = (0.0, 0.0, 0.0);
+        let mut squared_geo = Vec::with_capacity(trials as usize);
+        for k in 0..trials {
+            let mut rng = stream(5, Stream::MonteCarlo, k);
+            let frames: Vec<Corners> = (0..40)
+                .map(|i| {
+                    noisy(
+                        &mut rng,
+                        marker_at(c, 300.0, 100.0, 30f64.to_radians() * i as f64 / 39.0),
+                        2.0,
+                    )
+                })
+                .collect();
+            let mut tr = tracks_of(&frames);
+            tr.truncate(tracks);
+            let ka = kasa(&tr).unwrap();
+            let rc = fit_rotation_centre(&tr, RotationCentreMethod::Geometric, 10.0).unwrap();
+            e_kasa += (ka[0] - c[0]).powi(2) + (ka[1] - c[1]).powi(2);
+            let e2 = (rc.centre_px[0] - c[0]).powi(2) + (rc.centre_px[1] - c[1]).powi(2);
+            e_geo += e2;
+            squared_geo.push(e2);
+            s_geo += rc.centre_sigma_px[0].powi(2) + rc.centre_sigma_px[1].powi(2);
+        }
+        let n = trials as f64;
+        let (rms_kasa, rms_geo, rms_sig) =
+            ((e_kasa / n).sqrt(), (e_geo / n).sqrt(), (s_geo / n).sqrt());
+        assert!(
+            rms_geo <= rms_kasa,
+            "{tracks} tracks: geometric {rms_geo} vs kasa {rms_kasa}"
+        );
+        let ratio = rms_geo / rms_sig;
+        let mean_e2 = e_geo / n;
+        let sd_e2 = (squared_geo
+            .iter()
+            .map(|v| (v - mean_e2).powi(2))
+            .sum::<f64>()
+            / (n - 1.0))
+            .sqrt();
+        let se = 0.5 * sd_e2 / (mean_e2 * n.sqrt());
+        eprintln!("30 deg arc, 2 px noise, {tracks} tracks: rms centre error kasa {rms_kasa:.3} px, geometric {rms_geo:.3} px, reported sigma {rms_sig:.3} px (ratio {ratio:.3} ± {se:.3})");
+        let expected = if tracks == 4 { 1.0 } else { 1.095 };
+        assert!(
+            (ratio - expected).abs() < 3.5 * se,
+            "{tracks} tracks: actual/reported centre error ratio {ratio}, allowed {expected} ± {:.3}",
+            3.5 * se
+        );
     }
-    let (rms_kasa, rms_geo, rms_sig) = (
-        (e_kasa / trials as f64).sqrt(),
-        (e_geo / trials as f64).sqrt(),
-        (s_geo / trials as f64).sqrt(),
-    );
-    assert!(
-        rms_geo <= rms_kasa,
-        "geometric {rms_geo} vs kasa {rms_kasa}"
-    );
-    let ratio = rms_geo / rms_sig;
-    eprintln!("30 deg arc, 2 px noise: rms centre error kasa {rms_kasa:.3} px, geometric {rms_geo:.3} px, reported sigma {rms_sig:.3} px");
-    assert!(
-        (0.5..2.0).contains(&ratio),
-        "actual/reported centre error ratio {ratio}"
-    );
 }
 
 #[test]
@@ -706,8 +730,31 @@ proptest! {
         let coef = &c[..=order];
         let f: Vec<f64> = t.iter().map(|&x| poly(coef, x).0).collect();
         let sg = Differentiator::SavitzkyGolay { window_frames: 9, window_s: Some(window_s), order };
-        // Windows holding too few frames must be reported, never silently mis-fitted.
-        let Ok(d) = sg.differentiate(&t, &f) else { return Ok(()) };
+        // Windows holding too few frames must be reported, never silently mis-fitted: counted
+        // here independently (frames within ±window_s/2 of each frame), the call fails exactly
+        // when some window holds fewer than order + 1 frames, naming the first such frame.
+        let counts: Vec<usize> = t
+            .iter()
+            .map(|&ti| t.iter().filter(|&&x| x >= ti - window_s / 2.0 && x <= ti + window_s / 2.0).count())
+            .collect();
+        let short = counts.iter().position(|&n| n <= order);
+        let d = match (sg.differentiate(&t, &f), short) {
+            (Ok(d), None) => d,
+            (Ok(_), Some(i)) => {
+                return Err(TestCaseError::fail(format!("frame {i}'s window holds {} frames for order {order}, accepted", counts[i])));
+            }
+            (Err(e), None) => {
+                return Err(TestCaseError::fail(format!("refused although every window holds > {order} frames: {e}")));
+            }
+            (Err(e), Some(i)) => {
+                let expected = format!("window at frame {i} holds {} samples, need more than order {order}", counts[i]);
+                prop_assert!(
+                    matches!(&e, EstimateError::InvalidDifferentiator(m) if m.contains(&expected)),
+                    "{e} (expected: {expected})"
+                );
+                return Ok(());
+            }
+        };
         for (i, &x) in t.iter().enumerate() {
             let (_, w, a) = poly(coef, x);
             prop_assert!((d.omega_rad_s[i] - w).abs() < 1e-6 * (1.0 + w.abs()));

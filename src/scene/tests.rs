@@ -320,10 +320,58 @@ fn disc_behind_a_steeply_tilted_camera_is_rejected() {
     let err = Scene::new(&big(1000.0), tilted(70.0)).unwrap_err();
     assert!(err.to_string().contains("scene.disc_radius_mm"), "{err}");
     assert!(Scene::new(&big(900.0), tilted(70.0)).is_ok());
-    // A moderate tilt works, and the measured disc polygon still follows the ellipse.
-    let scene = Scene::new(&SceneConfig::default(), tilted(20.0)).unwrap();
+    // A moderate tilt works, and the disc polygon follows the disc's image (an ellipse).
+    let camera = tilted(20.0);
+    let scene = Scene::new(&SceneConfig::default(), camera.clone()).unwrap();
     let disc = &scene.snapshot_at(&pose(0.0)).layers[0].polygons[0].vertices_px;
     assert!(disc.len() > 1000);
+    disc_polygon_follows_the_disc(&camera, SceneConfig::default().disc_radius_mm, disc);
+}
+
+/// Checks `polygon` against the disc of `radius_mm` about the world origin seen by `camera`
+/// (pinhole, no distortion), without the scene's projection of the circle: every vertex, cast
+/// back as a ray onto the disc plane, lands on the rim (to 1e-9 relative: only rounding); the
+/// rays cover the rim once, in order; and the rim point half-way between two vertices is within
+/// the tessellation tolerance of their chord (the stated 0.001 px).
+fn disc_polygon_follows_the_disc(camera: &Camera, radius_mm: f64, polygon: &[DVec2]) {
+    use glam::DVec3;
+    let r_m = radius_mm * 1e-3;
+    let pos = camera.position_m();
+    // Rows of the world-to-camera rotation R: R·e_i is the camera-frame image of axis i.
+    let axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| camera.to_camera_m(pos + e));
+    let (pp, f) = (camera.principal_point_px(), camera.focal_px());
+    let on_plane = |p: DVec2| {
+        let d_cam = ((p - pp) / f).extend(1.0);
+        let d = DVec3::new(axes[0].dot(d_cam), axes[1].dot(d_cam), axes[2].dot(d_cam));
+        let q = pos - d * (pos.z / d.z);
+        assert!(q.z.abs() < 1e-12);
+        DVec2::new(q.x, q.y)
+    };
+    let n = polygon.len();
+    let mut turned = 0.0;
+    for k in 0..n {
+        let (a, b) = (on_plane(polygon[k]), on_plane(polygon[(k + 1) % n]));
+        assert!(
+            (a.length() / r_m - 1.0).abs() < 1e-9,
+            "vertex {k}: {} m from the axis, rim {r_m} m",
+            a.length()
+        );
+        let step = a.angle_to(b);
+        assert!(step > 0.0 && step < 0.1, "vertex {k}: step {step} rad");
+        turned += step;
+        let mid = (a + b).normalize() * r_m;
+        let rim_px = camera.project(mid.extend(0.0));
+        let (u, v) = (polygon[k], polygon[(k + 1) % n]);
+        let off_chord = (rim_px - u).perp_dot(v - u).abs() / (v - u).length();
+        assert!(
+            off_chord <= super::compose::TOLERANCE_PX * 1.01,
+            "edge {k}: the rim is {off_chord} px off the chord"
+        );
+    }
+    assert!(
+        (turned - 2.0 * PI).abs() < 1e-9,
+        "the polygon turns {turned} rad"
+    );
 }
 
 /// With no white margin, the pixels along the black square's outer edge hold exactly the area
