@@ -408,6 +408,7 @@ fn track(
                 }
             }
         }
+        // Infallible: a tracks file returned from this function before the frame loop.
         Source::Tracks(_) => unreachable!("handled above"),
     }
     writer.finish()?;

@@ -15,7 +15,8 @@ use super::run::run_truths;
 use crate::budget::judge::signal_errors;
 use crate::budget::stats::ErrorStats;
 use crate::estimate::{
-    estimate, Differentiator, EstimatorConfig, MarkerCentreMethod, RotationCentreMethod, Signal,
+    estimate, Differentiator, EstimateError, EstimatorConfig, MarkerCentreMethod,
+    RotationCentreMethod, Signal,
 };
 use crate::io::csv_out::{num, CsvError, CsvWriter};
 use crate::io::tracks_csv::Corners;
@@ -42,8 +43,11 @@ pub enum DefaultsError {
     Frames { point: String, source: FramesError },
     #[error(transparent)]
     Csv(#[from] CsvError),
-    #[error("{file}: {message}")]
-    Write { file: PathBuf, message: String },
+    #[error("{file}: cannot write")]
+    Write {
+        file: PathBuf,
+        source: std::io::Error,
+    },
     #[error("no candidate estimator gave an answer at every camera set-up")]
     NoCandidate,
 }
@@ -311,13 +315,13 @@ pub struct CandidateErrors {
     pub frames: usize,
 }
 
-/// Errors of every candidate at one set-up (`None`: the candidate refused the track, with why).
+/// Errors of every candidate at one set-up (`Err`: the candidate refused the track, and why).
 #[derive(Debug, Clone)]
 pub struct PointResult {
     pub point: CameraPoint,
     pub frames_total: usize,
     pub frames_detected: usize,
-    pub errors: Vec<Result<CandidateErrors, String>>,
+    pub errors: Vec<Result<CandidateErrors, EstimateError>>,
 }
 
 /// Runs one set-up: render and detect once, then every candidate on the same detections.
@@ -355,8 +359,7 @@ pub fn evaluate_point(
     let errors = candidates
         .par_iter()
         .map(|c| {
-            let est =
-                estimate(&c.estimator, &t, &corners, None).map_err(|e| crate::errors::full(&e))?;
+            let est = estimate(&c.estimator, &t, &corners, None)?;
             let signals = signal_errors(&est, &truths.geometry, &truths.truth, &truths.resolvable);
             let fused = &signals[Signal::Fused.index()];
             let only = |v: &[f64], keep: &dyn Fn(&str) -> bool| -> Vec<f64> {
@@ -529,9 +532,9 @@ pub fn run_study(
 }
 
 fn write_text(path: &Path, text: &str) -> Result<PathBuf, DefaultsError> {
-    std::fs::write(path, text).map_err(|e| DefaultsError::Write {
+    std::fs::write(path, text).map_err(|source| DefaultsError::Write {
         file: path.to_path_buf(),
-        message: crate::errors::full(&e),
+        source,
     })?;
     Ok(path.to_path_buf())
 }
@@ -619,9 +622,9 @@ pub fn defaults_report(out_dir: &Path, spread: &Spread) -> Result<DefaultsStudy,
                     num(e.alpha_jumps_rad_s2),
                     String::new(),
                 ]),
-                Err(message) => {
+                Err(error) => {
                     cells.extend((0..6).map(|_| String::new()));
-                    cells.push(message.replace([',', '\n'], ";"));
+                    cells.push(crate::errors::full(error).replace([',', '\n'], ";"));
                 }
             }
             w.row(&cells)?;
@@ -763,7 +766,7 @@ mod tests {
         }
     }
 
-    fn point(errors: Vec<Result<CandidateErrors, String>>) -> PointResult {
+    fn point(errors: Vec<Result<CandidateErrors, EstimateError>>) -> PointResult {
         PointResult {
             point: Spread::tiny().points()[0],
             frames_total: 100,
@@ -778,7 +781,14 @@ mod tests {
         // b is best at both set-ups although the set-ups' error levels differ 1000-fold; c is
         // better than b at the second set-up but refused the first track.
         let results = vec![
-            point(vec![Ok(errors(2.0)), Ok(errors(1.0)), Err("arc".into())]),
+            point(vec![
+                Ok(errors(2.0)),
+                Ok(errors(1.0)),
+                Err(EstimateError::ArcTooShort {
+                    span_deg: 3.0,
+                    min_deg: 10.0,
+                }),
+            ]),
             point(vec![
                 Ok(errors(2000.0)),
                 Ok(errors(1000.0)),

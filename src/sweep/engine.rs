@@ -97,6 +97,7 @@ impl<'a, E: Evaluator> SweepStudy<'a, E> {
                     source: Box::new(source),
                 });
             }
+            // Infallible: `position` found an `Err` at index i of this same vector.
             unreachable!("position found an error");
         }
         let json = |v: Result<serde_json::Value, serde_json::Error>| v.unwrap_or_default();
@@ -180,21 +181,20 @@ impl<E: Evaluator> SweepStudy<'_, E> {
     /// the heatmaps.
     fn write_outputs(&self, records: &[String], out_dir: &Path) -> Result<(), SweepError> {
         let results_path = out_dir.join("results.csv");
-        let mut text =
-            header_line(&self.axis_names).map_err(|e| SweepError::io(&results_path, e))?;
+        let mut text = header_line(&self.axis_names).map_err(SweepError::csv(&results_path))?;
         text.push('\n');
         for r in records {
             text.push_str(r);
             text.push('\n');
         }
-        std::fs::write(&results_path, &text).map_err(|e| SweepError::io(&results_path, e))?;
+        std::fs::write(&results_path, &text).map_err(SweepError::write(&results_path))?;
         let rows = results::parse(&text, &results_path, &self.axis_names)?;
         let summary = summarise(self.spec, &self.grid, &self.scenarios, &rows);
         write_csv(&out_dir.join("summary.csv"), &self.axis_names, &summary)?;
         let rec = recommend(self.spec, &summary);
         let md_path = out_dir.join("recommendation.md");
         std::fs::write(&md_path, markdown(self.spec, &summary, &rec))
-            .map_err(|e| SweepError::io(&md_path, e))?;
+            .map_err(SweepError::write(&md_path))?;
         super::heatmaps::write_heatmaps(self.spec, &self.grid, &summary, &rec, out_dir)?;
         Ok(())
     }
@@ -266,7 +266,7 @@ impl<E: Evaluator> AdaptiveStudy for AdaptiveSweep<'_, E> {
 
     fn next_round(&self, records: &BTreeMap<usize, String>) -> Result<Vec<usize>, SweepError> {
         let s = &self.sweep;
-        let mut text = header_line(&s.axis_names).map_err(|e| SweepError::io(s.spec_path, e))?;
+        let mut text = header_line(&s.axis_names).map_err(SweepError::csv(s.spec_path))?;
         for r in self.ordered(records) {
             text.push('\n');
             text.push_str(&r);
@@ -289,7 +289,7 @@ impl<E: Evaluator> AdaptiveStudy for AdaptiveSweep<'_, E> {
     fn run_unit(&self, unit: usize) -> Result<String, SweepError> {
         let (point, seed_index) = self.point_seed(unit);
         let row = self.sweep.run_job(point, seed_index);
-        row_line(&row).map_err(|e| SweepError::io(self.sweep.spec_path, e))
+        row_line(&row).map_err(SweepError::csv(self.sweep.spec_path))
     }
 
     fn finalize(
@@ -315,7 +315,7 @@ impl<E: Evaluator> Study for SweepStudy<'_, E> {
     fn run_unit(&self, unit: usize, _work_dir: &Path) -> Result<String, SweepError> {
         let (point, seed_index) = self.unit(unit);
         let row = self.run_job(point, seed_index);
-        row_line(&row).map_err(|e| SweepError::io(self.spec_path, e))
+        row_line(&row).map_err(SweepError::csv(self.spec_path))
     }
 
     fn finalize(&self, records: &[String], _: UnitDirs, out_dir: &Path) -> Result<(), SweepError> {
@@ -397,12 +397,8 @@ fn run_adaptive_sweep<E: Evaluator>(
     run: &SweepRun,
 ) -> Result<SweepOutcome, SweepError> {
     if run.shard.is_some() {
-        return Err(SweepError::Io {
+        return Err(SweepError::AdaptiveSharded {
             file: study.spec_path.to_path_buf(),
-            message: "adaptive seeds ([adaptive]) pick each round's runs from the results of \
-                      the round before, so the sweep runs on one machine: drop --shard, or drop \
-                      [adaptive] to shard a fixed number of seeds"
-                .into(),
         });
     }
     let adaptive = AdaptiveSweep::new(study);
@@ -434,11 +430,8 @@ pub fn merge_sweep(
     out_dir: &Path,
 ) -> Result<SweepOutcome, SweepError> {
     if spec.adaptive.is_some() {
-        return Err(SweepError::Io {
+        return Err(SweepError::AdaptiveMerge {
             file: spec_path.to_path_buf(),
-            message:
-                "an adaptive sweep ([adaptive]) runs on one machine and has no shards to merge"
-                    .into(),
         });
     }
     let study = SweepStudy::new(spec, spec_path, &NoEvaluator)?;
@@ -459,19 +452,14 @@ pub fn merge_sweep(
 /// The sweep file the shards of `out_dir` were run from (recorded in their manifests).
 pub fn sweep_file_of(out_dir: &Path) -> Result<PathBuf, SweepError> {
     let shards = out_dir.join(shard::SHARDS);
-    let entries = std::fs::read_dir(&shards).map_err(|e| SweepError::Io {
-        file: shards.clone(),
-        message: format!(
-            "no shards to merge ({e}); run `geneva sweep SWEEP --out DIR --shard I/N` first"
-        ),
+    let entries = std::fs::read_dir(&shards).map_err(|source| SweepError::NoShards {
+        dir: shards.clone(),
+        source,
     })?;
     for e in entries.filter_map(Result::ok) {
         if let Some(origin) = Manifest::read(&e.path())?.and_then(|m| m.origin) {
             return Ok(PathBuf::from(origin));
         }
     }
-    Err(SweepError::Io {
-        file: shards,
-        message: "no shard records its sweep file; give it with --sweep".into(),
-    })
+    Err(SweepError::NoSweepFile { dir: shards })
 }

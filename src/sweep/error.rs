@@ -26,8 +26,29 @@ pub enum SweepError {
         file: PathBuf,
         source: crate::scenario::ScenarioError,
     },
-    #[error("{file}: {message}")]
-    Io { file: PathBuf, message: String },
+    #[error("{file}: cannot write")]
+    Write {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    /// A CSV file (or line) that could not be read or written; the cause names the record.
+    #[error("{file}")]
+    Csv { file: PathBuf, source: csv::Error },
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    #[error("{file}: adaptive seeds ([adaptive]) pick each round's runs from the results of the round before, so the sweep runs on one machine: drop --shard, or drop [adaptive] to shard a fixed number of seeds")]
+    AdaptiveSharded { file: PathBuf },
+    #[error(
+        "{file}: an adaptive sweep ([adaptive]) runs on one machine and has no shards to merge"
+    )]
+    AdaptiveMerge { file: PathBuf },
+    #[error("{dir}: no shards to merge; run `geneva sweep SWEEP --out DIR --shard I/N` first")]
+    NoShards {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{dir}: no shard records its sweep file; give it with --sweep")]
+    NoSweepFile { dir: PathBuf },
     #[error("{file}: written by a different sweep: header\n  {found}\nexpected\n  {expected}\n(use another output folder or delete the file)")]
     HeaderMismatch {
         file: PathBuf,
@@ -59,10 +80,19 @@ impl SweepError {
         }
     }
 
-    pub(crate) fn io(file: &std::path::Path, e: impl std::fmt::Display) -> Self {
-        SweepError::Io {
+    /// `file` could not be written.
+    pub(crate) fn write(file: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| SweepError::Write {
             file: file.to_path_buf(),
-            message: e.to_string(),
+            source,
+        }
+    }
+
+    /// A CSV error in `file`.
+    pub(crate) fn csv(file: &std::path::Path) -> impl Fn(csv::Error) -> Self + Copy + '_ {
+        move |source| SweepError::Csv {
+            file: file.to_path_buf(),
+            source,
         }
     }
 }

@@ -101,7 +101,7 @@ pub fn write_heatmaps(
     let mut written = Vec::new();
     for (stem, map) in heatmaps(spec, grid, summary, rec) {
         let path = out_dir.join(format!("{stem}.png"));
-        heatmap_png(&path, &map).map_err(|e| SweepError::io(&path, e))?;
+        heatmap_png(&path, &map)?;
         written.push(path);
     }
     Ok(written)

@@ -146,7 +146,7 @@ pub fn parse(text: &str, path: &Path, axis_names: &[String]) -> Result<Vec<Resul
     let mut reader = csv::ReaderBuilder::new().from_reader(text.as_bytes());
     let found: Vec<String> = reader
         .headers()
-        .map_err(|e| SweepError::io(path, e))?
+        .map_err(SweepError::csv(path))?
         .iter()
         .map(String::from)
         .collect();
@@ -160,7 +160,7 @@ pub fn parse(text: &str, path: &Path, axis_names: &[String]) -> Result<Vec<Resul
     let n_axes = axis_names.len();
     let mut rows = Vec::new();
     for record in reader.records() {
-        let record = record.map_err(|e| SweepError::io(path, e))?;
+        let record = record.map_err(SweepError::csv(path))?;
         let line = record.position().map(|p| p.line()).unwrap_or(0);
         let bad = |message: String| SweepError::Row {
             file: path.to_path_buf(),

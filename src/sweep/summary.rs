@@ -285,7 +285,7 @@ pub fn write_csv(
     axis_names: &[String],
     rows: &[PointSummary],
 ) -> Result<(), SweepError> {
-    let e = |x: csv::Error| SweepError::io(path, x);
+    let e = SweepError::csv(path);
     let mut w = csv::Writer::from_path(path).map_err(e)?;
     w.write_record(header(axis_names)).map_err(e)?;
     for s in rows {
@@ -322,5 +322,5 @@ pub fn write_csv(
         c.push(s.error.clone());
         w.write_record(&c).map_err(e)?;
     }
-    w.flush().map_err(|x| SweepError::io(path, x))
+    w.flush().map_err(SweepError::write(path))
 }
