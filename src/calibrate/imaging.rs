@@ -259,8 +259,11 @@ pub fn fit_imaging(
         )
     };
     // A region whose noise piles up at one level in most frames is clipped there (the tone
-    // curve's white or black): that level is the region's, and the noise is the one-sided σ.
-    let clip_of = |r: &[&RegionStats], high: bool| -> Option<(Fitted, Fitted)> {
+    // curve's white or black): that level is the tone curve's end, and the noise σ is the
+    // censored normal's. When the region's own mean lies well inside (only a tail is cut: ink
+    // a few σ above the black level) the level stays the region's and the end is the clip;
+    // otherwise the region sits at the end itself.
+    let clip_of = |r: &[&RegionStats], high: bool| -> Option<(Fitted, Fitted, bool)> {
         let c: Vec<_> = r
             .iter()
             .filter_map(|s| s.clipping.as_ref())
@@ -271,24 +274,33 @@ pub fn fit_imaging(
         }
         let level = robust_level(&c.iter().map(|c| c.level_dn).collect::<Vec<_>>(), 0.15)?;
         let sigma = robust_level(&c.iter().map(|c| c.sigma_dn).collect::<Vec<_>>(), 0.0)?;
+        let mut means: Vec<f64> = c.iter().map(|c| c.mean_dn).collect();
+        let inside = median(&mut means) - level.value;
+        let partial = if high { inside < -0.5 } else { inside > 0.5 };
         Some((
             level,
             Fitted::new(sigma.value, sigma.u95 + 0.05 * sigma.value),
+            partial,
         ))
     };
     let ink_clip = clip_of(&ink_r, false);
     let paper_clip = clip_of(&paper_r, true);
-    if paper_clip.is_some() {
-        notes.push("the paper is clipped at the white level (its noise is cut off above): white level = paper level, paper radiance 1".into());
+    match paper_clip {
+        Some((_, _, true)) => notes.push("the paper's noise is cut off above by the white level (its upper tail piles up there): white level = that level, noise σ of the censored normal".into()),
+        Some(_) => notes.push("the paper is clipped at the white level (its noise is cut off above): white level = paper level, paper radiance 1".into()),
+        None => {}
     }
-    if ink_clip.is_some() {
-        notes.push(
+    match ink_clip {
+        Some((_, _, true)) => notes.push("the ink's noise is cut off below by the black level (its lower tail piles up there): black level = that level, noise σ of the censored normal".into()),
+        Some(_) => notes.push(
             "the ink is clipped at the black level: black level = ink level, ink radiance 0".into(),
-        );
+        ),
+        None => {}
     }
     let (ink_level, paper_level) = (level_of(&ink_r), level_of(&paper_r));
-    let ink_level = ink_clip.map(|c| c.0).or(ink_level);
-    let paper_level = paper_clip.map(|c| c.0).or(paper_level);
+    let at_end = |c: Option<(Fitted, Fitted, bool)>| c.filter(|c| !c.2).map(|c| c.0);
+    let ink_level = at_end(ink_clip).or(ink_level);
+    let paper_level = at_end(paper_clip).or(paper_level);
     let (Some(ink_dn), Some(paper_dn)) = (ink_level, paper_level) else {
         return Err(CalibrateError::Unresolved {
             what: "grey levels".into(),

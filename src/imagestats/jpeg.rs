@@ -183,27 +183,54 @@ fn dct_basis() -> [[f64; 8]; 8] {
 /// point kQ has probability 1 − e^(−Q/2b) (k = 0) or e^(−|k|Q/b)·sinh(Q/2b), and the decoded
 /// coefficient is that point plus Gaussian rounding noise of σ.
 fn log_likelihood(coefs: &[f64], q: f64, sigma: f64, b: f64) -> f64 {
+    coefs
+        .iter()
+        .map(|&c| lattice_density(c, q, sigma, b).max(1e-300).ln())
+        .sum()
+}
+
+/// p(c | Q, σ) of [`log_likelihood`] for one coefficient.
+fn lattice_density(c: f64, q: f64, sigma: f64, b: f64) -> f64 {
     let norm = 1.0 / (sigma * (2.0 * std::f64::consts::PI).sqrt());
     let p0 = 1.0 - (-0.5 * q / b).exp();
     let ln_sinh = (0.5 * q / b).sinh().max(1e-300).ln();
     let reach = (4.0 * sigma / q).ceil().max(1.0) as i64;
     let inv2s2 = 0.5 / (sigma * sigma);
-    coefs
-        .iter()
-        .map(|&c| {
-            let k0 = (c / q).round() as i64;
-            let mut p = 0.0;
-            for k in k0 - reach..=k0 + reach {
-                let r = c - k as f64 * q;
-                p += if k == 0 {
-                    p0 * (-r * r * inv2s2).exp()
-                } else {
-                    (ln_sinh - k.unsigned_abs() as f64 * q / b - r * r * inv2s2).exp()
-                };
-            }
-            (p * norm).max(1e-300).ln()
-        })
-        .sum()
+    let k0 = (c / q).round() as i64;
+    let mut p = 0.0;
+    for k in k0 - reach..=k0 + reach {
+        let r = c - k as f64 * q;
+        p += if k == 0 {
+            p0 * (-r * r * inv2s2).exp()
+        } else {
+            (ln_sinh - k.unsigned_abs() as f64 * q / b - r * r * inv2s2).exp()
+        };
+    }
+    p * norm
+}
+
+/// Noise σ (DN) and Laplace scales b (DN) the unquantised model may take, per frequency.
+const UNQUANTISED_SIGMAS: [f64; 5] = [0.3, 0.4, 0.5, 0.7, 1.0];
+const UNQUANTISED_SCALES: [f64; 6] = [0.05, 0.1, 0.2, 0.4, 0.8, 1.6];
+
+/// Step of the lattice that stands for a continuum: far below every σ of the unquantised model
+/// (the lattice's ripple on the density, e^(−2π²σ²/q²), is below 1e-70).
+const CONTINUUM_STEP: f64 = 0.1;
+
+/// Σ log p(c) over `coefs` without any quantiser: a continuous Laplace(b) value plus Gaussian
+/// noise σ, at the best σ and b of a grid (and b = mean |c|). Not the step-1 lattice: a quiet
+/// uncompressed region gives coefficients spread continuously about 0 by its pixel noise, which
+/// a step-1 lattice with a Laplace prior of b ≥ ½ explains worse than a coarse table whose
+/// steps all round them to 0 (every quantiser looked likely on flat renders with < 1 DN noise).
+fn unquantised_log_likelihood(coefs: &[f64]) -> f64 {
+    let mean_abs = coefs.iter().map(|v| v.abs()).sum::<f64>() / coefs.len().max(1) as f64;
+    let mut best = f64::NEG_INFINITY;
+    for &s in &UNQUANTISED_SIGMAS {
+        for &b in UNQUANTISED_SCALES.iter().chain([mean_abs.max(0.05)].iter()) {
+            best = best.max(log_likelihood(coefs, CONTINUUM_STEP, s, b));
+        }
+    }
+    best
 }
 
 /// Estimates the JPEG quality from the block-DCT coefficients of `rect ∩ view` (whole view when
@@ -299,9 +326,7 @@ pub fn jpeg_quality(
             })
             .sum()
     };
-    let baseline = (0..sigmas.len())
-        .map(|s| total(None, s))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let baseline: f64 = coefs.iter().map(|cs| unquantised_log_likelihood(cs)).sum();
     let mut best = (f64::NEG_INFINITY, 0usize, 0usize);
     for (qi, t) in tables.iter().enumerate() {
         for s in 0..sigmas.len() {

@@ -2,9 +2,11 @@
 //! the surround beyond the paper, from pixels at least a guard distance from every material
 //! boundary; and noise from the variation of static pixels over frames.
 
+use super::edge::normal_cdf;
 use super::grid::{Homography, MarkerLayout, Material};
 use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
+use crate::estimate::golden::golden_section_min;
 
 /// Which pixels count as "well inside" a region.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,9 +49,11 @@ pub struct RegionStats {
     pub pixels: usize,
     /// Neighbour pairs used for `noise_sigma_diff_dn`.
     pub pairs: usize,
-    /// The values pile up at one end (a tone curve or the sensor clipped the noise): at least
-    /// 30 % of the pixels share the extreme value, and more than the next level inside. (After
-    /// JPEG compression the pile is smeared and not detected.)
+    /// The values pile up at one end (a tone curve or the sensor clipped the noise): the extreme
+    /// value holds more pixels than the next level inside and either at least 30 % of them or,
+    /// over a spread of four levels or more, at least [`MIN_PILE_FRACTION`] (a level a little
+    /// above the black level: only its lower tail is cut). (After JPEG compression the pile is
+    /// smeared and not detected.)
     pub clipping: Option<Clipping>,
 }
 
@@ -62,9 +66,84 @@ pub struct Clipping {
     pub high: bool,
     /// Fraction of the pixels at that level.
     pub fraction: f64,
-    /// σ of the noise before clipping, from the one-sided tail: a normal clamped at its mean
-    /// keeps E[(level − x)²] = σ²/2, DN.
+    /// σ of the noise before clipping (with the 8-bit quantisation, like the unclipped
+    /// regions' σ), DN: maximum likelihood of a censored, quantised normal on the region's
+    /// histogram ([`censored_normal_fit`]).
     pub sigma_dn: f64,
+    /// Mean of the noise before clipping, DN (at or beyond `level_dn` when half the pixels or
+    /// more are clipped).
+    pub mean_dn: f64,
+}
+
+/// Smallest share of a region's pixels at its extreme value that counts as a clipping pile when
+/// the values spread over four levels or more: an unclipped normal's extreme level holds a few
+/// pixels and fewer than the level inside it.
+pub const MIN_PILE_FRACTION: f64 = 0.02;
+
+/// Maximum-likelihood mean and σ (DN, without quantisation) of a normal seen through 8-bit
+/// rounding, with the lowest observed level standing for everything below it when `low` is
+/// censored and the highest for everything above when `high` is: the Tobit model on a
+/// histogram. A level v holds P(v − ½ < x < v + ½); a censored end level c holds P(x < c + ½)
+/// (or P(x > c − ½)). `None` for fewer than two occupied levels.
+pub fn censored_normal_fit(hist: &[usize; 256], low: bool, high: bool) -> Option<(f64, f64)> {
+    let lo = hist.iter().position(|&c| c > 0)?;
+    let hi = hist.iter().rposition(|&c| c > 0)?;
+    if hi == lo {
+        return None;
+    }
+    let n: usize = hist[lo..=hi].iter().sum();
+    let mean = hist[lo..=hi]
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| (lo + k) as f64 * c as f64)
+        .sum::<f64>()
+        / n as f64;
+    let sd = (hist[lo..=hi]
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| ((lo + k) as f64 - mean).powi(2) * c as f64)
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
+    // Upper-tail cells from the mirrored CDF: both ends near 1 would cancel.
+    let log_p = |a: f64, b: f64| {
+        let p = if a > 0.0 {
+            normal_cdf(-a) - normal_cdf(-b)
+        } else {
+            normal_cdf(b) - normal_cdf(a)
+        };
+        p.max(1e-300).ln()
+    };
+    let nll = |mu: f64, sigma: f64| -> f64 {
+        let z = |v: f64| (v - mu) / sigma;
+        (lo..=hi)
+            .filter(|&v| hist[v] > 0)
+            .map(|v| {
+                let a = if low && v == lo {
+                    f64::NEG_INFINITY
+                } else {
+                    z(v as f64 - 0.5)
+                };
+                let b = if high && v == hi {
+                    f64::INFINITY
+                } else {
+                    z(v as f64 + 0.5)
+                };
+                -(hist[v] as f64) * log_p(a, b)
+            })
+            .sum()
+    };
+    let reach = 4.0 * sd + 2.0;
+    let best_mu = |sigma: f64| {
+        golden_section_min(
+            |mu| nll(mu, sigma),
+            lo as f64 - reach,
+            hi as f64 + reach,
+            60,
+        )
+    };
+    let sigma = golden_section_min(|s| nll(best_mu(s), s), 0.02, 3.0 * sd + 2.0, 50);
+    Some((best_mu(sigma), sigma))
 }
 
 /// Levels of the three materials around one marker.
@@ -309,14 +388,15 @@ fn clipping_of(hist: &[usize; 256], n: usize, _median_dn: f64) -> Option<Clippin
     let (lower, upper) = ((p50 - p02) as f64, (p98 - p50) as f64);
     // Either a pile at the extreme value (more pixels there than one level inside), or, when
     // compression smeared the pile, one tail much shorter than the other.
-    let piled = |level: usize, inner: usize| {
-        hist[level] as f64 >= 0.3 * n as f64 && hist[level] > hist[inner]
-    };
     let hi = hist.iter().rposition(|&c| c > 0)?;
     let lo = hist.iter().position(|&c| c > 0)?;
     if hi == lo {
         return None;
     }
+    let piled = |level: usize, inner: usize| {
+        let f = hist[level] as f64 / n as f64;
+        hist[level] > hist[inner] && (f >= 0.3 || (f >= MIN_PILE_FRACTION && hi - lo >= 3))
+    };
     let side = |high: bool| -> Option<Clipping> {
         let (extreme, inner) = if high { (hi, hi - 1) } else { (lo, lo + 1) };
         let (long, short) = if high { (lower, upper) } else { (upper, lower) };
@@ -331,20 +411,30 @@ fn clipping_of(hist: &[usize; 256], n: usize, _median_dn: f64) -> Option<Clippin
         } else {
             (lo..=p50).collect()
         };
-        let level = range
-            .into_iter()
-            .max_by_key(|&v| (hist[v], if high { v } else { 255 - v }))?;
-        let ss: f64 = hist
-            .iter()
-            .enumerate()
-            .filter(|(v, _)| if high { *v <= level } else { *v >= level })
-            .map(|(v, &c)| c as f64 * (v as f64 - level as f64).powi(2))
-            .sum();
+        // (A pile under 30 % is the extreme level itself: a partly cut tail.)
+        let level = if (hist[extreme] as f64) < 0.3 * n as f64 {
+            extreme
+        } else {
+            range
+                .into_iter()
+                .max_by_key(|&v| (hist[v], if high { v } else { 255 - v }))?
+        };
+        // Everything beyond the pile is folded into it (JPEG or a soft shoulder can leave a
+        // few values past the clip level).
+        let mut folded = *hist;
+        for v in 0..256 {
+            if (high && v > level) || (!high && v < level) {
+                folded[level] += folded[v];
+                folded[v] = 0;
+            }
+        }
+        let (mean_dn, sigma) = censored_normal_fit(&folded, !high, high)?;
         Some(Clipping {
             level_dn: level as f64,
             high,
             fraction: hist[level] as f64 / n as f64,
-            sigma_dn: (2.0 * ss / n as f64).sqrt(),
+            sigma_dn: (sigma * sigma + 1.0 / 12.0).sqrt(),
+            mean_dn,
         })
     };
     side(true).or_else(|| side(false))

@@ -51,8 +51,9 @@ pub use edge::{
 pub use grid::{Homography, MarkerLayout, Material};
 pub use jpeg::{blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality};
 pub use levels::{
-    marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise, Clipping,
-    LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,
+    censored_normal_fit, marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise,
+    Clipping, LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,
+    MIN_PILE_FRACTION,
 };
 pub use shape::{square_fit, SquareFit};
 

@@ -213,6 +213,29 @@ fn paper_at_the_white_level_is_reported_clipped_with_its_unclipped_noise() {
     assert_eq!(lv.ink.clipping, None);
 }
 
+/// Ink 1.6σ above the black level: the tone curve cuts its lower tail, which piles up at the
+/// black level (≈ 5 % of the pixels, far below the 30 % a pile at the region's own mean makes).
+/// The pile is reported with the censored normal's mean and σ; the plain σ of the region is
+/// biased low (the round trip's ink noise came out 10–12 % low on such footage).
+#[test]
+fn ink_near_the_black_level_is_reported_censored_with_its_uncut_noise() {
+    let mut s = Setup::new(240, 120.0, 0.3, 1.5);
+    s.levels(40.0, 210.0);
+    s.blur(0.8);
+    s.noise(1000.0, 30.0);
+    let img = s.render(0);
+    let lv = marker_levels(&view(&img), &s.corners, &s.layout, &LevelOptions::default()).unwrap();
+    let (level, sigma) = s.expect(INK as f64);
+    assert!((level - 40.0) / sigma < 2.0, "{level} {sigma}");
+    let c = lv.ink.clipping.clone().expect("censored");
+    assert!(!c.high && c.level_dn == 40.0, "{c:?}");
+    assert!(c.fraction > MIN_PILE_FRACTION && c.fraction < 0.3, "{c:?}");
+    assert!((c.mean_dn - level).abs() < 0.6, "{c:?} vs {level}");
+    assert!((c.sigma_dn / sigma - 1.0).abs() < 0.08, "{c:?} vs {sigma}");
+    assert!(lv.ink.noise_sigma_dn < 0.97 * sigma, "{:?}", lv.ink);
+    assert_eq!(lv.paper.clipping, None);
+}
+
 #[test]
 fn outer_edges_recover_blur_sigma_from_0_3_to_2_5_px() {
     for &(sigma, side, angle) in &[
@@ -398,6 +421,35 @@ fn blockiness_and_quality_estimate_follow_the_jpeg_quality() {
             est.quality_range.0 <= q && q <= est.quality_range.1 && est.quality.abs_diff(q) <= 2,
             "q {q}: {est:?}"
         );
+    }
+}
+
+/// A quiet uncompressed render (noise below 1 DN) is not JPEG: its block-DCT coefficients
+/// spread continuously about 0 and a coarse table that rounds them all to 0 explains them no
+/// better than no quantiser (the step-1 lattice null once lost to such tables: round-trip cases
+/// with < 1 DN of noise were reported as JPEG). The same frames compressed still are.
+#[test]
+fn quiet_uncompressed_renders_are_not_taken_for_jpeg() {
+    for (full_well, read) in [(40000.0, 40.0), (60000.0, 60.0), (100000.0, 50.0)] {
+        let mut s = Setup::new(256, 150.0, 0.35, 1.0);
+        s.levels(40.0, 210.0);
+        s.blur(0.5);
+        s.noise(full_well, read);
+        let (_, sigma) = s.expect(1.0);
+        assert!(sigma < 1.0, "{sigma}");
+        let plain = s.render(3);
+        let est = jpeg_quality(&view(&plain), None, 1024).unwrap();
+        assert_eq!(est, None, "noise {sigma:.2} DN uncompressed: {est:?}");
+        for q in [95u8, 80] {
+            s.fx.compression.enabled = true;
+            s.fx.compression.quality = q;
+            let img = s.render(3);
+            let est = jpeg_quality(&view(&img), None, 1024).unwrap();
+            assert!(
+                est.as_ref().is_some_and(|e| e.quality.abs_diff(q) <= 2),
+                "noise {sigma:.2} DN at q {q}: {est:?}"
+            );
+        }
     }
 }
 
