@@ -13,4 +13,5 @@ pub mod record;
 pub mod scoring;
 pub mod search;
 pub mod shape;
+pub mod spectrum;
 pub mod verdict;

@@ -59,6 +59,7 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
             "missing",
         ],
         Effect::MotionBlur => &[
+            "edge_motion",
             "edge_across",
             "edge_along",
             "rigid_residual",
@@ -68,6 +69,7 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
             "missing",
         ],
         Effect::RollingShutter => &[
+            "rs_fine",
             "rs_readout",
             "stretch_x",
             "stretch_diag",
@@ -115,7 +117,9 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
 
 /// Whether `key` belongs to `e`'s signature.
 pub fn in_signature(e: Effect, key: &CellKey) -> bool {
-    signature(e).contains(&key.channel)
+    let sig = signature(e);
+    // The angle residual's spectral peak belongs to every effect that moves the angle.
+    sig.contains(&key.channel) || (key.channel == "theta_peak" && sig.contains(&"theta"))
 }
 
 /// Share of the total gap that lies in `e`'s signature cells: an upper bound on the shrink the

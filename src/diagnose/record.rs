@@ -25,6 +25,10 @@ pub struct FrameImage {
     pub noise_paper_dn: Option<f64>,
     /// 8-px-grid blockiness (1 = none), dimensionless.
     pub blockiness: Option<f64>,
+    /// Corners of the marker's outer square from the four fitted outer sides (sub-pixel, OpenCV
+    /// order, absolute px), when all four sides fitted: the shape the image channels measure
+    /// rolling shutter on, free of the detector's whole-pixel corner quantisation.
+    pub refined_corners_px: Option<Corners>,
 }
 
 /// Blur of one marker side.

@@ -200,6 +200,18 @@ pub struct AxisRunoutConfig {
     pub phase_rad: f64,
 }
 
+impl AxisRunoutConfig {
+    /// Whether a camera can see this runout at all. A centre offset that turns with the wheel
+    /// (1 cycle per revolution: an eccentric axis) moves the marker exactly as a marker stuck
+    /// elsewhere on a true wheel would, and one that stands still (0 cycles) only moves the
+    /// rotation centre: without a time-driven part, both are the marker's and the centre's own
+    /// position, which the analysis fits anyway.
+    pub fn is_visible(&self) -> bool {
+        let c = self.cycles_per_wheel_rev;
+        self.frequency_hz != 0.0 || (c.abs() > 1e-9 && (c - 1.0).abs() > 1e-9)
+    }
+}
+
 impl Default for AxisRunoutConfig {
     fn default() -> Self {
         Self {

@@ -145,6 +145,11 @@ const AXIS_RUNOUT: &[ParamSpec] = &[param(
     true,
     5e-4,
 )];
+/// Wobble cycles per wheel revolution of a runout switched on from an invisible form (1 or 0
+/// cycles, no time-driven part): 2, an oval bearing seat or a shaft bent in two planes, the
+/// lowest order that moves the marker against a rigid wheel.
+pub const VISIBLE_RUNOUT_CYCLES_PER_REV: f64 = 2.0;
+
 const CAMERA_VIBRATION: &[ParamSpec] = &[param(
     "rms_px",
     "effects.camera_vibration.random.x_rms_px",
@@ -694,8 +699,14 @@ impl Effect {
                 }];
             }
             Effect::AxisRunout => {
-                s.dynamics.axis_runout.enabled = true;
-                s.dynamics.axis_runout.amplitude_m = v[0];
+                let r = &mut s.dynamics.axis_runout;
+                r.enabled = true;
+                r.amplitude_m = v[0];
+                if !r.is_visible() {
+                    // An invisible form (see `AxisRunoutConfig::is_visible`) cannot explain
+                    // anything: switch on the lowest-order wobble a camera sees.
+                    r.cycles_per_wheel_rev = VISIBLE_RUNOUT_CYCLES_PER_REV;
+                }
             }
             Effect::CameraVibration => {
                 let cv = &mut fx.camera_vibration;
@@ -929,5 +940,26 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn an_invisible_runout_is_switched_on_in_a_visible_form() {
+        let mut s = crate::scenario::load_any("fast").unwrap();
+        assert!(
+            !s.dynamics.axis_runout.is_visible(),
+            "default: an eccentric axis"
+        );
+        Effect::AxisRunout.apply(&mut s, &[1e-4]);
+        let r = &s.dynamics.axis_runout;
+        assert!(r.enabled && r.amplitude_m == 1e-4 && r.is_visible());
+        assert_eq!(r.cycles_per_wheel_rev, VISIBLE_RUNOUT_CYCLES_PER_REV);
+        // A form the scenario states and a camera sees is kept.
+        s.dynamics.axis_runout.cycles_per_wheel_rev = 3.0;
+        Effect::AxisRunout.apply(&mut s, &[2e-4]);
+        assert_eq!(s.dynamics.axis_runout.cycles_per_wheel_rev, 3.0);
+        s.dynamics.axis_runout.cycles_per_wheel_rev = 1.0;
+        s.dynamics.axis_runout.frequency_hz = 0.5;
+        Effect::AxisRunout.apply(&mut s, &[2e-4]);
+        assert_eq!(s.dynamics.axis_runout.cycles_per_wheel_rev, 1.0);
     }
 }

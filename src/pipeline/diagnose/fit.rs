@@ -48,6 +48,9 @@ pub struct RealSide<'a> {
     pub t_s: &'a [f64],
     /// Times and primary angle of the detected frames.
     pub theta_det: (&'a [f64], &'a [f64]),
+    /// Frequency of the highest spectral peak of the real angle residual above the slow band
+    /// (the start of a vibration's frequency fit), Hz.
+    pub theta_peak_hz: Option<f64>,
 }
 
 /// Everything the fits need, and the nominal gap every candidate is judged against.
@@ -59,6 +62,7 @@ pub struct Fitter<'a> {
     /// Real frame times (all frames) and the primary angle of the detected frames.
     pub real_t_s: &'a [f64],
     pub real_theta_det: (&'a [f64], &'a [f64]),
+    pub real_theta_peak_hz: Option<f64>,
     /// The aligned nominal (`base`) on the evaluation seeds against the real data.
     pub nominal_gap: GapMap,
     pub base: Trial,
@@ -106,6 +110,7 @@ impl<'a> Fitter<'a> {
             real_cells: real.cells,
             real_t_s: real.t_s,
             real_theta_det: real.theta_det,
+            real_theta_peak_hz: real.theta_peak_hz,
             nominal_gap,
             base,
             fit_seeds,
@@ -307,6 +312,9 @@ impl<'a> Fitter<'a> {
             Effect::DiscVibration => {
                 let (r, n) = self.banded_pair("theta", &[0, 1, 2]).unwrap_or((1e-3, 0.0));
                 v[0] = (2.0f64.sqrt() * (r * r - n * n).max(1e-10).sqrt()).clamp(1e-5, 1e-2);
+                if let Some(f) = self.real_theta_peak_hz {
+                    v[1] = f.clamp(0.2, 200.0);
+                }
             }
             Effect::AxisRunout => {
                 let (r, n) = self.banded_pair("radius", &[0]).unwrap_or((1.0, 0.0));
@@ -374,7 +382,10 @@ impl<'a> Fitter<'a> {
                 } else {
                     0.0
                 };
-                if let Some((r, sim)) = self.channel_pair("rs_readout", &["all"]) {
+                if let Some((r, sim)) = self
+                    .channel_pair("rs_fine", &["all"])
+                    .or_else(|| self.channel_pair("rs_readout", &["all"]))
+                {
                     v[0] = (nominal + r - sim).clamp(5e-4, 0.05);
                 } else {
                     v[0] = 0.01;
@@ -714,7 +725,10 @@ impl<'a> Fitter<'a> {
                     ))
                 }
                 _ => {
-                    let c = moments::channel_means(g, "rs_readout", &["all"])?;
+                    // The sub-pixel shape's readout when the frames were seen, the corner
+                    // track's otherwise (a tracks CSV).
+                    let c = moments::channel_means(g, "rs_fine", &["all"])
+                        .or_else(|| moments::channel_means(g, "rs_readout", &["all"]))?;
                     Some((c.real, c.sim, c.real_std))
                 }
             }

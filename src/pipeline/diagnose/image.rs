@@ -113,11 +113,22 @@ pub fn frame_image(view: GrayView<'_>, corners: &Corners, layout: &MarkerLayout)
         out.blockiness = flat_blockiness(&view, &regions);
     }
     let edges = imagestats::outer_edge_profiles(&view, corners, layout, &EDGE_OPTIONS);
-    for (slot, e) in out.edges.iter_mut().zip(edges) {
-        *slot = e.ok().filter(|p| p.sigma_px.is_finite()).map(|p| SideEdge {
-            sigma_px: p.sigma_px,
-            normal: p.normal,
-        });
+    for (slot, e) in out.edges.iter_mut().zip(&edges) {
+        *slot = e
+            .as_ref()
+            .ok()
+            .filter(|p| p.sigma_px.is_finite())
+            .map(|p| SideEdge {
+                sigma_px: p.sigma_px,
+                normal: p.normal,
+            });
     }
+    let fitted: Vec<imagestats::EdgeProfile> = edges
+        .into_iter()
+        .filter_map(|e| e.ok())
+        .filter(|p| p.sigma_px.is_finite() && p.offset_px.is_finite())
+        .collect();
+    out.refined_corners_px = imagestats::refined_corners(&fitted, layout.side_cells())
+        .filter(|c| c.iter().flatten().all(|v| v.is_finite()));
     out
 }

@@ -235,8 +235,18 @@ pub fn diagnose(
         aligned.geometry.rotation_centre_px,
         &reference.phase,
         nyquist_hz,
+        ctx.height_px,
     ));
     real_cells.extend(timing_cells(&t_all));
+    let theta_peak_hz = {
+        let theta = &real.estimate.primary_series().theta_rad;
+        let residual: Vec<f64> = theta
+            .iter()
+            .zip(&reference.theta_rad)
+            .map(|(m, r)| m - r)
+            .collect();
+        crate::diagnose::cells::residual_peak(&t_all, &residual, nyquist_hz).map(|p| p.frequency_hz)
+    };
 
     let primary = &real.estimate.primary_series().theta_rad;
     let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
@@ -260,6 +270,7 @@ pub fn diagnose(
             cells: &real_cells,
             t_s: &t_all,
             theta_det: (&t_det, &th_det),
+            theta_peak_hz,
         },
         base,
         fit_seeds.clone(),

@@ -132,6 +132,7 @@ pub fn measurement_cells(
         ctx.aligned.geometry.rotation_centre_px,
         &reference.phase,
         ctx.nyquist_hz,
+        ctx.height_px,
     ));
     Ok(cells)
 }
