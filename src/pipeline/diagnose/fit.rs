@@ -4,6 +4,7 @@
 //! pipeline in the loop, on the fit seeds), then re-simulate on fresh seeds (the evaluation
 //! seeds, shared with the nominal) and measure how far the gap shrinks.
 
+use super::camera_warp;
 use super::nominal::Aligned;
 use super::simulate::{trial_cells, SimContext, TimingSource, Trial};
 use super::DiagnoseError;
@@ -202,6 +203,18 @@ impl<'a> Fitter<'a> {
                     e.apply(&mut t.scenario, v);
                 }
             }
+        }
+        if applied.iter().any(|(e, _)| *e == Effect::PerspectiveTilt) {
+            // The crank phase and speed, the marker's angle and the measured rotation centre
+            // are nuisance: refit them through this camera (see `camera_warp`). Not for a lens
+            // distortion: its angle warp is most of what identifies k1, and it never biased the
+            // nominal's alignment enough to hide the lens.
+            let (td, th) = self.real_theta_det;
+            let sign = aligned_of(self).screen_sign;
+            let base = &self.base.scenario;
+            let centred = camera_warp::match_measured_centre(&t.scenario, base, td, sign)?;
+            let (moved, _) = camera_warp::realign_motion(&centred, td, th, sign)?;
+            t.scenario = camera_warp::match_measured_centre(&moved, base, td, sign)?;
         }
         Ok(t)
     }

@@ -16,6 +16,7 @@
 //!
 //! No truth of the real data is used anywhere (there is none).
 
+pub mod camera_warp;
 pub mod fit;
 pub mod image;
 pub mod nominal;

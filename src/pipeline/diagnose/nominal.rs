@@ -50,7 +50,8 @@ pub struct Aligned {
     pub reference: ReferenceTable,
 }
 
-fn wrap(a: f64) -> f64 {
+/// `a` wrapped into [−π, π).
+pub(super) fn wrap(a: f64) -> f64 {
     (a + PI).rem_euclid(TAU) - PI
 }
 
@@ -127,9 +128,21 @@ pub fn align(
         .filter(|(_, th)| th.is_finite())
         .map(|(t, th)| (*t, *th))
         .unzip();
-    let motion = align_motion(nominal, &t_det, &th_det, sign)
+    let mut motion = align_motion(nominal, &t_det, &th_det, sign)
         .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
     let mut s = apply_motion(nominal, &motion);
+    // A nominal that states a tilted camera or a distorting lens: its angle warp is not a speed.
+    let (realigned, refit) = super::camera_warp::realign_motion(&s, &t_det, &th_det, sign)?;
+    if let Some(r) = refit {
+        motion = MotionAlignment {
+            theta1_start_rad: r.motion.theta1_start_rad,
+            speed_scale: motion.speed_scale * r.speed_scale,
+            offset_rad: r.motion.offset_rad,
+            rms_residual_rad: r.motion.rms_residual_rad,
+            nominal_rms_residual_rad: motion.nominal_rms_residual_rad,
+        };
+        s = realigned;
+    }
     at_frame_times(&mut s, &t_all)?;
     let mut geometry = align_geometry(&mut s, record, sign)?;
     refine_by_simulation(&mut s, &mut geometry, record, est, layout)?;
