@@ -69,8 +69,35 @@ impl Footage {
 pub enum CalibrateJobError {
     #[error("--base {spec}: {message}")]
     Base { spec: String, message: String },
-    #[error("{0}")]
-    Input(String),
+    #[error("--base: the marker layout")]
+    MarkerLayout(#[source] crate::imagestats::StatsError),
+    #[error("--base: the detector")]
+    Detector(#[source] crate::detect::DetectError),
+    #[error("{dir} holds {files} image files but {timestamps} has {times} timestamps")]
+    FrameCountMismatch {
+        dir: PathBuf,
+        files: usize,
+        timestamps: PathBuf,
+        times: usize,
+    },
+    #[error("{footage}: no frames")]
+    NoFrames { footage: String },
+    #[error("{footage}: timestamps")]
+    Timestamps {
+        footage: String,
+        #[source]
+        source: crate::timing::TimingError,
+    },
+    #[error("round trip: rendering the case")]
+    RoundTripRender(#[source] super::render_job::RenderJobError),
+    #[error("round trip: {file}")]
+    RoundTripWrite {
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("round trip: no valid case drawn in {attempts} attempts")]
+    RoundTripNoCase { attempts: usize },
     #[error("{file}: frame {frame}: {message}")]
     Frame {
         file: PathBuf,
@@ -179,7 +206,7 @@ fn layout_of(
     margin_mm: f64,
 ) -> Result<MarkerLayout, CalibrateJobError> {
     MarkerLayout::new(dict, id, bits, Some(margin_mm / size_mm))
-        .map_err(|e| CalibrateJobError::Input(format!("marker layout: {e}")))
+        .map_err(CalibrateJobError::MarkerLayout)
 }
 
 impl Measurer {
@@ -209,8 +236,7 @@ impl Measurer {
         } else {
             None
         };
-        let detector = ArucoDetector::new(&base.detector)
-            .map_err(|e| CalibrateJobError::Input(format!("detector: {e}")))?;
+        let detector = ArucoDetector::new(&base.detector).map_err(CalibrateJobError::Detector)?;
         let n = frames_hint.max(1);
         Ok(Self {
             detector,
@@ -498,13 +524,12 @@ fn read_footage(
                 crate::io::images::list_image_files(dir).map_err(CalibrateJobError::from)?;
             let t = read_times(timestamps)?;
             if files.len() != t.len() {
-                return Err(CalibrateJobError::Input(format!(
-                    "{} holds {} image files but {} has {} timestamps",
-                    dir.display(),
-                    files.len(),
-                    timestamps.display(),
-                    t.len()
-                )));
+                return Err(CalibrateJobError::FrameCountMismatch {
+                    dir: dir.clone(),
+                    files: files.len(),
+                    timestamps: timestamps.clone(),
+                    times: t.len(),
+                });
             }
             let t0 = t.first().copied().unwrap_or(0.0);
             // Decode a few frames in parallel, measure them in order (each predicts the next).
@@ -579,10 +604,9 @@ fn read_footage(
         }
     }
     if times.is_empty() {
-        return Err(CalibrateJobError::Input(format!(
-            "{}: no frames",
-            footage.describe()
-        )));
+        return Err(CalibrateJobError::NoFrames {
+            footage: footage.describe(),
+        });
     }
     Ok(times)
 }
@@ -708,9 +732,11 @@ fn write_outputs(
     let ts_path = out_dir.join(ts_name);
     let with_times = !single_frame;
     if with_times {
-        let ts = Timestamps::new(times.to_vec()).map_err(|e| {
-            CalibrateJobError::Input(format!("{}: timestamps: {e}", footage.describe()))
-        })?;
+        let ts =
+            Timestamps::new(times.to_vec()).map_err(|source| CalibrateJobError::Timestamps {
+                footage: footage.describe(),
+                source,
+            })?;
         std::fs::write(&ts_path, crate::timing::to_frames_csv(&ts))
             .map_err(|e| out_err(&ts_path, e))?;
         files.push(ts_path.clone());

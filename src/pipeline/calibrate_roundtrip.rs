@@ -155,10 +155,14 @@ pub fn render_and_calibrate(
         },
         &|_, _| {},
     )
-    .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
+    .map_err(CalibrateJobError::RoundTripRender)?;
     let base = dir.join("base.toml");
-    std::fs::write(&base, base_toml(truth))
-        .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
+    std::fs::write(&base, base_toml(truth)).map_err(|source| {
+        CalibrateJobError::RoundTripWrite {
+            file: base.clone(),
+            source,
+        }
+    })?;
     calibrate(
         &Footage::Frames {
             dir: frames.clone(),
@@ -181,17 +185,17 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         let text = case_toml(seed, index * 100 + k);
         k += 1;
         let path = dir.join("truth.toml");
-        std::fs::write(&path, &text)
-            .map_err(|e| CalibrateJobError::Input(crate::errors::full(&e)))?;
+        std::fs::write(&path, &text).map_err(|source| CalibrateJobError::RoundTripWrite {
+            file: path.clone(),
+            source,
+        })?;
         if let Ok(s) = crate::scenario::load(&path) {
             if super::rig::Rig::new(&s).is_ok() {
                 break (text, s);
             }
         }
         if k > 50 {
-            return Err(CalibrateJobError::Input(
-                "no valid round-trip case drawn".into(),
-            ));
+            return Err(CalibrateJobError::RoundTripNoCase { attempts: k });
         }
     };
     let out = render_and_calibrate(&truth, dir)?;
@@ -547,7 +551,10 @@ pub fn calibration_report(
     cases: usize,
     progress: &dyn Fn(usize, usize),
 ) -> Result<Vec<CaseResult>, CalibrateJobError> {
-    let io = |e: std::io::Error| CalibrateJobError::Input(format!("{}: {e}", dir.display()));
+    let io = |source: std::io::Error| CalibrateJobError::RoundTripWrite {
+        file: dir.to_path_buf(),
+        source,
+    };
     let mut results = Vec::new();
     for i in 0..cases {
         let work = dir.join(format!(".case-{i}"));
