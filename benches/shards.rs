@@ -32,7 +32,7 @@ impl Evaluator for Instant0 {
             alpha_p95_rad_s2: 40.0 / fps,
             frames_total: 300,
             frames_detected: 300,
-            dwell_alpha_std_rad_s2: 0.1 * j,
+            engaged_alpha_noise_rad_s2: 0.1 * j,
             mean_frame_interval_s: 1.0 / fps,
         })
     }

@@ -6,8 +6,16 @@
 //! |α̂|. Because the frames may fall anywhere relative to the impact, we repeat for several
 //! sub-frame phases of the impact start and keep the *smallest* peak (worst case).
 //!
-//! SNR = peak |α̂| / σ_α, where σ_α is the α error standard deviation in dwell (no motion: pure
-//! measurement noise). Detectable when SNR ≥ `min_snr` (default 3).
+//! SNR = peak |α̂| / σ_α, where σ_α is the standard deviation of the α detection error (α̂ − D(θ̄):
+//! the differentiator D applied to what the frames show cancels its own bias, what detection adds
+//! stays) over the engaged frames, where the pin drives the wheel and an impact can happen (the
+//! sweep's `engaged_alpha_noise_rad_s2`; `budget::report::ENGAGED_PHASES` says why not the
+//! dwell). Detectable when SNR ≥ `min_snr` (default 3).
+//!
+//! The peak is the differentiator's response to the impact alone, computed, not measured: the
+//! differentiator is linear, so the response to (motion + impact + detection noise) is the sum of
+//! the three responses, and the impact's part depends only on the differentiator and the frame
+//! interval. The camera enters through the noise.
 //!
 //! Why this metric: a person (or a threshold detector) looking at an α trace sees an impact as a
 //! spike that stands out of the noise band. The band is ±k·σ_α; the spike's height is exactly the
@@ -24,7 +32,7 @@ pub const PHASES: usize = 8;
 pub struct Detectability {
     /// Worst-case (over phase) peak |α̂| of the impact response, rad/s².
     pub peak_alpha_rad_s2: f64,
-    /// α noise σ in dwell that the spike must beat, rad/s².
+    /// α noise σ that the spike must beat (engaged detection noise), rad/s².
     pub noise_alpha_rad_s2: f64,
     /// peak / noise.
     pub snr: f64,
@@ -122,7 +130,7 @@ pub fn peak_alpha_response(
     Ok(worst)
 }
 
-/// SNR of the impact against the dwell α noise `noise_alpha_rad_s2`, and the verdict.
+/// SNR of the impact against the α noise `noise_alpha_rad_s2`, and the verdict.
 pub fn detectability(
     diff: &Differentiator,
     h_s: f64,

@@ -141,6 +141,7 @@ pub fn build_budget(
             bounds_report(&BoundsInput {
                 errors,
                 detection: [&detection[0], &detection[1], &detection[2]],
+                phase: &raw.phase,
                 radius_px,
                 position_error_px: SEED_POSITION_ERROR_PX,
                 h_min_s: h_min,

@@ -92,6 +92,21 @@ pub struct BoundsReport {
     pub measured_alpha_std_rad_s2: f64,
     /// σ of the difference between the analysis time base and the true frame times.
     pub timebase_error_std_s: f64,
+    /// σ of the detection part of α̂ over the engaged frames ([`ENGAGED_PHASES`]): the
+    /// measurement noise an impact spike must stand out of ([`super::detectability`]).
+    #[serde(default = "nan")]
+    pub engaged_detection_alpha_std_rad_s2: f64,
+}
+
+/// The phases in which the pin drives the wheel: the only ones where a pin–slot impact can
+/// happen. The dwell is no measure of the noise an impact must beat: there the marker stands
+/// still, its corners are whole pixels that change only where an edge pixel sits at the
+/// threshold (a placement lottery, often no change at all), and the dwell frames next to the
+/// motion carry the differentiator's bias and the resolvable truth's band-limiting ripple.
+pub const ENGAGED_PHASES: [&str; 3] = ["entry", "drive", "exit"];
+
+fn nan() -> f64 {
+    f64::NAN
 }
 
 /// The whole budget (fused signal at the top level, every signal inside). The top-level
@@ -243,6 +258,8 @@ pub struct BoundsInput<'a> {
     /// averaged over each frame's exposure of the marker (what the frame shows), and
     /// ω̂ − D(θ̄), α̂ − D(θ̄) with D the signal's own differentiator on the same time base.
     pub detection: [&'a [f64]; 3],
+    /// Each frame's motion phase (as the errors).
+    pub phase: &'a [&'static str],
     pub radius_px: f64,
     pub position_error_px: f64,
     pub h_min_s: f64,
@@ -277,7 +294,14 @@ pub fn bounds_report(b: &BoundsInput<'_>) -> BoundsReport {
         measured_omega_std_rad_s: ErrorStats::of(&e.omega_err_rad_s).std,
         measured_alpha_std_rad_s2: ErrorStats::of(&e.alpha_err_rad_s2).std,
         timebase_error_std_s: b.timebase_error_std_s,
+        engaged_detection_alpha_std_rad_s2: engaged_std(alpha, b.phase),
     }
+}
+
+/// σ of `values` over the engaged frames ([`ENGAGED_PHASES`]); NaN when there are none.
+pub fn engaged_std(values: &[f64], phase: &[&str]) -> f64 {
+    let mask: Vec<bool> = phase.iter().map(|p| ENGAGED_PHASES.contains(p)).collect();
+    ErrorStats::of(&select(values, &mask)).std
 }
 
 #[cfg(test)]
@@ -329,6 +353,19 @@ mod tests {
                 && json["phases"]["drive"]["alpha"]["p95"].is_number()
                 && json["raw"]["phases"]["drive"]["omega"]["rms"].is_number()
         );
+    }
+
+    #[test]
+    fn engaged_std_leaves_the_dwell_out() {
+        // A huge dwell flicker and a constant in entry must not count; drive and exit do.
+        let phase = [
+            "dwell", "dwell", "entry", "entry", "drive", "drive", "exit", "exit",
+        ];
+        let alpha = [50.0, -50.0, 1.0, 1.0, -1.0, -1.0, f64::NAN, 1.0];
+        // Engaged values 1, 1, −1, −1, 1: mean 0.2, σ = √(1 − 0.04).
+        let s = engaged_std(&alpha, &phase);
+        assert!((s - 0.96_f64.sqrt()).abs() < 1e-12, "{s}");
+        assert!(engaged_std(&alpha[..2], &phase[..2]).is_nan());
     }
 
     #[test]

@@ -437,8 +437,10 @@ pub fn seed_report(
     };
     let intervals = rig.frame_times.intervals_s();
     let h_mean = intervals.iter().sum::<f64>() / intervals.len().max(1) as f64;
-    let noise = |m: &MonteCarloBudget| metric(m, "fused", Some("dwell"), |q| q.alpha.std).mean;
-    // Detectability of the largest impact against a configuration's dwell noise (the
+    // The α detection noise while the pin drives the wheel (`budget::report::ENGAGED_PHASES`).
+    let noise =
+        |m: &MonteCarloBudget| bound(m, "fused", |b| b.engaged_detection_alpha_std_rad_s2).mean;
+    // Detectability of the largest impact against a configuration's engaged α noise (the
     // detection-only run when there is one).
     let impact_snr = |differentiator: &crate::estimate::Differentiator, src: &MonteCarloBudget| {
         (impact > 0.0)
@@ -665,7 +667,8 @@ fn seed_markdown(rig: SeedRig, base: &Scenario, r: &SeedReport, out_dir: &Path) 
         (Some(a), Some(b)) => {
             md.push_str(&format!(
             "Largest entry impact in the simulated actual motion: Δω2 = {:.3} rad/s within 2 ms. \
-             Against the dwell α2 noise of the detection-only runs (fused signal): seed settings \
+             Against the α2 detection noise of the detection-only runs while the pin drives the \
+             wheel (fused signal): seed settings \
              peak |α̂| {:.3} rad/s² vs noise σ {:.3} rad/s², SNR {:.2} → {}; better settings \
              peak {:.3} rad/s² vs σ {:.3} rad/s², SNR {:.2} → {} (threshold SNR 3).\n",
             r.impact_delta_omega_rad_s,

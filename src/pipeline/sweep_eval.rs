@@ -33,11 +33,11 @@ impl Evaluator for PipelineEvaluator {
             alpha_p95_rad_s2: b.alpha.p95,
             frames_total: b.frames.total,
             frames_detected: b.frames.detected,
-            dwell_alpha_std_rad_s2: b
-                .phases
-                .get("dwell")
-                .map(|p| p.alpha.std)
-                .unwrap_or(f64::NAN),
+            // The headline (fused) signal's α detection noise while the pin drives the wheel.
+            engaged_alpha_noise_rad_s2: b
+                .bounds
+                .get(crate::estimate::Signal::Fused.name())
+                .map_or(f64::NAN, |r| r.engaged_detection_alpha_std_rad_s2),
             mean_frame_interval_s: mean_interval,
         })
     }

@@ -54,8 +54,10 @@ pub struct PointMetrics {
     pub frames_total: usize,
     /// Frames where the marker was detected.
     pub frames_detected: usize,
-    /// α error σ in dwell: the noise floor an impact must beat, rad/s².
-    pub dwell_alpha_std_rad_s2: f64,
+    /// σ of the α detection error (α̂ − D(θ̄): what detection adds, the differentiator's bias
+    /// cancelled) over the engaged frames (entry, drive, exit): the noise an impact must beat,
+    /// rad/s² (`budget::report::ENGAGED_PHASES` says why not the dwell).
+    pub engaged_alpha_noise_rad_s2: f64,
     /// Mean frame interval, s.
     pub mean_frame_interval_s: f64,
 }

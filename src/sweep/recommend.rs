@@ -91,9 +91,9 @@ fn describe(s: &PointSummary) -> String {
     };
     let impact = match &s.impact {
         Some(d) => format!(
-            "impact peak |α̂| {:.3} rad/s² vs dwell σ_α {} rad/s² → SNR {:.2} [{:.2}, {:.2}]",
+            "impact peak |α̂| {:.3} rad/s² vs α noise σ while engaged {} rad/s² → SNR {:.2} [{:.2}, {:.2}]",
             d.peak_alpha_rad_s2,
-            ci("dwell_alpha_std_rad_s2"),
+            ci("engaged_alpha_noise_rad_s2"),
             d.snr,
             s.snr_ci95.0,
             s.snr_ci95.1
@@ -202,7 +202,10 @@ pub fn markdown(spec: &SweepSpec, summary: &[PointSummary], rec: &Recommendation
         md,
         "Target: ω RMS ≤ {} rad/s and α RMS ≤ {} rad/s² at the upper end of the 95 % CI over \
          seeds; impact Δω = {} rad/s over {} s detectable at SNR ≥ {} at the lower end of its \
-         95 % CI. Cheapest by: {}. {}\n",
+         95 % CI (SNR = the differentiator's computed peak |α̂| for that impact over the \
+         measured σ of the α detection error while the pin drives the wheel, where impacts \
+         happen; not the dwell, where a still marker's whole-pixel corners often never change). \
+         Cheapest by: {}. {}\n",
         spec.target.omega_rms_rad_s,
         spec.target.alpha_rms_rad_s2,
         spec.impact.delta_omega_rad_s,

@@ -15,7 +15,7 @@ pub const METRICS: [&str; 9] = [
     "alpha_p95_rad_s2",
     "frames_total",
     "frames_detected",
-    "dwell_alpha_std_rad_s2",
+    "engaged_alpha_noise_rad_s2",
     "mean_frame_interval_s",
 ];
 
@@ -72,7 +72,7 @@ impl PointMetrics {
             self.alpha_p95_rad_s2,
             self.frames_total as f64,
             self.frames_detected as f64,
-            self.dwell_alpha_std_rad_s2,
+            self.engaged_alpha_noise_rad_s2,
             self.mean_frame_interval_s,
         ]
     }
@@ -86,7 +86,7 @@ impl PointMetrics {
             alpha_p95_rad_s2: v[4],
             frames_total: v[5] as usize,
             frames_detected: v[6] as usize,
-            dwell_alpha_std_rad_s2: v[7],
+            engaged_alpha_noise_rad_s2: v[7],
             mean_frame_interval_s: v[8],
         }
     }

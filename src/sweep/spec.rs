@@ -121,8 +121,8 @@ pub struct ImpactSpec {
     pub delta_omega_rad_s: f64,
     /// Duration of the velocity change, s, in [0, 10]; default 0.002.
     pub duration_s: f64,
-    /// Detectable when peak |α̂| / σ_α,dwell ≥ this, > 0, for the lower 95 % bound of the SNR
-    /// (σ_α,dwell at its upper bound); default 3.
+    /// Detectable when peak |α̂| / σ_α,engaged ≥ this, > 0, for the lower 95 % bound of the SNR
+    /// (σ_α,engaged at its upper bound); default 3.
     pub min_snr: f64,
 }
 

@@ -26,7 +26,7 @@ pub struct PointSummary {
     pub metrics: Vec<MeanCi>,
     /// Impact detectability (absent when no run succeeded or the differentiator failed).
     pub impact: Option<Detectability>,
-    /// Lower and upper 95 % bounds of the impact SNR (σ_α,dwell at its upper and lower bound).
+    /// Lower and upper 95 % bounds of the impact SNR (σ_α,engaged at its upper and lower bound).
     pub snr_ci95: (f64, f64),
     /// The upper 95 % bounds of ω and α RMS are within the target.
     pub meets_target: bool,
@@ -167,7 +167,7 @@ pub fn summarise(
                         s.mean("mean_frame_interval_s"),
                         spec.impact.delta_omega_rad_s,
                         spec.impact.duration_s,
-                        s.mean("dwell_alpha_std_rad_s2"),
+                        s.mean("engaged_alpha_noise_rad_s2"),
                         spec.impact.min_snr,
                     ) {
                         Ok(d) => s.impact = Some(d),
@@ -185,7 +185,7 @@ pub fn summarise(
 /// The point's SNR interval, target verdict and decision, all on the 95 % bounds.
 fn decide(spec: &SweepSpec, s: &mut PointSummary) {
     let (w, a) = (s.ci("omega_rms_rad_s"), s.ci("alpha_rms_rad_s2"));
-    let noise = s.ci("dwell_alpha_std_rad_s2");
+    let noise = s.ci("engaged_alpha_noise_rad_s2");
     if let Some(d) = &s.impact {
         let snr = |sigma: f64| {
             if sigma > 0.0 {

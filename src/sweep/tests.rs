@@ -62,7 +62,7 @@ impl Evaluator for Fake {
             alpha_p95_rad_s2: 40.0 / fps * gain,
             frames_total: (fps * sc.duration_s) as usize,
             frames_detected: (fps * sc.duration_s) as usize,
-            dwell_alpha_std_rad_s2: if smooth { 0.01 } else { 0.1 },
+            engaged_alpha_noise_rad_s2: if smooth { 0.01 } else { 0.1 },
             mean_frame_interval_s: 1.0 / fps,
         })
     }
@@ -803,7 +803,7 @@ impl Evaluator for Noisy {
         let mut m = Fake::new().evaluate(sc, seed)?;
         m.omega_rms_rad_s = 0.6 / fps * (0.95 + 0.3 * u);
         m.alpha_rms_rad_s2 = 0.1;
-        m.dwell_alpha_std_rad_s2 = 0.01;
+        m.engaged_alpha_noise_rad_s2 = 0.01;
         Ok(m)
     }
 }
@@ -943,7 +943,7 @@ fn a_point_qualifies_on_its_upper_bound_not_its_mean() {
             metrics: Some(PointMetrics {
                 omega_rms_rad_s: *w,
                 alpha_rms_rad_s2: 0.1,
-                dwell_alpha_std_rad_s2: 0.001,
+                engaged_alpha_noise_rad_s2: 0.001,
                 mean_frame_interval_s: 1.0 / 30.0,
                 frames_total: 60,
                 frames_detected: 60,
