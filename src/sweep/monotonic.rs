@@ -6,7 +6,8 @@
 //! (more frames, but shorter differentiation steps), but not both: a point whose error is above
 //! or below both of its frame-rate neighbours is flagged. Each flag says whether the two
 //! intervals overlap (the reversal is within the seed noise) or not (something real, worth a
-//! look). Pure: summaries in, findings out.
+//! look). With the seed's whole-pixel rotation centre a note says why an ω or α reversal can be
+//! real for that estimator. Pure: summaries in, findings out.
 
 use super::grid::points;
 use super::spec::SweepSpec;
@@ -186,6 +187,42 @@ pub fn markdown(spec: &SweepSpec, summary: &[PointSummary]) -> String {
             }
         );
     }
+    if let Some(note) = seed_centre_note(summary, &found) {
+        md.push_str(&note);
+    }
     md.push('\n');
     md
+}
+
+/// Why an error reversal can be real with the seed's rotation centre, with the sweep's own range
+/// of θ RMS; `None` when no ω or α reversal involves such a point.
+fn seed_centre_note(summary: &[PointSummary], found: &[Finding]) -> Option<String> {
+    let involved = found.iter().any(|f| {
+        f.metric != "impact SNR" && f.points.iter().any(|&i| summary[i].seed_rotation_centre)
+    });
+    if !involved {
+        return None;
+    }
+    let theta: Vec<f64> = summary
+        .iter()
+        .filter(|s| s.seed_rotation_centre && s.runs_ok > 0)
+        .map(|s| s.mean("theta_rms_rad"))
+        .filter(|v| v.is_finite())
+        .collect();
+    let lo = theta.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = theta.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let range = if lo <= hi {
+        format!(" (θ RMS {lo:.4}–{hi:.4} rad over this sweep's points)")
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "\nω and α reversals with `estimator.rotation_centre = \"seed\"`: the seed's rotation centre \
+         (perpendicular bisectors of whole-pixel corners in two frames, truncated to whole \
+         pixels) is off by an amount set by where the marker falls on the pixel grid — different \
+         at every distance and resolution, the same for every seed. Its angle error{range} can \
+         outweigh the pixel scale, so such a reversal is real for the seed's estimator, not a \
+         property of the camera: sweep with `rotation_centre = \"geometric\"` to compare cameras \
+         alone.\n"
+    ))
 }

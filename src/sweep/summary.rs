@@ -38,6 +38,9 @@ pub struct PointSummary {
     pub cost: Vec<f64>,
     /// First error message met (invalid settings or a failed run).
     pub error: String,
+    /// The point's estimator uses the seed's rotation centre (whole pixels: its error depends on
+    /// where the marker falls on the pixel grid; `monotonic` explains reversals with it).
+    pub seed_rotation_centre: bool,
 }
 
 /// What a point's 95 % intervals say about the recommendation's conditions.
@@ -158,8 +161,11 @@ pub fn summarise(
                 decision: Decision::Fails,
                 cost: Vec::new(),
                 error,
+                seed_rotation_centre: false,
             };
             if let Ok(sc) = scenario {
+                s.seed_rotation_centre =
+                    sc.estimator.rotation_centre == crate::estimate::RotationCentreMethod::Seed;
                 s.cost = cost(spec, point, sc);
                 if !ok.is_empty() {
                     match detectability(

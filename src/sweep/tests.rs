@@ -698,6 +698,7 @@ fn hand_point(index: usize, cost: Vec<f64>, qualifies: bool, omega: f64) -> Poin
         snr_ci95: (10.0, 10.0),
         meets_target: qualifies,
         qualifies,
+        seed_rotation_centre: false,
         decision: if qualifies {
             summary::Decision::Qualifies
         } else {
@@ -990,6 +991,20 @@ fn a_farther_camera_that_looks_better_is_flagged() {
     let md = monotonic::markdown(&spec, &pts);
     assert!(
         md.contains("Non-monotonic neighbours (1)") && md.contains("intervals separated"),
+        "{md}"
+    );
+    assert!(
+        !md.contains("rotation_centre"),
+        "no seed centre, no note: {md}"
+    );
+    // With the seed's whole-pixel rotation centre the note explains the reversal, with the
+    // sweep's own θ RMS range (hand points: 1e-3 rad everywhere).
+    for p in &mut pts {
+        p.seed_rotation_centre = true;
+    }
+    let md = monotonic::markdown(&spec, &pts);
+    assert!(
+        md.contains("rotation_centre = \"seed\"") && md.contains("θ RMS 0.0010–0.0010 rad"),
         "{md}"
     );
 }
