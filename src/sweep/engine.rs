@@ -108,6 +108,12 @@ impl<'a, E: Evaluator> SweepStudy<'a, E> {
         );
         inputs.insert("axes".to_string(), json(serde_json::to_value(&spec.axes)));
         inputs.insert("seeds".to_string(), serde_json::Value::from(spec.seeds));
+        // The records' metric columns: a folder whose column holds another quantity under the
+        // same position (the dwell σ_α before the engaged α noise) is refused, not reread.
+        inputs.insert(
+            "metrics".to_string(),
+            json(serde_json::to_value(super::results::METRICS)),
+        );
         let mut manifest = Manifest::new("sweep", grid.len() * spec.seeds, inputs);
         manifest.origin = std::path::absolute(spec_path)
             .ok()

@@ -570,6 +570,21 @@ fn results_of_other_inputs_are_refused_naming_what_changed() {
     other.seeds = 3;
     let e = run_sweep(&other, &spec_path, &dir, &Fake::new(), no_progress()).unwrap_err();
     assert!(e.to_string().contains("seeds: 2 → 3"), "{e}");
+    // A folder written before the manifest named the metric columns (its column 8 held the
+    // dwell σ_α, now the engaged α noise) is refused, not reread.
+    let manifest_path = dir.join(crate::shard::MANIFEST);
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    let inputs = m["inputs"].as_object_mut().unwrap();
+    assert!(inputs.remove("metrics").is_some());
+    m["fingerprint"] = serde_json::Value::from("fnv1a64:0000000000000000");
+    std::fs::write(&manifest_path, m.to_string()).unwrap();
+    let e = run_sweep(&spec, &spec_path, &dir, &Fake::new(), no_progress()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("metrics: `[0]` (absent) → \"theta_rms_rad\""),
+        "{e}"
+    );
     // A folder with a results.csv nobody committed is not taken over.
     let foreign = root.path().join("foreign");
     std::fs::create_dir(&foreign).unwrap();
