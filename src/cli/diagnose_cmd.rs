@@ -1,10 +1,17 @@
 //! `geneva diagnose --scenario NOMINAL (--video F | --frames DIR --timestamps F | --tracks F)
-//! --out DIR [--effects a,b,c] [--seeds N] [--max-minutes M]`.
+//! --out DIR [--effects a,b,c] [--seeds N] [--max-minutes M] [--shard I/N [--restart] | --merge]`.
+//! With `--shard I/N` the candidate fits are split across machines (written under
+//! `DIR/shards/I/`); `--merge`, with the same arguments, writes the report a one-machine run
+//! would have written.
 
 use anyhow::{bail, Result};
 use clap::Args;
-use geneva_vision::pipeline::diagnose::{candidate_name, diagnose, DiagnoseOptions, StageLog};
+use geneva_vision::pipeline::diagnose::shards::Mode;
+use geneva_vision::pipeline::diagnose::{
+    candidate_name, diagnose_with, DiagnoseOptions, Finished, StageLog,
+};
 use geneva_vision::scenario;
+use geneva_vision::shard::Shard;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -25,6 +32,16 @@ pub struct DiagnoseArgs {
     max_minutes: Option<f64>,
     #[arg(long, default_value = "out/diagnose")]
     out: PathBuf,
+    /// Fit only shard I/N of the candidates into DIR/shards/I/ (every shard recomputes the
+    /// real measurement and the nominal simulations); no report until `--merge`.
+    #[arg(long, value_parser = super::sweep_cmd::parse_shard, conflicts_with_all = ["merge", "max_minutes"])]
+    shard: Option<Shard>,
+    /// With --shard: discard a shard folder written from other inputs.
+    #[arg(long, requires = "shard")]
+    restart: bool,
+    /// Write the report from the complete shards in DIR/shards/ (same arguments as the shards).
+    #[arg(long, conflicts_with = "max_minutes")]
+    merge: bool,
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
@@ -50,11 +67,20 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
     // Without a terminal (logs, CI) each new stage is one line with the elapsed time.
     let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
     let log = StageLog::new();
-    let (d, files) = diagnose(
+    let mode = match (a.shard, a.merge) {
+        (Some(shard), _) => Mode::Shard {
+            shard,
+            restart: a.restart,
+        },
+        (None, true) => Mode::Merge,
+        (None, false) => Mode::Whole,
+    };
+    let finished = diagnose_with(
         &nominal,
         &source,
         &a.out,
         &options,
+        mode,
         &|stage, done, total| {
             if plain {
                 if let Some(line) = log.line(stage) {
@@ -68,6 +94,20 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         },
     )?;
     bar.finish_and_clear();
+    let (d, files) = match finished {
+        Finished::Diagnosis(d, files) => (d, files),
+        Finished::Shard(r) => {
+            println!(
+                "shard {}: {} candidate fit(s), {} run now, {} found done{}",
+                a.shard.map(|s| s.to_string()).unwrap_or_default(),
+                r.units_total,
+                r.units_run,
+                r.units_resumed,
+                if r.complete { "; complete" } else { "" }
+            );
+            return Ok(());
+        }
+    };
     println!("verdict: {}", d.verdict.as_str());
     println!(
         "gap: D0 = {:.1}, {} of {} cells significant",

@@ -1,6 +1,8 @@
 //! `geneva slurm script SWEEP.toml --out DIR --shards N [...]`: writes an `sbatch` array script
 //! (task I runs shard I/N of the sweep), a merge script for a job that depends on the whole
-//! array (`afterok`), and `submit.sh`, which submits both; prints the submit command.
+//! array (`afterok`), and `submit.sh`, which submits both; prints the submit command. The same
+//! for a Monte Carlo study (`--montecarlo S --seeds K`) and for the candidate fits of one
+//! diagnosis (`--diagnose S --video F …`, merged by `geneva diagnose … --merge`).
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
@@ -18,14 +20,23 @@ pub enum SlurmCmd {
 #[derive(Args, Debug, Clone)]
 pub struct ScriptArgs {
     /// Sweep file.
-    #[arg(required_unless_present = "montecarlo", conflicts_with = "montecarlo")]
+    #[arg(required_unless_present_any = ["montecarlo", "diagnose"], conflicts_with_all = ["montecarlo", "diagnose"])]
     pub sweep: Option<PathBuf>,
     /// A Monte Carlo study of this scenario (file or built-in name) instead of a sweep.
-    #[arg(long, requires = "seeds")]
+    #[arg(long, requires = "seeds", conflicts_with = "diagnose")]
     pub montecarlo: Option<String>,
-    /// Seeds of the Monte Carlo study.
+    /// Seeds of the Monte Carlo study (or of the diagnosis: `geneva diagnose --seeds`).
     #[arg(long)]
     pub seeds: Option<usize>,
+    /// The candidate fits of `geneva diagnose --scenario S` on the footage given by --video,
+    /// --frames/--timestamps or --tracks, instead of a sweep.
+    #[arg(long)]
+    pub diagnose: Option<String>,
+    #[command(flatten)]
+    pub source: super::source_args::SourceArgs,
+    /// Candidate effects of the diagnosis (`geneva diagnose --effects`).
+    #[arg(long, value_delimiter = ',', requires = "diagnose")]
+    pub effects: Option<Vec<String>>,
     /// Output folder of the sweep (shared by all nodes).
     #[arg(long)]
     pub out: PathBuf,
@@ -62,14 +73,12 @@ fn quote(p: &Path) -> String {
 }
 
 /// The three scripts: (file name, text).
-/// What the tasks run: the study's arguments before `--out`, and the merge's arguments after it.
+/// What the tasks run: the study's arguments before `--out`, and the merge's arguments.
 pub struct Job {
     /// e.g. `sweep '/abs/s.toml'` or `montecarlo 'fast' --seeds 100`.
     pub study: String,
-    /// e.g. `--sweep '/abs/s.toml'` (or empty).
-    pub merge_extra: String,
-    /// `sweep` or `montecarlo`.
-    pub command: &'static str,
+    /// e.g. `sweep merge '/abs/out' --sweep '/abs/s.toml'`.
+    pub merge: String,
     /// In words, for the script's comment.
     pub what: String,
 }
@@ -126,13 +135,11 @@ pub fn scripts(
          {common}\
          #SBATCH --output={logs}/merge.log\n\
          set -euo pipefail\n\
-         exec {geneva} {command} merge {out_q}{extra}\n",
+         exec {geneva} {merge}\n",
         out = out.display(),
         logs = logs.display(),
         geneva = quote(geneva),
-        command = job.command,
-        extra = job.merge_extra,
-        out_q = quote(out),
+        merge = job.merge,
     );
     let submit = format!(
         "#!/bin/bash\n\
@@ -156,8 +163,11 @@ fn script(a: ScriptArgs) -> Result<()> {
     if a.shards == 0 {
         bail!("--shards must be at least 1");
     }
+    let out = std::path::absolute(&a.out).context("--out path")?;
+    let out_q = quote(&out);
     // Bad inputs fail here, not on the cluster.
     let job = match (&a.sweep, &a.montecarlo, a.seeds) {
+        _ if a.diagnose.is_some() => diagnose_job(&a, &out_q)?,
         (Some(sweep), None, _) => {
             if SweepSpec::load(sweep)?.adaptive.is_some() {
                 bail!(
@@ -169,29 +179,20 @@ fn script(a: ScriptArgs) -> Result<()> {
             let sweep = std::path::absolute(sweep).context("sweep file path")?;
             Job {
                 study: format!("sweep {}", quote(&sweep)),
-                merge_extra: format!(" --sweep {}", quote(&sweep)),
-                command: "sweep",
+                merge: format!("sweep merge {out_q} --sweep {}", quote(&sweep)),
                 what: format!("Sweep {}", sweep.display()),
             }
         }
         (None, Some(scenario), Some(seeds)) => {
-            geneva_vision::scenario::load_any(scenario)?;
-            // A file is given to the nodes by its absolute path; a built-in name as it is.
-            let spec = if Path::new(scenario).is_file() {
-                quote(&std::path::absolute(scenario).context("scenario path")?)
-            } else {
-                quote(Path::new(scenario))
-            };
+            let spec = scenario_spec(scenario)?;
             Job {
                 study: format!("montecarlo {spec} --seeds {seeds}"),
-                merge_extra: String::new(),
-                command: "montecarlo",
+                merge: format!("montecarlo merge {out_q}"),
                 what: format!("Monte Carlo of {scenario} over {seeds} seeds"),
             }
         }
-        _ => bail!("give a sweep file, or --montecarlo SCENARIO --seeds K"),
+        _ => bail!("give a sweep file, --montecarlo SCENARIO --seeds K, or --diagnose SCENARIO"),
     };
-    let out = std::path::absolute(&a.out).context("--out path")?;
     let geneva = match &a.geneva {
         Some(g) => std::path::absolute(g).context("--geneva path")?,
         None => std::env::current_exe().context("path of this geneva binary")?,
@@ -222,6 +223,51 @@ fn script(a: ScriptArgs) -> Result<()> {
     Ok(())
 }
 
+/// A scenario for the nodes: a file by its absolute path, a built-in name as it is (checked
+/// here, not on the cluster).
+fn scenario_spec(scenario: &str) -> Result<String> {
+    geneva_vision::scenario::load_any(scenario)?;
+    Ok(if Path::new(scenario).is_file() {
+        quote(&std::path::absolute(scenario).context("scenario path")?)
+    } else {
+        quote(Path::new(scenario))
+    })
+}
+
+/// The candidate fits of one diagnosis: every task recomputes the prefix and fits its share;
+/// the merge, with the same arguments, writes the report.
+fn diagnose_job(a: &ScriptArgs, out_q: &str) -> Result<Job> {
+    use geneva_vision::pipeline::analyze::Source;
+    let scenario = a.diagnose.as_deref().unwrap_or_default();
+    let spec = scenario_spec(scenario)?;
+    let abs = |p: &Path| -> Result<String> {
+        if !p.exists() {
+            bail!("{}: no such file or folder", p.display());
+        }
+        Ok(quote(&std::path::absolute(p).context("footage path")?))
+    };
+    let source = match a.source.source()? {
+        Source::Video(v) => format!("--video {}", abs(&v)?),
+        Source::Frames { dir, timestamps } => {
+            format!("--frames {} --timestamps {}", abs(&dir)?, abs(&timestamps)?)
+        }
+        Source::Tracks(t) => format!("--tracks {}", abs(&t)?),
+    };
+    let mut study = format!("diagnose --scenario {spec} {source}");
+    if let Some(effects) = super::effects_arg::parse_effects(a.effects.as_deref())? {
+        let names: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+        study.push_str(&format!(" --effects {}", names.join(",")));
+    }
+    if let Some(seeds) = a.seeds {
+        study.push_str(&format!(" --seeds {seeds}"));
+    }
+    Ok(Job {
+        merge: format!("{study} --out {out_q} --merge"),
+        study,
+        what: format!("The candidate fits of a diagnosis against {scenario}"),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,6 +278,9 @@ mod tests {
             sweep: Some("s.toml".into()),
             montecarlo: None,
             seeds: None,
+            diagnose: None,
+            source: Default::default(),
+            effects: None,
             out: "/data/it's".into(),
             shards: 4,
             partition: Some("gpu".into()),
@@ -243,8 +292,11 @@ mod tests {
         };
         let job = Job {
             study: format!("sweep {}", quote(Path::new("/data/s.toml"))),
-            merge_extra: format!(" --sweep {}", quote(Path::new("/data/s.toml"))),
-            command: "sweep",
+            merge: format!(
+                "sweep merge {} --sweep {}",
+                quote(Path::new("/data/it's")),
+                quote(Path::new("/data/s.toml"))
+            ),
             what: "Sweep".into(),
         };
         let s = scripts(
@@ -274,5 +326,70 @@ mod tests {
             submit.contains("--dependency=afterok:\"$array\""),
             "{submit}"
         );
+    }
+
+    #[test]
+    fn a_diagnosis_runs_its_candidate_fits_as_shards_and_merges_with_the_same_arguments() {
+        #[derive(clap::Parser)]
+        struct T {
+            #[command(subcommand)]
+            cmd: SlurmCmd,
+        }
+        let tmp = tempfile::tempdir().unwrap();
+        let tracks = tmp.path().join("t.csv");
+        std::fs::write(&tracks, "frame,t_s\n").unwrap();
+        let t = tracks.to_str().unwrap();
+        let parse = |extra: &[&str]| {
+            let mut args = vec![
+                "x",
+                "script",
+                "--diagnose",
+                "fast",
+                "--out",
+                "/d",
+                "--shards",
+                "3",
+            ];
+            args.extend_from_slice(extra);
+            let SlurmCmd::Script(a) = <T as clap::Parser>::try_parse_from(args).unwrap().cmd;
+            a
+        };
+        let a = parse(&[
+            "--tracks",
+            t,
+            "--effects",
+            "lighting,pixel_noise",
+            "--seeds",
+            "4",
+        ]);
+        let job = diagnose_job(&a, "'/d'").unwrap();
+        let study = format!(
+            "diagnose --scenario 'fast' --tracks '{t}' --effects lighting,pixel_noise --seeds 4"
+        );
+        assert_eq!(job.study, study);
+        assert_eq!(job.merge, format!("{study} --out '/d' --merge"));
+        let s = scripts(
+            &a,
+            Path::new("/g"),
+            &job,
+            Path::new("/d"),
+            Path::new("/d-slurm"),
+        );
+        assert!(
+            s[0].1
+                .contains(&format!("exec '/g' {study} --out '/d' --shard")),
+            "{}",
+            s[0].1
+        );
+        assert!(
+            s[1].1
+                .contains(&format!("exec '/g' {study} --out '/d' --merge")),
+            "{}",
+            s[1].1
+        );
+        // Footage that is not there fails here, not on the cluster.
+        let a = parse(&["--tracks", "/no/such.csv"]);
+        let e = diagnose_job(&a, "'/d'").err().unwrap().to_string();
+        assert!(e.contains("/no/such.csv"), "{e}");
     }
 }

@@ -9,7 +9,7 @@ use clap::Args;
 use geneva_vision::pipeline::analyze::Source;
 use std::path::PathBuf;
 
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone, Default)]
 pub struct FootageArgs {
     /// A video file (decoded with ffmpeg; timestamps from ffprobe; display rotation honoured).
     #[arg(long, conflicts_with = "frames")]
@@ -47,7 +47,7 @@ impl FootageArgs {
 }
 
 /// The real data of `geneva analyze` and `geneva diagnose`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone, Default)]
 pub struct SourceArgs {
     #[command(flatten)]
     footage: FootageArgs,

@@ -34,7 +34,7 @@ mod tests;
 pub use adaptive::{run_adaptive, AdaptiveReport, AdaptiveStudy};
 pub use log::UnitLog;
 pub use manifest::Manifest;
-pub use study::{merge, run_shard, run_whole, Control, RunReport, Study, UnitDirs};
+pub use study::{merge, run_shard, run_whole, shard_records, Control, RunReport, Study, UnitDirs};
 
 use std::path::PathBuf;
 

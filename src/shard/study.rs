@@ -293,13 +293,15 @@ pub fn run_shard<S: Study>(
     Ok(report)
 }
 
-/// Merges the complete shards of `dir` into the final outputs (idempotent). Refuses shards of
-/// other inputs or of different shard counts; with a unit missing, names the missing units and
-/// writes nothing.
-pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
-    let now = study.manifest();
-    let out = OutputDir::create_carrying(dir, &[SHARDS]).map_err(ShardError::from)?;
-    let shards_dir = out.dir().join(SHARDS);
+/// Every record of the complete shards of `dir` (`dir/shards/I/`), in unit order, and the shard
+/// count N. Refuses shards of other inputs than `now` or of different shard counts; with a unit
+/// missing, names the missing units (with `unit_name`) and the unfinished shards.
+pub fn shard_records(
+    dir: &Path,
+    now: &Manifest,
+    unit_name: &dyn Fn(usize) -> String,
+) -> Result<(Vec<String>, usize), ShardError> {
+    let shards_dir = dir.join(SHARDS);
     let mut complete: BTreeMap<usize, PathBuf> = BTreeMap::new();
     let mut partial: BTreeMap<usize, PathBuf> = BTreeMap::new();
     let mut count: Option<usize> = None;
@@ -309,7 +311,7 @@ pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
             .map(|e| e.path())
             .collect::<Vec<_>>(),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
-        Err(e) => return Err(io_err(&shards_dir, "list")(e).into()),
+        Err(e) => return Err(io_err(&shards_dir, "list")(e)),
     };
     for path in entries {
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -340,20 +342,18 @@ pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
                     path.display(),
                     count.unwrap_or(info.count)
                 ),
-            }
-            .into());
+            });
         }
         count = Some(info.count);
         complete.insert(index, path);
     }
     let Some(count) = count else {
         return Err(ShardError::Missing {
-            dir: out.dir().to_path_buf(),
+            dir: dir.to_path_buf(),
             units: now.units,
-            missing: (0..now.units).map(|u| study.unit_name(u)).collect(),
+            missing: (0..now.units).map(unit_name).collect(),
             shards: vec![format!("no complete shard in {}", shards_dir.display())],
-        }
-        .into());
+        });
     };
     let mut records: BTreeMap<usize, String> = BTreeMap::new();
     for path in complete.values() {
@@ -377,14 +377,23 @@ pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
             })
             .collect();
         return Err(ShardError::Missing {
-            dir: out.dir().to_path_buf(),
+            dir: dir.to_path_buf(),
             units: now.units,
-            missing: missing.iter().map(|u| study.unit_name(*u)).collect(),
+            missing: missing.iter().map(|u| unit_name(*u)).collect(),
             shards,
-        }
-        .into());
+        });
     }
-    let records: Vec<String> = records.into_values().collect();
+    Ok((records.into_values().collect(), count))
+}
+
+/// Merges the complete shards of `dir` into the final outputs (idempotent). Refuses shards of
+/// other inputs or of different shard counts; with a unit missing, names the missing units and
+/// writes nothing.
+pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
+    let now = study.manifest();
+    let out = OutputDir::create_carrying(dir, &[SHARDS]).map_err(ShardError::from)?;
+    let shards_dir = out.dir().join(SHARDS);
+    let (records, count) = shard_records(out.dir(), now, &|u| study.unit_name(u))?;
     let staging = out.path().to_path_buf();
     let unit_dirs = |u: usize| shards_dir.join((u % count).to_string());
     study.finalize(&records, &unit_dirs, &staging)?;

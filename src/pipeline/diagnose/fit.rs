@@ -121,6 +121,35 @@ impl<'a> Fitter<'a> {
         })
     }
 
+    /// The same fitter with its own simulation counter at zero: a candidate fitted on a fork
+    /// costs exactly the fork's count, whichever machine or thread ran it.
+    pub fn fork(&self) -> Fitter<'a> {
+        Fitter {
+            ctx: self.ctx,
+            nominal: self.nominal,
+            real_cells: self.real_cells,
+            real_t_s: self.real_t_s,
+            real_theta_det: self.real_theta_det,
+            real_theta_peak_hz: self.real_theta_peak_hz,
+            nominal_gap: self.nominal_gap.clone(),
+            base: self.base.clone(),
+            fit_seeds: self.fit_seeds.clone(),
+            eval_seeds: self.eval_seeds.clone(),
+            gap_options: self.gap_options,
+            simulations: RefCell::new(0),
+        }
+    }
+
+    /// One candidate alone: fitted, then judged on the evaluation seeds (on a fork), with the
+    /// simulations it cost.
+    pub fn fit_single(&self, e: Effect) -> Result<(Evaluated, usize), DiagnoseError> {
+        let fork = self.fork();
+        let fitted = fork.fit(e, &[])?;
+        let evaluated = fork.evaluate(vec![fitted])?;
+        let simulations = *fork.simulations.borrow();
+        Ok((evaluated, simulations))
+    }
+
     /// The base trial: the aligned nominal at the real frame times, timestamps from the
     /// nominal's frame-timing model.
     pub fn base_trial(aligned: &Aligned, nominal: &Scenario, real_t_s: &[f64]) -> Trial {

@@ -13,6 +13,8 @@
 //!    not enough; the ranking and the verdict are pure ([`crate::diagnose::verdict`]).
 //! 5. Outputs ([`report`]): `diagnosis.json`, `diagnosis.md`, gap-map heatmaps, a ranking
 //!    chart, before/after residual overlays; the real measurement's `tracks.csv` under `real/`.
+//! 6. Beyond one machine ([`shards`]): the single-candidate fits of step 4 as shards, merged
+//!    through the same candidate loop ([`diagnose_with`]).
 //!
 //! No truth of the real data is used anywhere (there is none).
 
@@ -23,6 +25,7 @@ pub mod nominal;
 pub mod real;
 pub mod report;
 pub mod selfcheck;
+pub mod shards;
 pub mod simulate;
 
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
@@ -35,6 +38,7 @@ use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use fit::{Evaluated, Fitter, RealSide};
 use nominal::Aligned;
+use shards::{CandidateStudy, Mode};
 use simulate::SimContext;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -183,7 +187,41 @@ pub fn diagnose(
     options: &DiagnoseOptions,
     progress: &Progress<'_>,
 ) -> Result<(Diagnosis, Vec<PathBuf>), DiagnoseError> {
+    match diagnose_with(nominal, source, out_dir, options, Mode::Whole, progress)? {
+        Finished::Diagnosis(d, files) => Ok((*d, files)),
+        Finished::Shard(_) => Err(DiagnoseError::Input(
+            "a whole diagnosis ended as a shard".into(),
+        )),
+    }
+}
+
+/// What [`diagnose_with`] did.
+#[derive(Debug)]
+pub enum Finished {
+    /// The report was written (whole run or merge).
+    Diagnosis(Box<Diagnosis>, Vec<PathBuf>),
+    /// A shard's candidate fits were written under `DIR/shards/I/`.
+    Shard(crate::shard::RunReport),
+}
+
+/// [`diagnose`] on one machine, as one shard of the candidate fits, or as the merge of the
+/// shards ([`shards`]): one candidate loop for all three, so a merge is a one-machine run.
+pub fn diagnose_with(
+    nominal: &Scenario,
+    source: &Source,
+    out_dir: &Path,
+    options: &DiagnoseOptions,
+    mode: Mode,
+    progress: &Progress<'_>,
+) -> Result<Finished, DiagnoseError> {
     let started = Instant::now();
+    if mode != Mode::Whole && options.max_minutes.is_some() {
+        return Err(DiagnoseError::Input(
+            "--max-minutes stops a search by wall time, which no two machines share: a sharded \
+             diagnosis fits every candidate (drop --max-minutes, or use more shards)"
+                .into(),
+        ));
+    }
     if options.seeds < 2 {
         return Err(DiagnoseError::Input(format!(
             "--seeds {}: at least 2 seeds are needed for a spread",
@@ -193,8 +231,19 @@ pub fn diagnose(
     let layout = image::marker_layout(nominal)
         .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
     real::check_source(nominal, source)?;
-    let staging = OutputDir::create(out_dir).map_err(|e| DiagnoseError::Output {
-        file: out_dir.to_path_buf(),
+    // A shard keeps no report: its real measurement goes to a scratch folder, never committed.
+    let staging_dir = match mode {
+        Mode::Shard { shard, .. } => out_dir
+            .join(crate::shard::SHARDS)
+            .join(format!(".{}.prefix", shard.index)),
+        _ => out_dir.to_path_buf(),
+    };
+    let staging = match mode {
+        Mode::Merge => OutputDir::create_carrying(&staging_dir, &[crate::shard::SHARDS]),
+        _ => OutputDir::create(&staging_dir),
+    }
+    .map_err(|e| DiagnoseError::Output {
+        file: staging_dir.clone(),
         message: crate::errors::full(&e),
     })?;
 
@@ -288,19 +337,59 @@ pub fn diagnose(
     let (candidates, not_judged): (Vec<Effect>, Vec<Effect>) = candidates
         .into_iter()
         .partition(|e| real.record.has_images || !e.needs_frames());
+    // Screening: only effects with a significant cell in their signature are fitted, largest
+    // possible share of the gap first. The fitted ones are the work units of a shard.
+    let mut screened: Vec<(Effect, f64)> = candidates
+        .iter()
+        .map(|&e| (e, plan::screening_share(e, nominal_gap)))
+        .collect();
+    screened.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let units: Vec<Effect> = screened
+        .iter()
+        .map(|(e, _)| *e)
+        .filter(|&e| nominal_gap.n_significant() > 0 && plan::signature_significant(e, nominal_gap))
+        .collect();
+    let stored = match mode {
+        Mode::Whole => None,
+        Mode::Shard { shard, restart } => {
+            let manifest = shards::manifest(nominal, source, options, &fitter, &units);
+            let study = CandidateStudy::new(fitter.fork(), units, manifest);
+            let total = crate::shard::Study::manifest(&study).units;
+            // The fits run in parallel and `progress` need not be thread-safe: one line here.
+            progress(
+                &format!("shard {shard}: fitting its share of {total} candidates"),
+                0,
+                1,
+            );
+            let control = crate::shard::Control::none();
+            let report = crate::shard::run_shard(&study, out_dir, shard, restart, &control)?;
+            return Ok(Finished::Shard(report));
+        }
+        Mode::Merge => {
+            let manifest = shards::manifest(nominal, source, options, &fitter, &units);
+            Some(shards::stored(out_dir, &manifest, &units)?)
+        }
+    };
+    // One candidate: fitted here, or looked up in the shards' records.
+    let fit_candidate = |e: Effect| -> Result<(Evaluated, usize), DiagnoseError> {
+        match &stored {
+            None => fitter.fit_single(e),
+            Some(stored) => stored
+                .iter()
+                .find(|(x, _)| *x == e)
+                .map(|(_, r)| r.clone())
+                .ok_or_else(|| {
+                    DiagnoseError::Input(format!("no stored result for candidate {}", e.name()))
+                }),
+        }
+    };
+    let mut candidate_simulations = 0usize;
     let mut screened_out = Vec::new();
     let mut bounded_out = Vec::new();
     let mut not_tried = Vec::new();
     let mut ranking: Vec<Ranked> = Vec::new();
     let mut pair_tried = false;
     if nominal_gap.n_significant() > 0 {
-        // Screening: only effects with a significant cell in their signature are fitted,
-        // largest possible share of the gap first.
-        let mut screened: Vec<(Effect, f64)> = candidates
-            .iter()
-            .map(|&e| (e, plan::screening_share(e, nominal_gap)))
-            .collect();
-        screened.sort_by(|a, b| b.1.total_cmp(&a.1));
         let deadline = options.max_minutes.map(|m| m * 60.0);
         let total = screened.len();
         let mut best_score = f64::NEG_INFINITY;
@@ -321,8 +410,8 @@ pub fn diagnose(
                 continue;
             }
             progress(&format!("fitting {}", e.name()), i, total);
-            let fitted = fitter.fit(e, &[])?;
-            let evaluated = fitter.evaluate(vec![fitted])?;
+            let (evaluated, simulations) = fit_candidate(e)?;
+            candidate_simulations += simulations;
             let r = ranked(nominal_gap, evaluated);
             progress(
                 &format!("{}: shrink {:.2}, score {:.2}", e.name(), r.shrink, r.score),
@@ -383,7 +472,8 @@ pub fn diagnose(
         d0,
         best.map(|b| &ranking[b].evaluated.outcome),
     );
-    let simulations = *fitter.simulations.borrow();
+    // The prefix and the pairs ran on `fitter`, each single candidate on a fork of it.
+    let simulations = *fitter.simulations.borrow() + candidate_simulations;
     let diagnosis = Diagnosis {
         verdict,
         aligned: aligned.clone(),
@@ -413,7 +503,7 @@ pub fn diagnose(
         file: out_dir.to_path_buf(),
         message: crate::errors::full(&e),
     })?;
-    Ok((diagnosis, files))
+    Ok(Finished::Diagnosis(Box::new(diagnosis), files))
 }
 
 /// Name of a candidate: `a` or `a+b`.

@@ -58,6 +58,7 @@ pub struct Trial {
 }
 
 /// Everything fixed across simulations of one diagnosis.
+#[derive(Clone, Copy)]
 pub struct SimContext<'a> {
     pub aligned: &'a Aligned,
     pub layout: &'a MarkerLayout,
