@@ -50,6 +50,7 @@ fn main() {
         post: PostProcess::None,
         effects: None,
         truth: None,
+        renderer: Default::default(),
     };
     let frames = tmp.path().join("frames");
     let started = Instant::now();

@@ -17,6 +17,8 @@ pub enum Stream {
     DiagnoseNuisance = 7,
     /// Generated inputs of the parser fuzzing harness (`fuzz`).
     Fuzz = 8,
+    /// Pixel noise of the independent renderer (`render::independent`).
+    IndependentRender = 9,
 }
 
 /// SplitMix64 finaliser: decorrelates nearby (seed, stream, index) triples.

@@ -8,6 +8,7 @@
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::pipeline::analyze::Source;
 use geneva_vision::pipeline::diagnose::selfcheck::{cases, run_case, suite_base, SuitePlan};
+use geneva_vision::pipeline::render_job::Renderer;
 use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
 use geneva_vision::scenario::effects::Effect;
 use std::path::Path;
@@ -120,4 +121,31 @@ fn small_self_check_null_withheld_and_out_of_vocabulary() {
         .unwrap();
         assert_eq!(json["verdict"], o.verdict.as_str());
     }
+}
+
+/// The robustness the diagnosis needs on real footage: a rig drawn by another renderer (the
+/// independent one: tiny-skia anti-aliasing in display space, a pixel-integrated blur kernel,
+/// its own noise) is no gap against the nominal simulated by the project's renderer.
+#[test]
+fn a_null_case_drawn_by_the_independent_renderer_has_no_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = suite_base(4.0).unwrap();
+    let plan = SuitePlan {
+        effects: vec![],
+        null_cases: 1,
+        flicker_cases: 0,
+        renderer: Renderer::Independent,
+        ..SuitePlan::quick(Effect::PixelNoise)
+    };
+    let all = cases(&base, &plan, &[]);
+    assert_eq!(all.len(), 1);
+    assert_eq!(all[0].renderer, Renderer::Independent);
+    let options = DiagnoseOptions {
+        seeds: 4,
+        fit_seeds: 2,
+        ..Default::default()
+    };
+    let o = run_case(&all[0], tmp.path(), &options).unwrap();
+    assert_eq!(o.expectation, Expectation::Null);
+    assert_eq!(o.verdict, "no_gap", "{o:?}");
 }

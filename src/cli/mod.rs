@@ -76,6 +76,11 @@ enum Command {
         /// Write an MP4 (through ffmpeg) that keeps the variable timestamps instead of PNGs.
         #[arg(long)]
         video: Option<PathBuf>,
+        /// `own` (exact area coverage in linear radiance) or `independent` (a second renderer:
+        /// tiny-skia anti-aliasing in display space, pixel-integrated blur; for checking that a
+        /// diagnosis does not alarm on footage from another renderer).
+        #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
+        renderer: String,
         /// Run even when the estimated time or memory is above the limits.
         #[arg(long)]
         yes: bool,
@@ -147,8 +152,17 @@ pub fn main() -> Result<()> {
             frames,
             roi,
             video,
+            renderer,
             yes,
-        } => render_cmd::run(&scenario, &out, frames.as_deref(), roi, video, yes),
+        } => render_cmd::run(
+            &scenario,
+            &out,
+            frames.as_deref(),
+            roi,
+            video,
+            renderer == "independent",
+            yes,
+        ),
         Command::Run {
             scenario,
             out,

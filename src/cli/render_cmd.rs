@@ -1,7 +1,7 @@
 //! `geneva render SCENARIO --out DIR [--frames A..B] [--roi MARGIN] [--video FILE.mp4]`.
 
 use anyhow::{bail, Context, Result};
-use geneva_vision::pipeline::render_job::{render_job, RenderJob};
+use geneva_vision::pipeline::render_job::{render_job, RenderJob, Renderer};
 use geneva_vision::scenario;
 use std::path::{Path, PathBuf};
 
@@ -39,6 +39,7 @@ pub fn run(
     frames: Option<&str>,
     roi: Option<usize>,
     video: Option<PathBuf>,
+    independent: bool,
     yes: bool,
 ) -> Result<()> {
     let s = scenario::load_any(spec)?;
@@ -65,6 +66,11 @@ pub fn run(
         roi_margin_px: roi,
         png: video.is_none(),
         video,
+        renderer: if independent {
+            Renderer::Independent
+        } else {
+            Renderer::Own
+        },
     };
     let bar = super::run_cmd::progress_bar(0, "render");
     let summary = render_job(&s, staged.path(), &job, &|done, total| {

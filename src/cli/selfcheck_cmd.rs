@@ -1,5 +1,6 @@
 //! `geneva diagnose-selfcheck --out DIR [--quick] [--seeds-per-case K] [--effects a,b]
-//! [--levels strong|weak|both] [--nulls N] [--flicker N] [--excluded N] [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
+//! [--levels strong|weak|both] [--nulls N] [--flicker N] [--excluded N] [--renderer own|independent]
+//! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
 
 use anyhow::Result;
@@ -8,6 +9,7 @@ use geneva_vision::pipeline::diagnose::selfcheck::{
     cases, phone_logs, suite_base, Level, SelfCheck, SuitePlan,
 };
 use geneva_vision::pipeline::diagnose::DiagnoseOptions;
+use geneva_vision::pipeline::render_job::Renderer;
 use geneva_vision::scenario::effects::Effect;
 use geneva_vision::shard::{self, Control, Shard};
 use std::path::{Path, PathBuf};
@@ -43,6 +45,10 @@ pub struct SelfCheckArgs {
     /// Simulated seeds per configuration of each diagnosis.
     #[arg(long, default_value_t = 4)]
     seeds: usize,
+    /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
+    /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).
+    #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
+    renderer: String,
     #[arg(long, value_parser = super::sweep_cmd::parse_shard)]
     shard: Option<Shard>,
     /// Start over when the folder holds another plan's cases.
@@ -71,6 +77,9 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     plan.null_cases = a.nulls.unwrap_or(plan.null_cases);
     plan.flicker_cases = a.flicker.unwrap_or(plan.flicker_cases);
     plan.excluded_cases = a.excluded.unwrap_or(plan.excluded_cases);
+    if a.renderer == "independent" {
+        plan.renderer = Renderer::Independent;
+    }
     let options = DiagnoseOptions {
         seeds: a.seeds,
         fit_seeds: 2,

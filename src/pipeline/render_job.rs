@@ -5,7 +5,8 @@ use super::rig::{Rig, RigError};
 use crate::io::csv_out::{num, CsvWriter};
 use crate::io::png_out::write_gray_png;
 use crate::io::truth_csv::write_truth_csv;
-use crate::render::{render_frame_with, FrameBuffers, FrameRequest, PixelRect};
+use crate::render::independent::render_frame_independent;
+use crate::render::{render_frame_with, FrameBuffers, FrameRequest, GrayImage, PixelRect};
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -31,6 +32,23 @@ pub enum RenderJobError {
     Png(#[from] crate::io::png_out::PngError),
     #[error(transparent)]
     Video(#[from] crate::io::video_out::VideoOutError),
+    #[error("frame {frame}: {source}")]
+    Independent {
+        frame: usize,
+        source: crate::render::independent::IndependentRenderError,
+    },
+    #[error("--roi-margin cannot be used with the independent renderer (it draws whole frames)")]
+    IndependentRoi,
+}
+
+/// Which renderer draws the frames.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Renderer {
+    /// The project's renderer (`render::frame`): exact area coverage in linear radiance.
+    #[default]
+    Own,
+    /// The second renderer (`render::independent`), for cross-renderer robustness checks.
+    Independent,
 }
 
 /// What to render.
@@ -44,6 +62,8 @@ pub struct RenderJob {
     pub video: Option<PathBuf>,
     /// Write PNG files.
     pub png: bool,
+    /// Which renderer draws the frames.
+    pub renderer: Renderer,
 }
 
 #[derive(Debug, Clone)]
@@ -77,6 +97,9 @@ pub fn render_job(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<RenderSummary, RenderJobError> {
     let rig = Rig::new(scenario)?;
+    if job.renderer == Renderer::Independent && job.roi_margin_px.is_some() {
+        return Err(RenderJobError::IndependentRoi);
+    }
     std::fs::create_dir_all(out_dir).map_err(|source| RenderJobError::OutDir {
         dir: out_dir.into(),
         source,
@@ -140,28 +163,31 @@ pub fn render_job(
     let mut done = 0;
     for start in (range.start..range.end).step_by(chunk) {
         let end = (start + chunk).min(range.end);
-        let images: Vec<_> = (start..end)
+        let images: Vec<GrayImage> = (start..end)
             .into_par_iter()
             .map_init(FrameBuffers::default, |buffers, i| {
                 let t_s = rig.frame_times.as_slice()[i];
-                // Video frames are always whole frames.
-                let window = if video.is_some() {
-                    full
-                } else {
-                    window_for(t_s)
-                };
-                render_frame_with(
-                    &scene,
-                    &rig.settings,
-                    &FrameRequest {
-                        index: i as u64,
-                        t_s: rig.render_time_s(t_s),
-                        window,
+                let request = FrameRequest {
+                    index: i as u64,
+                    t_s: rig.render_time_s(t_s),
+                    // Video frames are always whole frames.
+                    window: if video.is_some() {
+                        full
+                    } else {
+                        window_for(t_s)
                     },
-                    buffers,
-                )
+                };
+                match job.renderer {
+                    Renderer::Own => {
+                        Ok(render_frame_with(&scene, &rig.settings, &request, buffers))
+                    }
+                    Renderer::Independent => {
+                        render_frame_independent(&scene, &rig.settings, request.index, request.t_s)
+                            .map_err(|source| RenderJobError::Independent { frame: i, source })
+                    }
+                }
             })
-            .collect();
+            .collect::<Result<_, _>>()?;
         for (k, img) in images.iter().enumerate() {
             let frame = start + k;
             if job.png {
@@ -212,5 +238,30 @@ mod tests {
         }
         .to_string();
         assert!(e.contains("last frame 59") && e.contains("0..60"), "{e}");
+    }
+
+    #[test]
+    fn the_independent_renderer_draws_whole_frames_and_refuses_a_window() {
+        let mut s = crate::scenario::load_any("fast").unwrap();
+        s.duration_s = 0.1;
+        let dir = tempfile::tempdir().unwrap();
+        let job = RenderJob {
+            frames: Some(0..1),
+            png: true,
+            renderer: Renderer::Independent,
+            ..RenderJob::default()
+        };
+        render_job(&s, dir.path(), &job, &|_, _| {}).unwrap();
+        let img = crate::io::images::read_gray(&dir.path().join(frame_file_name(0))).unwrap();
+        assert_eq!(
+            (img.width as usize, img.height as usize),
+            (s.camera.width_px as usize, s.camera.height_px as usize)
+        );
+        let roi = RenderJob {
+            roi_margin_px: Some(8),
+            ..job
+        };
+        let e = render_job(&s, dir.path(), &roi, &|_, _| {}).unwrap_err();
+        assert!(matches!(e, RenderJobError::IndependentRoi), "{e}");
     }
 }

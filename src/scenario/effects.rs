@@ -136,6 +136,11 @@ const DISC_VIBRATION: &[ParamSpec] = &[
         7.0,
     ),
 ];
+// The probe is 2 mm: the wobble a camera sees is what the circle fit through the marker's
+// path does not absorb, and over the part of a wheel turn that a few seconds of footage cover
+// (the wheel moves only during engagements) a 0.5 mm wobble (1 px on the self-check's rig)
+// left no trace at all (`reports/diagnosis/`, stop 18: radius residual 0.048 px real vs 0.060
+// simulated).
 const AXIS_RUNOUT: &[ParamSpec] = &[param(
     "amplitude_m",
     "dynamics.axis_runout.amplitude_m",
@@ -143,7 +148,7 @@ const AXIS_RUNOUT: &[ParamSpec] = &[param(
     (0.0, 0.01),
     (1e-6, 3e-3),
     true,
-    5e-4,
+    2e-3,
 )];
 /// Wobble cycles per wheel revolution of a runout switched on from an invisible form (1 or 0
 /// cycles, no time-driven part): 2, an oval bearing seat or a shaft bent in two planes, the

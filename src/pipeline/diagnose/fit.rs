@@ -359,10 +359,20 @@ impl<'a> Fitter<'a> {
                 }
             }
             Effect::AxisRunout => {
-                let (r, n) = self.banded_pair("radius", &[0]).unwrap_or((1.0, 0.0));
-                let mm_px = aligned_of(self).geometry.mm_per_px;
-                v[0] = (2.0f64.sqrt() * (r * r - n * n).max(1e-6).sqrt() * mm_px * 1e-3)
-                    .clamp(1e-6, 3e-3);
+                // The wobble shows radially (what the circle fit leaves) and tangentially, as an
+                // angle error of wobble / marker radius (the angle is measured about the fitted
+                // centre); over a fraction of a wheel turn the circle fit absorbs most of the
+                // radial part, so the slow angle residual often carries the wobble alone. Start
+                // from the larger of the two readings: a start far below the truth leaves the
+                // search on the flat floor where a wobble is invisible.
+                let g = &aligned_of(self).geometry;
+                let rms_excess = |(r, n): (f64, f64)| (r * r - n * n).max(0.0).sqrt();
+                let radial_px = self.banded_pair("radius", &[0]).map_or(1.0, rms_excess);
+                let tangential_px = self
+                    .banded_pair("theta", &[0])
+                    .map_or(0.0, |p| rms_excess(p) * g.marker_radius_px);
+                let amplitude_px = 2.0f64.sqrt() * radial_px.max(tangential_px).max(1e-3);
+                v[0] = (amplitude_px * g.mm_per_px * 1e-3).clamp(1e-6, 3e-3);
             }
             Effect::CameraVibration => {
                 let (r, n) = self.banded_pair("radius", &[1, 2]).unwrap_or((0.3, 0.0));

@@ -24,7 +24,7 @@
 use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
 use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate};
 use crate::pipeline::analyze::Source;
-use crate::pipeline::render_job::{render_job, RenderJob};
+use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::shard::{Manifest, Study, UnitDirs};
@@ -69,6 +69,8 @@ pub struct Case {
     pub effects: Option<Vec<Effect>>,
     /// The withheld effect and its true parameter values.
     pub truth: Option<(Effect, Vec<f64>)>,
+    /// Which renderer draws the footage (the nominal is always simulated by the project's own).
+    pub renderer: Renderer,
 }
 
 /// Parameter values of a withheld effect at `level`.
@@ -184,6 +186,10 @@ pub struct SuitePlan {
     pub null_cases: usize,
     pub flicker_cases: usize,
     pub excluded_cases: usize,
+    /// Which renderer draws every case's footage: the project's own, or the independent one
+    /// (`render::independent`), whose anti-aliasing, compositing, blur kernel and noise differ
+    /// from the nominal's simulations like another renderer's would.
+    pub renderer: Renderer,
 }
 
 /// The cases of a self-check built on `base` (the rig every case starts from, with the
@@ -239,6 +245,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                     post,
                     effects: None,
                     truth: Some((e, values)),
+                    renderer: plan.renderer,
                 });
             }
         }
@@ -270,6 +277,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             post: PostProcess::None,
             effects: None,
             truth: None,
+            renderer: plan.renderer,
         });
     }
     for k in 0..plan.flicker_cases {
@@ -290,6 +298,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             },
             effects: None,
             truth: None,
+            renderer: plan.renderer,
         });
     }
     let excluded = [
@@ -320,6 +329,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             post: PostProcess::None,
             effects: Some(candidates),
             truth: None,
+            renderer: plan.renderer,
         });
     }
     out
@@ -334,6 +344,7 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
         roi_margin_px: None,
         video: None,
         png: true,
+        renderer: case.renderer,
     };
     render_job(&case.data, dir, &job, &|_, _| {}).map_err(|e| sim(&e))?;
     let stamps = dir.join("timestamps.csv");
@@ -501,6 +512,7 @@ impl SelfCheck {
                     "nominal": serde_json::to_value(&c.nominal).unwrap_or_default(),
                     "post": format!("{:?}", c.post),
                     "effects": c.effects.as_ref().map(|v| v.iter().map(|e| e.name()).collect::<Vec<_>>()),
+                    "renderer": format!("{:?}", c.renderer),
                 }),
             );
         }
@@ -615,7 +627,7 @@ pub fn write_summary(
         ),
     ];
     let mut md = String::from(
-        "# Diagnosis self-check\n\nFootage with a known cause rendered by this project's renderer, diagnosed by \
+        "# Diagnosis self-check\n\nFootage with a known cause rendered by the renderer the plan names, diagnosed by \
          `geneva diagnose` against a nominal without that cause (see \
          `src/pipeline/diagnose/selfcheck.rs` for the cases). Every figure is a count over the cases \
          below, with a 95 % Wilson interval; \"top-k\" counts a case only when a gap was found and the \
@@ -741,6 +753,7 @@ impl SuitePlan {
             null_cases: 6,
             flicker_cases: 2,
             excluded_cases: 3,
+            renderer: Renderer::Own,
         }
     }
 
@@ -753,6 +766,7 @@ impl SuitePlan {
             null_cases: 1,
             flicker_cases: 1,
             excluded_cases: 0,
+            renderer: Renderer::Own,
         }
     }
 
@@ -760,8 +774,8 @@ impl SuitePlan {
     pub fn describe(&self, base: &Scenario, options: &DiagnoseOptions) -> String {
         format!(
             "Plan: {} withheld effect(s) ({}) × {} level(s) × {} seed(s), {} null case(s), {} flicker \
-             case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s; diagnosis with {} \
-             evaluation seeds and {} fit seeds{}.",
+             case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
+             diagnosis with {} evaluation seeds and {} fit seeds{}.",
             self.effects.len(),
             self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
             self.levels.len(),
@@ -773,6 +787,13 @@ impl SuitePlan {
             base.camera.height_px,
             base.frame_timing.fps,
             base.duration_s,
+            match self.renderer {
+                Renderer::Own => "the project's renderer (as the nominal's simulations)",
+                Renderer::Independent =>
+                    "the independent renderer (`render::independent`: tiny-skia anti-aliasing in \
+                     display space, pixel-integrated blur, its own noise; the nominal is simulated \
+                     by the project's renderer)",
+            },
             options.seeds,
             options.fit_seeds,
             options
