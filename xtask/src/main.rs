@@ -202,9 +202,10 @@ fn fuzz(extra: &[String]) -> Result<(), String> {
     run(command)
 }
 
-/// The diagnosis self-check committed in `reports/diagnosis/`: every withheld effect of the
+/// The diagnosis self-check committed in `reports/diagnosis/` (and, with the footage drawn by
+/// the independent renderer, in `reports/diagnosis-independent/`): every withheld effect of the
 /// vocabulary at the strong level × 1 seed, 4 null cases, 1 flicker and 2 excluded-candidate
-/// cases on 6 s of footage (about an hour on this 2-core machine; `cargo xtask diagnosis` with no
+/// cases on 6 s of footage (about half an hour each on this 2-core machine; `cargo xtask diagnosis` with no
 /// arguments runs the whole suite: two levels × 3 seeds).
 const DIAGNOSIS_REPORT_PLAN: &[&str] = &[
     "--levels",
@@ -234,5 +235,14 @@ fn reports(extra: &[String]) -> Result<(), String> {
         .iter()
         .map(|s| s.to_string())
         .collect();
-    geneva("diagnose-selfcheck", "reports/diagnosis", &plan)
+    geneva("diagnose-selfcheck", "reports/diagnosis", &plan)?;
+    // The same plan on footage drawn by the independent renderer: the diagnosis meets edges,
+    // blur and noise that are not its own simulator's, as with real footage.
+    let mut independent = plan;
+    independent.extend(["--renderer".to_string(), "independent".to_string()]);
+    geneva(
+        "diagnose-selfcheck",
+        "reports/diagnosis-independent",
+        &independent,
+    )
 }
