@@ -267,7 +267,7 @@ pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
         let s2 = t.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (n - 1.0);
         let x_t = transform(spec.compare, spec.tol_abs, x);
         let tol = match spec.compare {
-            Compare::Log if x_t < m => spec.tol_rel_below().ln_1p(),
+            Compare::Log if x_t < m => spec.tol_rel_below(key.band).ln_1p(),
             Compare::Log => spec.tol_rel.ln_1p(),
             Compare::Linear => spec.tol_abs + spec.tol_rel * raw_mean.abs(),
         };
@@ -426,7 +426,7 @@ mod tests {
         assert!(above > 3.0, "{above}");
         // Other scale channels stay symmetric.
         assert_eq!(
-            key("noise_ink").spec().tol_rel_below(),
+            key("noise_ink").spec().tol_rel_below(None),
             key("noise_ink").spec().tol_rel
         );
     }
