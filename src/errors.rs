@@ -4,6 +4,49 @@
 //! exactly once; use it wherever an error becomes a string (a results row, another message).
 
 use std::error::Error;
+use std::path::{Path, PathBuf};
+
+/// A file or folder that could not be read, written or encoded; the path first, the cause as
+/// `source()`. Library errors that write outputs hold it as `File(#[from] FileError)` so that
+/// `.map_err(FileError::io(path))?` works in all of them.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    #[error("{}", file.display())]
+    Io {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}", file.display())]
+    Csv { file: PathBuf, source: csv::Error },
+    #[error("{}", file.display())]
+    Json {
+        file: PathBuf,
+        source: serde_json::Error,
+    },
+}
+
+impl FileError {
+    pub fn io(file: &Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
+        move |source| FileError::Io {
+            file: file.to_path_buf(),
+            source,
+        }
+    }
+
+    pub fn csv(file: &Path) -> impl FnOnce(csv::Error) -> FileError + '_ {
+        move |source| FileError::Csv {
+            file: file.to_path_buf(),
+            source,
+        }
+    }
+
+    pub fn json(file: &Path) -> impl FnOnce(serde_json::Error) -> FileError + '_ {
+        move |source| FileError::Json {
+            file: file.to_path_buf(),
+            source,
+        }
+    }
+}
 
 /// The text of `error` and of each of its causes, outermost first.
 pub fn chain<E: Error + ?Sized>(error: &E) -> Vec<String> {

@@ -6,6 +6,7 @@
 #![cfg(feature = "opencv-detector")]
 
 use geneva_vision::diagnose::scoring::Expectation;
+use geneva_vision::errors::full;
 use geneva_vision::pipeline::analyze::Source;
 use geneva_vision::pipeline::diagnose::selfcheck::{cases, run_case, suite_base, SuitePlan};
 use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
@@ -51,14 +52,31 @@ fn bad_input_is_refused_before_any_work_and_writes_nothing() {
     // Footage of another size than the nominal's camera.
     let small = tmp.path().join("small");
     blank_frames(&small.join("frames"), 3, 64, 48);
-    let e = run(&small, &nominal, &options).unwrap_err().to_string();
+    let err = run(&small, &nominal, &options).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            DiagnoseError::FrameSize {
+                width_px: 64,
+                height_px: 48,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    let e = full(&err);
     assert!(e.contains("64×48") && e.contains("camera.width_px"), "{e}");
     assert!(!small.join("out").exists());
 
     // The marker is never found.
     let blank = tmp.path().join("blank");
     blank_frames(&blank.join("frames"), 40, 1280, 720);
-    let e = run(&blank, &nominal, &options).unwrap_err().to_string();
+    let err = run(&blank, &nominal, &options).unwrap_err();
+    assert!(
+        matches!(err, DiagnoseError::MarkerNeverFound { frames: 40, .. }),
+        "{err:?}"
+    );
+    let e = full(&err);
     assert!(e.contains("never found") && e.contains("marker_id"), "{e}");
     assert!(!blank.join("out").exists());
 
@@ -66,8 +84,8 @@ fn bad_input_is_refused_before_any_work_and_writes_nothing() {
     let mut ts = std::fs::read_to_string(blank.join("frames/timestamps.csv")).unwrap();
     ts = ts.lines().take(11).collect::<Vec<_>>().join("\n") + "\n";
     std::fs::write(blank.join("frames/timestamps.csv"), ts).unwrap();
-    let e = run(&blank, &nominal, &options).unwrap_err().to_string();
-    assert!(e.contains("timestamps") || e.contains("10"), "{e}");
+    let e = full(&run(&blank, &nominal, &options).unwrap_err());
+    assert!(e.contains("timestamps") && e.contains("10"), "{e}");
     assert!(!blank.join("out").exists());
 
     // Too few seeds for a spread.
@@ -75,8 +93,12 @@ fn bad_input_is_refused_before_any_work_and_writes_nothing() {
         seeds: 1,
         ..Default::default()
     };
-    let e = run(&blank, &nominal, &one).unwrap_err().to_string();
-    assert!(e.contains("--seeds 1"), "{e}");
+    let err = run(&blank, &nominal, &one).unwrap_err();
+    assert!(
+        matches!(err, DiagnoseError::TooFewSeeds { seeds: 1 }),
+        "{err:?}"
+    );
+    assert!(full(&err).contains("--seeds 1"), "{err:?}");
 }
 
 #[test]

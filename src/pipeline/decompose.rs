@@ -18,6 +18,7 @@ use crate::budget::decompose::{
 };
 use crate::budget::report::Budget;
 use crate::budget::MeanCi;
+use crate::errors::FileError;
 use crate::plot::bars_png;
 use crate::scenario::effects::{Effect, EffectKind};
 use crate::scenario::{Scenario, ScenarioError};
@@ -36,8 +37,10 @@ pub enum DecompositionError {
     },
     #[error(transparent)]
     Decompose(#[from] DecomposeError),
-    #[error("{file}: {message}")]
-    Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
     #[error("seed rule: {0}")]
     Rule(String),
 }
@@ -325,13 +328,6 @@ fn run_one(c: &Configuration, k: usize, roi: bool) -> Result<[f64; 2], Decomposi
     Ok(error_variances(&out.budget))
 }
 
-fn write_err(file: &Path, e: impl ToString) -> DecompositionError {
-    DecompositionError::Write {
-        file: file.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
 fn pct(m: &MeanCi) -> String {
     format!(
         "{:.1} % [{:.1}, {:.1}]",
@@ -434,9 +430,9 @@ pub fn write_outputs(
     d: &DecompositionOutput,
     out_dir: &Path,
 ) -> Result<Vec<PathBuf>, DecompositionError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| write_err(out_dir, e))?;
+    std::fs::create_dir_all(out_dir).map_err(FileError::io(out_dir))?;
     let csv_path = out_dir.join("decomposition.csv");
-    let mut w = csv::Writer::from_path(&csv_path).map_err(|e| write_err(&csv_path, e))?;
+    let mut w = csv::Writer::from_path(&csv_path).map_err(FileError::csv(&csv_path))?;
     let ci = |m: &MeanCi| {
         [m.mean, m.ci95_low, m.ci95_high]
             .iter()
@@ -451,8 +447,7 @@ pub fn write_outputs(
     }
     header.push("distinguishable_from_0".into());
     header.push("seeds".into());
-    w.write_record(&header)
-        .map_err(|e| write_err(&csv_path, e))?;
+    w.write_record(&header).map_err(FileError::csv(&csv_path))?;
     for (quantity, dec) in [("omega2_rad2_s2", &d.omega), ("alpha2_rad2_s4", &d.alpha)] {
         for r in &dec.rows {
             let mut rec = vec![quantity.to_string(), r.name.clone()];
@@ -464,20 +459,20 @@ pub fn write_outputs(
             }
             rec.push((!r.share_indistinguishable_from_zero()).to_string());
             rec.push(dec.seeds.to_string());
-            w.write_record(&rec).map_err(|e| write_err(&csv_path, e))?;
+            w.write_record(&rec).map_err(FileError::csv(&csv_path))?;
         }
     }
-    w.flush().map_err(|e| write_err(&csv_path, e))?;
+    w.flush().map_err(FileError::io(&csv_path))?;
 
     let seeds_path = out_dir.join("per_seed.csv");
-    let mut w = csv::Writer::from_path(&seeds_path).map_err(|e| write_err(&seeds_path, e))?;
+    let mut w = csv::Writer::from_path(&seeds_path).map_err(FileError::csv(&seeds_path))?;
     w.write_record([
         "configuration",
         "seed",
         "omega2_mse_rad2_s2",
         "alpha2_mse_rad2_s4",
     ])
-    .map_err(|e| write_err(&seeds_path, e))?;
+    .map_err(FileError::csv(&seeds_path))?;
     for (name, values) in d.configurations.iter().zip(&d.per_seed) {
         for (seed, v) in d.seed_values.iter().zip(values) {
             w.write_record([
@@ -486,14 +481,14 @@ pub fn write_outputs(
                 format!("{:e}", v[0]),
                 format!("{:e}", v[1]),
             ])
-            .map_err(|e| write_err(&seeds_path, e))?;
+            .map_err(FileError::csv(&seeds_path))?;
         }
     }
-    w.flush().map_err(|e| write_err(&seeds_path, e))?;
+    w.flush().map_err(FileError::io(&seeds_path))?;
 
     let md_path = out_dir.join("decomposition.md");
     let md = format!("# Error decomposition: {}\n\n{}", d.name, markdown_table(d));
-    std::fs::write(&md_path, md).map_err(|e| write_err(&md_path, e))?;
+    std::fs::write(&md_path, md).map_err(FileError::io(&md_path))?;
 
     let mut files = vec![csv_path, seeds_path, md_path];
     for (quantity, dec) in [("omega", &d.omega), ("alpha", &d.alpha)] {
@@ -509,8 +504,7 @@ pub fn write_outputs(
             &format!("{}: share of the {symbol} mean square error", d.name),
             "share of V(all)",
             &bars,
-        )
-        .map_err(|e| write_err(&path, e.message))?;
+        )?;
         files.push(path);
     }
     Ok(files)

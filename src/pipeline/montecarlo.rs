@@ -11,6 +11,7 @@
 use super::run::{run, RunError, RunOptions};
 use crate::budget::report::Budget;
 use crate::budget::MeanCi;
+use crate::errors::FileError;
 use crate::plot::histogram::histogram_png;
 use crate::scenario::Scenario;
 use crate::shard::{self, Control, Manifest, Shard, ShardError, Study, UnitDirs};
@@ -24,8 +25,19 @@ pub enum MonteCarloError {
     Run { seed: u64, source: RunError },
     #[error("monte carlo needs at least one seed")]
     NoSeeds,
-    #[error("{file}: {message}")]
-    Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    #[error(transparent)]
+    Output(#[from] crate::io::output_dir::OutputError),
+    #[error("{}: no shards to merge", dir.display())]
+    NoShards {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: no complete shard to merge (run the shards first)", dir.display())]
+    NoCompleteShard { dir: PathBuf },
     #[error(transparent)]
     Shard(#[from] ShardError),
     #[error("{file}: unit {unit}: {message}")]
@@ -279,8 +291,7 @@ impl Study for McStudy<'_> {
         // Seed 0's full run: already in place on one machine, in its shard's folder otherwise.
         let seed0 = unit_dirs(0).join("seed0");
         if unit_dirs(0) != out_dir && seed0.is_dir() {
-            crate::io::output_dir::link_tree(&seed0, &out_dir.join("seed0"))
-                .map_err(|e| write_err(&seed0, e))?;
+            crate::io::output_dir::link_tree(&seed0, &out_dir.join("seed0"))?;
         }
         *self.result.lock().unwrap_or_else(|p| p.into_inner()) = Some(mc);
         Ok(())
@@ -314,10 +325,15 @@ pub fn monte_carlo_study(
 pub fn merge_monte_carlo(out_dir: &Path) -> Result<MonteCarloOutcome, MonteCarloError> {
     let shards = out_dir.join(shard::SHARDS);
     let manifest = std::fs::read_dir(&shards)
-        .map_err(|e| write_err(&shards, format!("no shards to merge ({e})")))?
+        .map_err(|source| MonteCarloError::NoShards {
+            dir: shards.clone(),
+            source,
+        })?
         .filter_map(Result::ok)
         .find_map(|e| Manifest::read(&e.path()).ok().flatten())
-        .ok_or_else(|| write_err(&shards, "no complete shard to merge"))?;
+        .ok_or_else(|| MonteCarloError::NoCompleteShard {
+            dir: shards.clone(),
+        })?;
     let name = manifest.inputs["scenario"]["name"]
         .as_str()
         .unwrap_or("montecarlo")
@@ -402,13 +418,6 @@ fn mean_of(values: &[&Value]) -> Value {
     }
 }
 
-fn write_err(file: &Path, e: impl ToString) -> MonteCarloError {
-    MonteCarloError::Write {
-        file: file.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
 /// Per-seed CSV columns: (header, value of a budget).
 type Column = (&'static str, fn(&Budget) -> f64);
 
@@ -451,23 +460,22 @@ fn write_outputs(
     name: &str,
     out_dir: &Path,
 ) -> Result<Vec<PathBuf>, MonteCarloError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| write_err(out_dir, e))?;
+    std::fs::create_dir_all(out_dir).map_err(FileError::io(out_dir))?;
     let json_path = out_dir.join("budget.json");
-    let text = serde_json::to_string_pretty(&mc.json).map_err(|e| write_err(&json_path, e))?;
-    std::fs::write(&json_path, text + "\n").map_err(|e| write_err(&json_path, e))?;
+    let text = serde_json::to_string_pretty(&mc.json).map_err(FileError::json(&json_path))?;
+    std::fs::write(&json_path, text + "\n").map_err(FileError::io(&json_path))?;
 
     let csv_path = out_dir.join("per_seed.csv");
-    let mut w = csv::Writer::from_path(&csv_path).map_err(|e| write_err(&csv_path, e))?;
+    let mut w = csv::Writer::from_path(&csv_path).map_err(FileError::csv(&csv_path))?;
     let mut header = vec!["seed".to_string()];
     header.extend(COLUMNS.iter().map(|c| c.0.to_string()));
-    w.write_record(&header)
-        .map_err(|e| write_err(&csv_path, e))?;
+    w.write_record(&header).map_err(FileError::csv(&csv_path))?;
     for (seed, b) in mc.seeds.iter().zip(&mc.per_seed) {
         let mut row = vec![seed.to_string()];
         row.extend(COLUMNS.iter().map(|c| format!("{:e}", (c.1)(b))));
-        w.write_record(&row).map_err(|e| write_err(&csv_path, e))?;
+        w.write_record(&row).map_err(FileError::csv(&csv_path))?;
     }
-    w.flush().map_err(|e| write_err(&csv_path, e))?;
+    w.flush().map_err(FileError::io(&csv_path))?;
 
     let hist_path = out_dir.join("error_histograms.png");
     histogram_png(
@@ -491,8 +499,7 @@ fn write_outputs(
             ),
         ],
         40,
-    )
-    .map_err(|e| write_err(&hist_path, e.message))?;
+    )?;
     Ok(vec![json_path, csv_path, hist_path])
 }
 

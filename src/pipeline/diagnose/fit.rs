@@ -469,10 +469,9 @@ impl<'a> Fitter<'a> {
         let method: String;
         match e {
             Effect::FrameTiming => {
-                let ts = Timestamps::new(self.real_t_s.to_vec())
-                    .map_err(|x| DiagnoseError::Input(x.to_string()))?;
-                let f =
-                    fit_vfr(&ts).map_err(|x| DiagnoseError::Input(format!("timing fit: {x}")))?;
+                let ts =
+                    Timestamps::new(self.real_t_s.to_vec()).map_err(DiagnoseError::FrameTimes)?;
+                let f = fit_vfr(&ts).map_err(DiagnoseError::TimingFit)?;
                 let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
                 values = vec![
                     f.jitter_s,

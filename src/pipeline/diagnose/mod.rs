@@ -46,8 +46,57 @@ use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DiagnoseError {
-    #[error("{0}")]
-    Input(String),
+    #[error("{}: no image files", dir.display())]
+    NoFrames { dir: PathBuf },
+    #[error(
+        "the footage's frames are {width_px}×{height_px} px but the scenario's camera is \
+         {camera_width_px}×{camera_height_px} px (camera.width_px, camera.height_px): the nominal \
+         does not describe this footage"
+    )]
+    FrameSize {
+        width_px: usize,
+        height_px: usize,
+        camera_width_px: usize,
+        camera_height_px: usize,
+    },
+    #[error(
+        "the marker (detector.marker_id = {marker_id}, detector.dictionary = {dictionary:?}) is \
+         never found in the {frames} frames: check the nominal's marker id and dictionary"
+    )]
+    MarkerNeverFound {
+        marker_id: i32,
+        dictionary: String,
+        frames: usize,
+    },
+    #[error(
+        "the marker is found in only {detected} of {frames} frames; a diagnosis needs at least \
+         {needed}"
+    )]
+    TooFewDetections {
+        detected: usize,
+        frames: usize,
+        needed: usize,
+    },
+    #[error("measuring the real data")]
+    Measure(#[source] Box<crate::pipeline::analyze::AnalyzeError>),
+    #[error("the real frame times")]
+    FrameTimes(#[source] crate::timing::TimingError),
+    #[error("fitting the frame timing of the footage")]
+    TimingFit(#[source] crate::timing::TimingError),
+    #[error(
+        "--max-minutes stops a search by wall time, which no two machines share: a sharded \
+         diagnosis fits every candidate (drop --max-minutes, or use more shards)"
+    )]
+    MaxMinutesWithShards,
+    #[error("--seeds {seeds}: at least 2 seeds are needed for a spread")]
+    TooFewSeeds { seeds: usize },
+    #[error("the merged shards hold no result for candidate {effect}")]
+    MissingCandidate { effect: &'static str },
+    #[error("no candidate unit {unit} (the diagnosis has {units})")]
+    NoUnit { unit: usize, units: usize },
+    /// A broken invariant of the code, never a property of the input.
+    #[error("internal error: {0}")]
+    Internal(&'static str),
     #[error("nominal scenario: {0}")]
     Nominal(String),
     #[error("alignment: {0}")]
@@ -189,8 +238,8 @@ pub fn diagnose(
 ) -> Result<(Diagnosis, Vec<PathBuf>), DiagnoseError> {
     match diagnose_with(nominal, source, out_dir, options, Mode::Whole, progress)? {
         Finished::Diagnosis(d, files) => Ok((*d, files)),
-        Finished::Shard(_) => Err(DiagnoseError::Input(
-            "a whole diagnosis ended as a shard".into(),
+        Finished::Shard(_) => Err(DiagnoseError::Internal(
+            "a whole diagnosis ended as a shard",
         )),
     }
 }
@@ -216,17 +265,12 @@ pub fn diagnose_with(
 ) -> Result<Finished, DiagnoseError> {
     let started = Instant::now();
     if mode != Mode::Whole && options.max_minutes.is_some() {
-        return Err(DiagnoseError::Input(
-            "--max-minutes stops a search by wall time, which no two machines share: a sharded \
-             diagnosis fits every candidate (drop --max-minutes, or use more shards)"
-                .into(),
-        ));
+        return Err(DiagnoseError::MaxMinutesWithShards);
     }
     if options.seeds < 2 {
-        return Err(DiagnoseError::Input(format!(
-            "--seeds {}: at least 2 seeds are needed for a spread",
-            options.seeds
-        )));
+        return Err(DiagnoseError::TooFewSeeds {
+            seeds: options.seeds,
+        });
     }
     let layout = image::marker_layout(nominal)
         .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
@@ -378,9 +422,7 @@ pub fn diagnose_with(
                 .iter()
                 .find(|(x, _)| *x == e)
                 .map(|(_, r)| r.clone())
-                .ok_or_else(|| {
-                    DiagnoseError::Input(format!("no stored result for candidate {}", e.name()))
-                }),
+                .ok_or(DiagnoseError::MissingCandidate { effect: e.name() }),
         }
     };
     let mut candidate_simulations = 0usize;

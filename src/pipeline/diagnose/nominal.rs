@@ -93,8 +93,7 @@ pub fn screen_sign(scene: &Scene) -> f64 {
 /// The real frame times as the scenario's frame schedule (a log model that keeps them as they
 /// are), and a duration that covers them.
 pub fn at_frame_times(s: &mut Scenario, t_s: &[f64]) -> Result<(), DiagnoseError> {
-    let ts = Timestamps::new(t_s.to_vec())
-        .map_err(|e| DiagnoseError::Input(format!("real frame times: {e}")))?;
+    let ts = Timestamps::new(t_s.to_vec()).map_err(DiagnoseError::FrameTimes)?;
     let last = t_s.last().copied().unwrap_or(0.0);
     let step = if t_s.len() > 1 {
         (last - t_s[0]) / (t_s.len() - 1) as f64

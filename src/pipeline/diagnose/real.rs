@@ -29,9 +29,9 @@ fn first_frame_size(source: &Source) -> Result<Option<(usize, usize)>, DiagnoseE
         Source::Tracks(_) => Ok(None),
         Source::Frames { dir, .. } => {
             let files = crate::io::images::list_image_files(dir).map_err(DiagnoseError::from)?;
-            let first = files.first().ok_or_else(|| {
-                DiagnoseError::Input(format!("{}: no image files", dir.display()))
-            })?;
+            let first = files
+                .first()
+                .ok_or_else(|| DiagnoseError::NoFrames { dir: dir.clone() })?;
             let img = crate::io::images::read_gray(first).map_err(DiagnoseError::from)?;
             Ok(Some((img.width, img.height)))
         }
@@ -50,28 +50,31 @@ pub fn check_source(nominal: &Scenario, source: &Source) -> Result<(), DiagnoseE
             nominal.camera.height_px as usize,
         );
         if (w, h) != (cw, ch) {
-            return Err(DiagnoseError::Input(format!(
-                "the footage's frames are {w}×{h} px but the scenario's camera is {cw}×{ch} px \
-                 (camera.width_px, camera.height_px): the nominal does not describe this footage"
-            )));
+            return Err(DiagnoseError::FrameSize {
+                width_px: w,
+                height_px: h,
+                camera_width_px: cw,
+                camera_height_px: ch,
+            });
         }
     }
     Ok(())
 }
 
 fn too_few(d: &crate::detect::DetectorConfig, detected: usize, frames: usize) -> DiagnoseError {
-    DiagnoseError::Input(if detected == 0 {
-        format!(
-            "the marker (detector.marker_id = {}, detector.dictionary = {:?}) is never found in \
-             the {frames} frames: check the nominal's marker id and dictionary",
-            d.marker_id, d.dictionary
-        )
+    if detected == 0 {
+        DiagnoseError::MarkerNeverFound {
+            marker_id: d.marker_id,
+            dictionary: d.dictionary.clone(),
+            frames,
+        }
     } else {
-        format!(
-            "the marker is found in only {detected} of {frames} frames; a diagnosis needs at least \
-             {MIN_DETECTED_FRAMES}"
-        )
-    })
+        DiagnoseError::TooFewDetections {
+            detected,
+            frames,
+            needed: MIN_DETECTED_FRAMES,
+        }
+    }
 }
 
 /// Runs detection and estimation on `source` (files of `geneva analyze` go to `work_dir`) and
@@ -100,11 +103,7 @@ pub fn measure_real(
                 .unwrap_or(0);
             return Err(too_few(d, detected, frames));
         }
-        Err(e) => {
-            return Err(DiagnoseError::Input(format!(
-                "measuring the real data: {e}"
-            )))
-        }
+        Err(e) => return Err(DiagnoseError::Measure(Box::new(e))),
     };
     let detected = out.tracks.iter().filter(|r| r.corners_px.is_some()).count();
     if detected < MIN_DETECTED_FRAMES {

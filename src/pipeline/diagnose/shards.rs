@@ -68,10 +68,10 @@ impl Study for CandidateStudy<'_> {
     }
 
     fn run_unit(&self, unit: usize, _work_dir: &Path) -> Result<String, DiagnoseError> {
-        let e = *self
-            .units
-            .get(unit)
-            .ok_or_else(|| DiagnoseError::Input(format!("no candidate unit {unit}")))?;
+        let e = *self.units.get(unit).ok_or(DiagnoseError::NoUnit {
+            unit,
+            units: self.units.len(),
+        })?;
         let fork = self.fitter.lock().unwrap_or_else(|p| p.into_inner()).fork();
         let (evaluated, simulations) = fork.fit_single(e)?;
         encode(&evaluated, simulations)
