@@ -162,6 +162,28 @@ impl FrameTimingConfig {
 }
 
 impl VfrModel {
+    /// This schedule moved just enough to be valid at `nominal_fps` (for a candidate rate
+    /// that a search tries): a first interval shorter than half a frame becomes one regular
+    /// interval, and alternation and jitter shrink together until frames stay in order.
+    pub fn valid_at(&self, nominal_fps: f64) -> VfrModel {
+        let mut m = self.clone();
+        let half_interval_s = 0.5 / (nominal_fps * (1.0 + m.rate_error_ppm * 1e-6));
+        if !(half_interval_s.is_finite() && half_interval_s > 0.0) {
+            return m;
+        }
+        if m.first_interval_s != 0.0 && m.first_interval_s < half_interval_s {
+            m.first_interval_s = 0.0;
+        }
+        let used_s = m.pair_alternation_s + 8.0 * m.jitter_s;
+        if used_s > half_interval_s {
+            // A hair inside the bound, which rounding would otherwise cross.
+            let k = (1.0 - 1e-9) * half_interval_s / used_s;
+            m.pair_alternation_s *= k;
+            m.jitter_s *= k;
+        }
+        m
+    }
+
     fn validate(&self, path: &str, nominal_fps: f64, problems: &mut Problems) {
         let before = problems.len();
         problems.range(

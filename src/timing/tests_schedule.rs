@@ -267,3 +267,37 @@ proptest! {
         prop_assert!(ts.as_slice().iter().all(|&t| (0.0..3.0).contains(&t)));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// A schedule valid at one rate, moved to any rate a candidate search tries (the
+    /// timebase's 1–1000 fps), validates there and still orders its frames.
+    #[test]
+    fn a_valid_schedule_moved_to_any_rate_stays_valid(
+        (fps, v) in valid_vfr(),
+        log_rate in (1.0f64).ln()..(1000.0f64).ln(),
+        seed in any::<u64>(),
+    ) {
+        let rate = log_rate.exp();
+        let moved = v.valid_at(rate);
+        let c = vfr(rate, moved.clone());
+        prop_assert!(problems_of(&c).is_empty(), "{:?} at {rate} fps (from {fps}): {:?}", moved, problems_of(&c));
+        let ts = c.schedule(3.0, seed, None).unwrap();
+        prop_assert!(ts.intervals_s().iter().all(|&d| d > 0.0));
+        // Where it was already valid, nothing moves.
+        let c0 = vfr(fps, v.clone());
+        prop_assert_eq!(v.valid_at(fps), v.clone(), "{:?}", problems_of(&c0));
+    }
+}
+
+#[test]
+fn the_phone_schedule_at_three_fps_gets_a_regular_first_interval() {
+    let moved = VfrModel::default().valid_at(2.8);
+    assert_eq!(moved.first_interval_s, 0.0);
+    assert_eq!(moved.jitter_s, VfrModel::default().jitter_s);
+    assert!(problems_of(&vfr(2.8, VfrModel::default()))
+        .iter()
+        .any(|p| p.contains("first_interval_s")));
+    assert!(problems_of(&vfr(2.8, moved)).is_empty());
+}

@@ -207,6 +207,10 @@ impl<'a> Fitter<'a> {
                             ..VfrModel::default()
                         },
                     };
+                    // The schedule must stay valid at any rate the search tries (footage
+                    // stamped at 2.8 fps made the default 55 ms first interval shorter than
+                    // half a frame interval, and the whole diagnosis failed on this candidate).
+                    let model = model.valid_at(fps);
                     s.frame_timing = FrameTimingConfig {
                         fps,
                         model: TimingModel::Vfr(model),

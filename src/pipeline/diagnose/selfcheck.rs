@@ -74,12 +74,18 @@ pub struct Case {
 }
 
 /// Parameter values of a withheld effect at `level`.
+///
+/// The timebase's parameter is the rate the footage is stamped at, the nominal's own at both
+/// levels: its strength is how far the schedule the frames were taken on strays from that rate
+/// ([`timebase_schedule`]). (A weak level on the stamp rate itself, 30^0.3 ≈ 2.8 fps for frames
+/// taken at 30, is no camera's clock and no detection limit.)
 pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
     effect
         .params()
         .iter()
         .map(|p| match level {
             Level::Strong => p.probe,
+            Level::Weak if effect == Effect::Timebase => p.probe,
             Level::Weak => {
                 let (lo, hi) = (p.search.0, p.probe);
                 if p.log_scale && lo > 0.0 && hi > 0.0 {
@@ -90,6 +96,25 @@ pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// The schedule the frames of a withheld-timebase case are taken on: the seed's phone (the VFR
+/// model's defaults: −4500 ppm, a 55 ms first interval) when strong; when weak, 0.3 of its
+/// departure from a constant `fps` (−1350 ppm, the first interval 6.6 ms longer than a frame),
+/// as the other weak levels sit 0.3 of the way from the search's lower end to the probe.
+pub fn timebase_schedule(level: Level, fps: f64) -> crate::timing::VfrModel {
+    let phone = crate::timing::VfrModel::default();
+    match level {
+        Level::Strong => phone,
+        Level::Weak => {
+            let interval_s = 1.0 / fps;
+            crate::timing::VfrModel {
+                rate_error_ppm: 0.3 * phone.rate_error_ppm,
+                first_interval_s: interval_s + 0.3 * (phone.first_interval_s - interval_s),
+                ..phone
+            }
+        }
+    }
 }
 
 /// Moves the data's nuisance by a seeded draw: crank phase ±0.2 rad, mean speed ±1.5 %, rotation
@@ -217,7 +242,8 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                 if e == Effect::Timebase {
                     post = PostProcess::ConstantRateStamps { fps_hz: values[0] };
                     // Frames taken on a phone's variable schedule, stamped at a constant rate.
-                    data.frame_timing.model = TimingModel::Vfr(Default::default());
+                    data.frame_timing.model =
+                        TimingModel::Vfr(timebase_schedule(level, data.frame_timing.fps));
                     nominal.frame_timing.model = TimingModel::Constant;
                 } else {
                     e.apply(&mut data, &values);
