@@ -118,3 +118,21 @@ fn axis_runout_is_not_calibrated_away_as_a_camera_tilt() {
         "no_gap"
     );
 }
+
+#[test]
+fn a_tilted_camera_is_calibrated_and_leaves_no_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let all = independent(vec![Effect::PerspectiveTilt], 0, 4.0);
+    assert_eq!(all.len(), 1);
+    let truth_deg = all[0].data.camera.perspective_tilt.tilt_x_deg;
+    let out = render_and_calibrate(&all[0], tmp.path());
+    let tilt = &out.calibration.geometry.tilt;
+    assert!(tilt.significant, "{tilt:?}");
+    assert!(
+        (tilt.tilt_x_deg.value - truth_deg).abs() < 0.5,
+        "{tilt:?} vs {truth_deg}°"
+    );
+    // The calibrated nominal moves the marker's radius, angle and orientation through the
+    // geometry alignment; the disc must keep holding the marker's paper all along.
+    assert_eq!(verdict(tmp.path(), &out.scenario, None), "no_gap");
+}
