@@ -244,5 +244,33 @@ fn reports(extra: &[String]) -> Result<(), String> {
         "diagnose-selfcheck",
         "reports/diagnosis-independent",
         &independent,
+    )?;
+    // The near-limit level beside it, on the independent renderer's footage.
+    let weak: Vec<String> = DIAGNOSIS_WEAK_PLAN.iter().map(|s| s.to_string()).collect();
+    geneva(
+        "diagnose-selfcheck",
+        "reports/diagnosis-weak-independent",
+        &weak,
     )
 }
+
+/// The weak level ("near the detection limit": 0.3 of the way from the search's lower end to the
+/// strong probe, log-spaced where the parameter is) of every withheld effect × 1 seed on 6 s of
+/// footage drawn by the independent renderer, in `reports/diagnosis-weak-independent/` (about
+/// 20 minutes on this 2-core machine).
+const DIAGNOSIS_WEAK_PLAN: &[&str] = &[
+    "--levels",
+    "weak",
+    "--seeds-per-case",
+    "1",
+    "--nulls",
+    "0",
+    "--flicker",
+    "0",
+    "--excluded",
+    "0",
+    "--duration-s",
+    "6",
+    "--renderer",
+    "independent",
+];
