@@ -44,6 +44,7 @@ fn main() {
             effect: "rolling_shutter".into(),
             also: vec![],
             strong: true,
+            form: false,
         },
         data,
         nominal: nominal.clone(),

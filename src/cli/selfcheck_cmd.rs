@@ -1,5 +1,5 @@
 //! `geneva diagnose-selfcheck --out DIR [--quick] [--seeds-per-case K] [--effects a,b]
-//! [--levels strong|weak|both] [--nulls N] [--flicker N] [--excluded N] [--renderer own|independent]
+//! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--renderer own|independent]
 //! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
 
@@ -27,7 +27,9 @@ pub struct SelfCheckArgs {
     /// Withheld effects (default: the vocabulary).
     #[arg(long, value_delimiter = ',')]
     effects: Option<Vec<String>>,
-    /// Levels of the withheld effects: `strong`, `weak` or `both`.
+    /// Levels of the withheld effects: `strong`, `weak`, `form` (the strong level in a form the
+    /// candidate does not parametrise, for the effects that have one), a comma list of them, or
+    /// `both` (strong and weak).
     #[arg(long, default_value = "both")]
     levels: String,
     /// Null cases (default 6; 1 with --quick).
@@ -68,11 +70,20 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         plan.effects = e;
     }
     plan.levels = match a.levels.as_str() {
-        "strong" => vec![Level::Strong],
-        "weak" => vec![Level::Weak],
         "both" if !a.quick => vec![Level::Strong, Level::Weak],
         "both" => plan.levels,
-        other => anyhow::bail!("--levels {other}: expected strong, weak or both"),
+        list => list
+            .split(',')
+            .map(|l| match l.trim() {
+                "strong" => Ok(Level::Strong),
+                "weak" => Ok(Level::Weak),
+                "form" => Ok(Level::OtherForm),
+                other => anyhow::bail!(
+                    "--levels {list}: `{other}` is no level (expected strong, weak, form, a \
+                     comma list of them, or both)"
+                ),
+            })
+            .collect::<Result<Vec<_>>>()?,
     };
     plan.null_cases = a.nulls.unwrap_or(plan.null_cases);
     plan.flicker_cases = a.flicker.unwrap_or(plan.flicker_cases);

@@ -10,6 +10,7 @@ pub mod gap;
 pub mod moments;
 pub mod plan;
 pub mod record;
+pub mod runout;
 pub mod scoring;
 pub mod search;
 pub mod shape;

@@ -9,10 +9,13 @@ use crate::scenario::effects::Effect;
 /// Channels an effect changes. Screening asks how much of the total gap lies in them.
 ///
 /// A tilt or a lens distortion changes the marker's shape with its position on the image, and
-/// so with the angle and the velocity: the readout implied by shape against velocity
-/// (`rs_fine`, `rs_readout`) moves too. Without those cells in their signatures, a −22° tilt
-/// (the self-check's weak level) put 98.8 % of its gap in `rs_fine`, the tilt's share bounded it
-/// out unfitted, and rolling shutter was the best partial of an `unexplained`.
+/// so with the angle and the velocity, which moves the readout implied by shape against
+/// velocity (`rs_fine`, `rs_readout`) too; but those cells stay out of their signatures. With
+/// them in, footage whose only gap was a rolling shutter's `rs_fine` (z = 12.8), rolling shutter
+/// excluded from the candidates, came out `explained` by a k1 = 0.11 lens (shrink 0.97) or a
+/// 0.4° tilt (0.93): a silent misattribution of a cause outside the candidates. Without them a
+/// (−22°, −28°) tilt that put 98.8 % of its gap in `rs_fine` is bounded out and the diagnosis
+/// says `unexplained` with rolling shutter as the best partial: a miss, stated as one.
 pub fn signature(e: Effect) -> &'static [&'static str] {
     const KIN: &[&str] = &["theta", "omega", "alpha"];
     match e {
@@ -92,8 +95,6 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
             "theta",
             "omega",
             "alpha",
-            "rs_fine",
-            "rs_readout",
             "rigid_residual",
         ],
         Effect::PerspectiveTilt => &[
@@ -104,8 +105,6 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
             "theta",
             "omega",
             "alpha",
-            "rs_fine",
-            "rs_readout",
             "rigid_residual",
         ],
         Effect::Compression => &[

@@ -15,6 +15,11 @@ pub enum Expectation {
         effect: String,
         also: Vec<String>,
         strong: bool,
+        /// The effect is on in a form its candidate does not parametrise (another runout order
+        /// and phase, a sinusoidal shake, two vibration modes, …): what another renderer's or
+        /// a real rig's version of the effect looks like. Scored on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        form: bool,
     },
     /// Nothing is withheld: the verdict must be `no_gap`.
     Null,
@@ -105,6 +110,9 @@ pub struct Scores {
     /// Withheld cases where a gap was found at all.
     pub detected_strong: Rate,
     pub detected_weak: Rate,
+    /// Withheld effects in another form than their candidate's: top-1 and gap found.
+    pub top1_form: Rate,
+    pub detected_form: Rate,
     /// Null cases with any verdict but `no_gap`.
     pub false_alarms: Rate,
     /// Out-of-vocabulary cases judged `unexplained`.
@@ -129,6 +137,15 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     })
 }
 
+/// How a withheld case's level is named in reports.
+pub fn level_name(strong: bool, form: bool) -> &'static str {
+    match (form, strong) {
+        (true, _) => "other form",
+        (false, true) => "strong",
+        (false, false) => "weak",
+    }
+}
+
 /// Scores the outcomes of a self-check.
 pub fn score(outcomes: &[CaseOutcome]) -> Scores {
     let rate = |keep: &dyn Fn(&CaseOutcome) -> bool, hit: &dyn Fn(&CaseOutcome) -> bool| {
@@ -138,16 +155,28 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
             n: cases.len(),
         }
     };
-    let strong =
-        |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { strong: true, .. });
+    let strong = |o: &CaseOutcome| {
+        matches!(
+            o.expectation,
+            Expectation::Withheld {
+                strong: true,
+                form: false,
+                ..
+            }
+        )
+    };
+    let form = |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { form: true, .. });
     let weak =
         |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { strong: false, .. });
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     for o in outcomes {
         let row = match &o.expectation {
-            Expectation::Withheld { effect, strong, .. } => {
-                format!("{effect} ({})", if *strong { "strong" } else { "weak" })
-            }
+            Expectation::Withheld {
+                effect,
+                strong,
+                form,
+                ..
+            } => format!("{effect} ({})", level_name(*strong, *form)),
             Expectation::Null => "null".into(),
             Expectation::OutOfVocabulary => "out-of-vocabulary".into(),
         };
@@ -165,6 +194,8 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
         top3_weak: rate(&weak, &|o| o.top_k(3)),
         detected_strong: rate(&strong, &|o| o.verdict != "no_gap"),
         detected_weak: rate(&weak, &|o| o.verdict != "no_gap"),
+        top1_form: rate(&form, &|o| o.top_k(1)),
+        detected_form: rate(&form, &|o| o.verdict != "no_gap"),
         false_alarms: rate(&|o| o.expectation == Expectation::Null, &|o| {
             o.verdict != "no_gap"
         }),
@@ -221,6 +252,7 @@ mod tests {
                 vec![]
             },
             strong,
+            form: false,
         }
     }
 
@@ -280,8 +312,38 @@ mod tests {
         assert_eq!(s.median_param_rel_error_strong, Some(0.1));
         assert_eq!(s.confusion["pixel_noise (strong)"]["optical_blur"], 1);
         assert_eq!(s.confusion["null"]["unexplained (lighting)"], 1);
+        assert_eq!(s.top1_form, Rate { k: 0, n: 0 });
         let total: usize = s.confusion.values().flat_map(|r| r.values()).sum();
         assert_eq!(total, outcomes.len());
+    }
+
+    #[test]
+    fn another_form_is_scored_apart_from_the_strong_level() {
+        let form = Expectation::Withheld {
+            effect: "axis_runout".into(),
+            also: vec![],
+            strong: true,
+            form: true,
+        };
+        let outcomes = vec![
+            case(form.clone(), "explained", &[&["axis_runout"]], 0.9),
+            case(form, "unexplained", &[&["backlash"], &["axis_runout"]], 0.8),
+            case(
+                withheld("axis_runout", true),
+                "explained",
+                &[&["axis_runout"]],
+                1.0,
+            ),
+        ];
+        let s = score(&outcomes);
+        assert_eq!(s.top1_form, Rate { k: 1, n: 2 });
+        assert_eq!(s.detected_form, Rate { k: 2, n: 2 });
+        assert_eq!(s.top1_strong, Rate { k: 1, n: 1 });
+        assert_eq!(s.median_shrink_strong, Some(1.0));
+        assert_eq!(s.confusion["axis_runout (other form)"]["axis_runout"], 1);
+        // Records of the strong and weak levels serialise as before.
+        let json = serde_json::to_string(&withheld("lighting", true)).unwrap();
+        assert!(!json.contains("form"), "{json}");
     }
 
     #[test]

@@ -251,6 +251,15 @@ fn reports(extra: &[String]) -> Result<(), String> {
         "diagnose-selfcheck",
         "reports/diagnosis-weak-independent",
         &weak,
+    )?;
+    // Effects in forms their candidates do not parametrise, on the independent renderer's
+    // footage: what a rig or renderer the toolkit has never seen does to the diagnosis.
+    let mut forms = weak;
+    forms[1] = "form".to_string();
+    geneva(
+        "diagnose-selfcheck",
+        "reports/diagnosis-forms-independent",
+        &forms,
     )
 }
 

@@ -342,6 +342,10 @@ pub fn diagnose_with(
         crate::diagnose::cells::residual_peak(&t_all, &residual, nyquist_hz).map(|p| p.frequency_hz)
     };
 
+    let runout_form = crate::diagnose::runout::fit_runout_form(
+        &nominal::runout_samples(&aligned, &real.record, real_time_shift_s)?,
+        &crate::diagnose::runout::CYCLES_TRIED,
+    );
     let primary = &real.estimate.primary_series().theta_rad;
     let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
         .iter()
@@ -365,6 +369,7 @@ pub fn diagnose_with(
             t_s: &t_all,
             theta_det: (&t_det, &th_det),
             theta_peak_hz,
+            runout_form,
         },
         base,
         fit_seeds.clone(),

@@ -445,6 +445,11 @@ impl ReferenceTable {
         })
     }
 
+    /// The aligned nominal's wheel angle θ2 (its own convention, not the screen's) at `t_s`.
+    pub fn theta2_rad_at(&self, t_s: f64, screen_sign: f64) -> f64 {
+        self.interp(&self.theta_rad, t_s) / screen_sign
+    }
+
     fn interp(&self, v: &[f64], t_s: f64) -> f64 {
         let x = ((t_s - self.t0_s) / self.step_s).clamp(0.0, (v.len() - 1) as f64);
         let i = (x.floor() as usize).min(v.len().saturating_sub(2));
@@ -541,4 +546,55 @@ pub fn motion_reference(
         },
         shift,
     )
+}
+
+/// The marker-centre track of `record` against the aligned nominal's, frame by frame, with what
+/// [`crate::diagnose::runout`] needs to read a runout's form off it: the nominal's wheel angle
+/// (at the record's fitted time shift), the residual, the image Jacobian of a wheel-centre
+/// offset and the radial direction.
+pub fn runout_samples(
+    aligned: &Aligned,
+    record: &Record,
+    shift_s: f64,
+) -> Result<Vec<crate::diagnose::runout::RunoutSample>, DiagnoseError> {
+    let mut s = aligned.scenario.clone();
+    let scene = grown_scene_of(&mut s)?;
+    // A tenth of a millimetre: far above rounding, far inside the camera's linear range.
+    const STEP_M: f64 = 1e-4;
+    let mut out = Vec::new();
+    for f in &record.frames {
+        let Some(c) = f.corners_px else {
+            continue;
+        };
+        let theta2_rad = aligned
+            .reference
+            .theta2_rad_at(f.t_s + shift_s, aligned.screen_sign);
+        let pose = |offset: [f64; 2]| WheelPose {
+            theta2_rad,
+            centre_offset_m: offset,
+        };
+        let m = scene.marker_centre_px_at(&pose([0.0, 0.0]));
+        let centre = scene.rotation_centre_px_at(&pose([0.0, 0.0]));
+        let mx = scene.marker_centre_px_at(&pose([STEP_M, 0.0]));
+        let my = scene.marker_centre_px_at(&pose([0.0, STEP_M]));
+        let r = m - centre;
+        let len = r.length();
+        if len.is_nan() || len <= 0.0 {
+            continue;
+        }
+        let measured = [
+            c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
+            c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
+        ];
+        out.push(crate::diagnose::runout::RunoutSample {
+            theta2_rad,
+            residual_px: [measured[0] - m.x, measured[1] - m.y],
+            jacobian_px_per_m: [
+                [(mx.x - m.x) / STEP_M, (mx.y - m.y) / STEP_M],
+                [(my.x - m.x) / STEP_M, (my.y - m.y) / STEP_M],
+            ],
+            radial: [r.x / len, r.y / len],
+        });
+    }
+    Ok(out)
 }

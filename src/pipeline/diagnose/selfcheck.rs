@@ -38,6 +38,9 @@ use std::path::{Path, PathBuf};
 pub enum Level {
     Strong,
     Weak,
+    /// The strong level's strength in a form the candidate does not parametrise
+    /// ([`apply_other_form`]); only effects that have one.
+    OtherForm,
 }
 
 /// A perturbation of the footage after rendering.
@@ -84,7 +87,7 @@ pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
         .params()
         .iter()
         .map(|p| match level {
-            Level::Strong => p.probe,
+            Level::Strong | Level::OtherForm => p.probe,
             Level::Weak if effect == Effect::Timebase => p.probe,
             Level::Weak => {
                 let (lo, hi) = (p.search.0, p.probe);
@@ -105,7 +108,7 @@ pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
 pub fn timebase_schedule(level: Level, fps: f64) -> crate::timing::VfrModel {
     let phone = crate::timing::VfrModel::default();
     match level {
-        Level::Strong => phone,
+        Level::Strong | Level::OtherForm => phone,
         Level::Weak => {
             let interval_s = 1.0 / fps;
             crate::timing::VfrModel {
@@ -115,6 +118,68 @@ pub fn timebase_schedule(level: Level, fps: f64) -> crate::timing::VfrModel {
             }
         }
     }
+}
+
+/// Puts `effect` (already applied at its strong values) into a form its candidate does not
+/// parametrise, as another renderer or a real rig would have it; false when the effect has no
+/// such form here. The candidates fit one form each (a runout of 2 cycles per wheel revolution
+/// at phase 0, a random shake, one vibration mode, a k1 lens): these cases check that a
+/// diagnosis still names the effect when the data's form differs.
+pub fn apply_other_form(effect: Effect, s: &mut Scenario) -> bool {
+    use crate::render::effects::Sinusoid;
+    match effect {
+        Effect::AxisRunout => {
+            let r = &mut s.dynamics.axis_runout;
+            r.cycles_per_wheel_rev = 3.0;
+            r.phase_rad = 1.1;
+        }
+        Effect::CameraVibration => {
+            // A stand's two bending modes instead of a band-limited random shake.
+            let cv = &mut s.effects.camera_vibration;
+            cv.random.x_rms_px = 0.0;
+            cv.random.y_rms_px = 0.0;
+            cv.x_px = vec![Sinusoid {
+                amplitude: 1.2,
+                frequency_hz: 6.5,
+                phase_rad: 0.3,
+            }];
+            cv.y_px = vec![Sinusoid {
+                amplitude: 0.8,
+                frequency_hz: 11.0,
+                phase_rad: 1.0,
+            }];
+        }
+        Effect::DiscVibration => {
+            let v = &mut s.dynamics.disc_vibration;
+            let Some(first) = v.components.first().cloned() else {
+                return false;
+            };
+            v.components = vec![
+                crate::mechanism::VibrationComponent {
+                    frequency_hz: 4.0,
+                    ..first.clone()
+                },
+                crate::mechanism::VibrationComponent {
+                    amplitude_rad: 0.5 * first.amplitude_rad,
+                    frequency_hz: 17.0,
+                    phase_rad: 2.0,
+                },
+            ];
+        }
+        Effect::LensDistortion => {
+            // Pincushion with a fourth-order term, where the candidate fits k1 alone.
+            let l = &mut s.camera.lens_distortion;
+            l.k1 = 0.2;
+            l.k2 = 0.15;
+        }
+        Effect::PerspectiveTilt => {
+            let t = &mut s.camera.perspective_tilt;
+            t.tilt_x_deg = -8.0;
+            t.tilt_y_deg = 15.0;
+        }
+        _ => return false,
+    }
+    true
 }
 
 /// Moves the data's nuisance by a seeded draw: crank phase ±0.2 rad, mean speed ±1.5 %, rotation
@@ -228,6 +293,9 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
     };
     for &e in &plan.effects {
         for &level in &plan.levels {
+            if level == Level::OtherForm && !apply_other_form(e, &mut base.clone()) {
+                continue;
+            }
             for k in 0..plan.seeds_per_case {
                 let seed = next_seed();
                 let values = level_values(e, level);
@@ -247,13 +315,16 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                     nominal.frame_timing.model = TimingModel::Constant;
                 } else {
                     e.apply(&mut data, &values);
+                    if level == Level::OtherForm {
+                        apply_other_form(e, &mut data);
+                    }
                 }
                 data.seed = seed;
                 perturb_nuisance(&mut data, seed);
-                let level_name = if level == Level::Strong {
-                    "strong"
-                } else {
-                    "weak"
+                let level_name = match level {
+                    Level::Strong => "strong",
+                    Level::Weak => "weak",
+                    Level::OtherForm => "form",
                 };
                 out.push(Case {
                     name: format!("withheld-{}-{level_name}-{k}", e.name()),
@@ -264,13 +335,15 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                             .iter()
                             .map(|o| o.name().to_string())
                             .collect(),
-                        strong: level == Level::Strong,
+                        strong: level != Level::Weak,
+                        form: level == Level::OtherForm,
                     },
                     data,
                     nominal,
                     post,
                     effects: None,
-                    truth: Some((e, values)),
+                    // Another form's parameters are not the candidate's: no parameter error.
+                    truth: (level != Level::OtherForm).then_some((e, values)),
                     renderer: plan.renderer,
                 });
             }
@@ -635,6 +708,8 @@ pub fn write_summary(
         ("top-1, near the limit", pct(&s.top1_weak), "–"),
         ("top-3, near the limit", pct(&s.top3_weak), "–"),
         ("gap found, near the limit", pct(&s.detected_weak), "–"),
+        ("top-1, another form", pct(&s.top1_form), "–"),
+        ("gap found, another form", pct(&s.detected_form), "–"),
         ("false alarms on null cases", pct(&s.false_alarms), "≤ 5 %"),
         (
             "out of vocabulary → unexplained",
@@ -714,9 +789,14 @@ pub fn write_summary(
             errs.join(", "),
         ));
         let kind = match &o.expectation {
-            Expectation::Withheld { effect, strong, .. } => format!(
+            Expectation::Withheld {
+                effect,
+                strong,
+                form,
+                ..
+            } => format!(
                 "withheld {effect} {}",
-                if *strong { "strong" } else { "weak" }
+                crate::diagnose::scoring::level_name(*strong, *form)
             ),
             Expectation::Null => "null".into(),
             Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
@@ -744,6 +824,8 @@ pub fn write_summary(
         "top3_weak": rate_json(&s.top3_weak),
         "detected_strong": rate_json(&s.detected_strong),
         "detected_weak": rate_json(&s.detected_weak),
+        "top1_form": rate_json(&s.top1_form),
+        "detected_form": rate_json(&s.detected_form),
         "false_alarms": rate_json(&s.false_alarms),
         "unexplained_recall": rate_json(&s.unexplained_recall),
         "median_shrink_strong": s.median_shrink_strong,
@@ -799,12 +881,23 @@ impl SuitePlan {
     /// The plan in words, for the report.
     pub fn describe(&self, base: &Scenario, options: &DiagnoseOptions) -> String {
         format!(
-            "Plan: {} withheld effect(s) ({}) × {} level(s) × {} seed(s), {} null case(s), {} flicker \
+            "Plan: {} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s), {} null case(s), {} flicker \
              case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
              diagnosis with {} evaluation seeds and {} fit seeds{}.",
             self.effects.len(),
             self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
             self.levels.len(),
+            self.levels
+                .iter()
+                .map(|l| match l {
+                    Level::Strong => "strong",
+                    Level::Weak => "near the limit",
+                    Level::OtherForm =>
+                        "another form: the strong level in a form the candidate does not \
+                         parametrise, only the effects that have one here",
+                })
+                .collect::<Vec<_>>()
+                .join("; "),
             self.seeds_per_case,
             self.null_cases,
             self.flicker_cases,
@@ -827,5 +920,63 @@ impl SuitePlan {
                 .as_ref()
                 .map_or(String::new(), |e| format!(", candidates restricted to {}", e.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")))
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every other-form case holds its effect at the strong level in a form the candidate at the
+    /// same values does not have, and claims no parameter truth.
+    #[test]
+    fn other_form_cases_differ_from_their_candidates_form() {
+        let base = suite_base(4.0).unwrap();
+        let plan = SuitePlan {
+            effects: withheld_effects(),
+            levels: vec![Level::OtherForm],
+            seeds_per_case: 1,
+            null_cases: 0,
+            flicker_cases: 0,
+            excluded_cases: 0,
+            renderer: Renderer::Own,
+        };
+        let all = cases(&base, &plan, &[]);
+        let names: Vec<&str> = all.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "withheld-disc_vibration-form-0",
+                "withheld-axis_runout-form-0",
+                "withheld-camera_vibration-form-0",
+                "withheld-lens_distortion-form-0",
+                "withheld-perspective_tilt-form-0",
+            ]
+        );
+        for c in &all {
+            let Expectation::Withheld {
+                effect,
+                strong: true,
+                form: true,
+                ..
+            } = &c.expectation
+            else {
+                panic!("{}: {:?}", c.name, c.expectation);
+            };
+            let e = Effect::from_name(effect).unwrap();
+            assert!(c.truth.is_none(), "{}", c.name);
+            assert!(!e.is_on(&c.nominal) && e.is_on(&c.data), "{}", c.name);
+            let mut candidate = c.nominal.clone();
+            e.apply(&mut candidate, &level_values(e, Level::Strong));
+            let mut with_data_form = candidate.clone();
+            e.copy_section(&c.data, &mut with_data_form);
+            assert_ne!(
+                with_data_form, candidate,
+                "{}: the candidate's own form",
+                c.name
+            );
+        }
+        let runout = &all[1].data.dynamics.axis_runout;
+        assert!(runout.is_visible() && runout.cycles_per_wheel_rev == 3.0);
     }
 }
