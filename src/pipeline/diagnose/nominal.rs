@@ -582,10 +582,7 @@ pub fn runout_samples(
         if len.is_nan() || len <= 0.0 {
             continue;
         }
-        let measured = [
-            c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
-            c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
-        ];
+        let measured = crate::estimate::marker_centre::corner_mean(&c);
         out.push(crate::diagnose::runout::RunoutSample {
             theta2_rad,
             residual_px: [measured[0] - m.x, measured[1] - m.y],
