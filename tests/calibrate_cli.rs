@@ -147,6 +147,31 @@ fn footage_without_the_marker_is_refused_naming_the_marker_and_the_frames() {
 }
 
 #[test]
+fn a_frame_of_another_size_is_refused_naming_the_file_and_both_sizes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    blank_frames(d, 4);
+    geneva_vision::io::png_out::write_gray_png(
+        &d.join("blank/frame_0002.png"),
+        80,
+        60,
+        &vec![128u8; 80 * 60],
+    )
+    .unwrap();
+    std::fs::write(d.join("base.toml"), BASE).unwrap();
+    let o = calibrate_frames(d, "blank", "blank.csv", &[]);
+    assert_refused(
+        d,
+        &o,
+        &[
+            "frame_0002.png",
+            "frame 2 is 80×60 px",
+            "first frame is 160×120",
+        ],
+    );
+}
+
+#[test]
 fn a_single_frame_cannot_give_the_motion() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

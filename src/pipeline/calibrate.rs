@@ -98,11 +98,32 @@ pub enum CalibrateJobError {
     },
     #[error("round trip: no valid case drawn in {attempts} attempts")]
     RoundTripNoCase { attempts: usize },
-    #[error("{file}: frame {frame}: {message}")]
-    Frame {
+    #[error("{}: frame {frame}", file.display())]
+    FrameRead {
         file: PathBuf,
         frame: usize,
-        message: String,
+        #[source]
+        source: crate::io::images::ImageError,
+    },
+    #[error(
+        "{}: frame {frame} is {width_px}×{height_px} px, but the first frame is \
+         {first_width_px}×{first_height_px}",
+        file.display()
+    )]
+    FrameSize {
+        file: PathBuf,
+        frame: usize,
+        width_px: usize,
+        height_px: usize,
+        first_width_px: usize,
+        first_height_px: usize,
+    },
+    #[error("{}: frame {frame}: detecting the marker", file.display())]
+    FrameDetect {
+        file: PathBuf,
+        frame: usize,
+        #[source]
+        source: crate::detect::DetectError,
     },
     #[error(transparent)]
     Calibrate(#[from] CalibrateError),
@@ -269,7 +290,7 @@ impl Measurer {
         data: &[u8],
         w: usize,
         h: usize,
-    ) -> Result<(), String> {
+    ) -> Result<(), crate::detect::DetectError> {
         self.stats.width_px = w;
         self.stats.height_px = h;
         let view = GrayView::full(data, w, h);
@@ -279,8 +300,7 @@ impl Measurer {
                 view,
                 self.marker_id,
                 self.last.as_ref().map(corners_bbox_px),
-            )
-            .map_err(|e| crate::errors::full(&e))?
+            )?
             .detection
             .map(|d| d.corners_px);
         let mut obs = FrameObservation {
@@ -355,8 +375,7 @@ impl Measurer {
         if let (Some(id), Some(layout)) = (self.reference_id, &self.ref_layout) {
             let r = self
                 .detector
-                .detect_marker(view, id, self.last_ref.as_ref().map(corners_bbox_px))
-                .map_err(|e| crate::errors::full(&e))?
+                .detect_marker(view, id, self.last_ref.as_ref().map(corners_bbox_px))?
                 .detection
                 .map(|d| d.corners_px);
             if let Some(c) = r {
@@ -511,10 +530,10 @@ fn read_footage(
             let img = crate::io::images::read_gray(path).map_err(CalibrateJobError::from)?;
             measurer
                 .observe(0, 0.0, &img.data, img.width, img.height)
-                .map_err(|message| CalibrateJobError::Frame {
+                .map_err(|source| CalibrateJobError::FrameDetect {
                     file: path.clone(),
                     frame: 0,
-                    message,
+                    source,
                 })?;
             times.push(0.0);
             progress(1, 1);
@@ -541,33 +560,30 @@ fn read_footage(
                 for (k, img) in imgs.into_iter().enumerate() {
                     let i = chunk_i * 4 + k;
                     let file = &files[i];
-                    let img = img.map_err(|e| CalibrateJobError::Frame {
+                    let img = img.map_err(|source| CalibrateJobError::FrameRead {
                         file: file.clone(),
                         frame: i,
-                        message: crate::errors::full(&e),
+                        source,
                     })?;
                     if i > 0
                         && (img.width, img.height)
                             != (measurer.stats.width_px, measurer.stats.height_px)
                     {
-                        return Err(CalibrateJobError::Frame {
+                        return Err(CalibrateJobError::FrameSize {
                             file: file.clone(),
                             frame: i,
-                            message: format!(
-                                "{}×{} px, but the first frame is {}×{}",
-                                img.width,
-                                img.height,
-                                measurer.stats.width_px,
-                                measurer.stats.height_px
-                            ),
+                            width_px: img.width,
+                            height_px: img.height,
+                            first_width_px: measurer.stats.width_px,
+                            first_height_px: measurer.stats.height_px,
                         });
                     }
                     measurer
                         .observe(i, t[i] - t0, &img.data, img.width, img.height)
-                        .map_err(|message| CalibrateJobError::Frame {
+                        .map_err(|source| CalibrateJobError::FrameDetect {
                             file: file.clone(),
                             frame: i,
-                            message,
+                            source,
                         })?;
                     times.push(t[i] - t0);
                     progress(i + 1, files.len());
@@ -589,10 +605,10 @@ fn read_footage(
                         let t_first = *t0.get_or_insert(f.t_s);
                         measurer
                             .observe(f.index, f.t_s - t_first, &f.data, w, h)
-                            .map_err(|message| CalibrateJobError::Frame {
+                            .map_err(|source| CalibrateJobError::FrameDetect {
                                 file: path.clone(),
                                 frame: f.index,
-                                message,
+                                source,
                             })?;
                         times.push(f.t_s - t_first);
                         progress(f.index + 1, total);

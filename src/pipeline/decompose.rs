@@ -41,8 +41,15 @@ pub enum DecompositionError {
     File(#[from] FileError),
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
-    #[error("seed rule: {0}")]
-    Rule(String),
+    #[error(
+        "seed rule: needs 2 ≤ initial seeds ({initial}) ≤ cap ({cap}) and a target half-width \
+         (got {target_half_width})"
+    )]
+    Rule {
+        initial: usize,
+        cap: usize,
+        target_half_width: f64,
+    },
 }
 
 /// What the errors of a decomposition are measured against: the budget's headline truth.
@@ -237,10 +244,11 @@ pub fn decompose_effects(
 ) -> Result<DecompositionOutput, DecompositionError> {
     let rule = options.rule;
     if rule.initial < 2 || rule.cap < rule.initial || rule.target_half_width.is_nan() {
-        return Err(DecompositionError::Rule(format!(
-            "needs 2 ≤ initial seeds ({}) ≤ cap ({}) and a target half-width (got {})",
-            rule.initial, rule.cap, rule.target_half_width
-        )));
+        return Err(DecompositionError::Rule {
+            initial: rule.initial,
+            cap: rule.cap,
+            target_half_width: rule.target_half_width,
+        });
     }
     let started = std::time::Instant::now();
     let plan = Plan::new(base);

@@ -47,12 +47,14 @@ pub enum ReportsError {
     Defaults(#[from] DefaultsError),
     #[error("no report named `{name}` (reports: {known})")]
     UnknownReport { name: String, known: String },
-    #[error("{file}: {message}")]
-    Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] crate::errors::FileError),
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
     #[error(transparent)]
     Output(#[from] crate::io::output_dir::OutputError),
-    #[error("calibration round trip: {0}")]
-    Calibration(String),
+    #[error("calibration round trip")]
+    Calibration(#[source] Box<super::calibrate::CalibrateJobError>),
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
 }
@@ -97,10 +99,7 @@ impl Default for ReportsOptions {
 }
 
 fn write_text(path: &Path, text: &str) -> Result<PathBuf, ReportsError> {
-    std::fs::write(path, text).map_err(|e| ReportsError::Write {
-        file: path.to_path_buf(),
-        message: crate::errors::full(&e),
-    })?;
+    std::fs::write(path, text).map_err(crate::errors::FileError::io(path))?;
     Ok(path.to_path_buf())
 }
 
@@ -482,11 +481,7 @@ pub fn seed_report(
             &format!("{name}: fused {symbol} error RMS against the resolvable truth (log10)"),
             &format!("log10 RMS ({unit})"),
             &bars,
-        )
-        .map_err(|e| ReportsError::Write {
-            file: path.clone(),
-            message: e.message,
-        })?;
+        )?;
         files.push(path);
     }
     let md = seed_markdown(rig_kind, &base, &report, out_dir);
@@ -936,7 +931,7 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
                 &|_, _| {},
             )
             .map(|_| ())
-            .map_err(|e| ReportsError::Calibration(crate::errors::full(&e)))
+            .map_err(|e| ReportsError::Calibration(Box::new(e)))
         })?);
     }
     if wanted("defaults") {
@@ -963,15 +958,9 @@ pub fn seed_camera_report(sweep_file: &Path, out_dir: &Path) -> Result<(), Repor
         &super::sweep_eval::PipelineEvaluator,
         &|_, _| {},
     )?;
-    let entries = std::fs::read_dir(&run_dir).map_err(|e| ReportsError::Write {
-        file: run_dir.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    let entries = std::fs::read_dir(&run_dir).map_err(crate::errors::FileError::io(&run_dir))?;
     for entry in entries {
-        let entry = entry.map_err(|e| ReportsError::Write {
-            file: run_dir.clone(),
-            message: crate::errors::full(&e),
-        })?;
+        let entry = entry.map_err(crate::errors::FileError::io(&run_dir))?;
         let name = entry.file_name();
         let keep = !matches!(
             name.to_str(),
@@ -983,14 +972,8 @@ pub fn seed_camera_report(sweep_file: &Path, out_dir: &Path) -> Result<(), Repor
         } else {
             std::fs::remove_file(entry.path())
         };
-        moved.map_err(|e| ReportsError::Write {
-            file: entry.path(),
-            message: crate::errors::full(&e),
-        })?;
+        moved.map_err(crate::errors::FileError::io(&entry.path()))?;
     }
-    std::fs::remove_dir(&run_dir).map_err(|e| ReportsError::Write {
-        file: run_dir.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    std::fs::remove_dir(&run_dir).map_err(crate::errors::FileError::io(&run_dir))?;
     Ok(())
 }

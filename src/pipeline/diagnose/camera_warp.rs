@@ -61,18 +61,13 @@ pub struct ExactView {
 
 /// The estimator on the corners `s`'s camera projects, without rendering or detection.
 pub fn exact_view(s: &Scenario, t_s: &[f64], screen_sign: f64) -> Result<ExactView, DiagnoseError> {
-    let fail = |what: &str, e: String| {
-        DiagnoseError::Alignment(format!(
-            "the camera's view of the exact motion ({what}): {e}"
-        ))
-    };
     let mut dynamics = s.dynamics.clone();
     dynamics.enabled = false;
     let duration_s = t_s.last().copied().unwrap_or(0.0).max(s.duration_s) + 1.0;
     let mech = Mechanism::new(&s.mechanism, &s.drive_speed, &dynamics, duration_s)
-        .map_err(|e| fail("mechanism", crate::errors::full(&e)))?;
-    let camera = Camera::new(&s.camera).map_err(|e| fail("camera", crate::errors::full(&e)))?;
-    let scene = Scene::new(&s.scene, camera).map_err(|e| fail("scene", crate::errors::full(&e)))?;
+        .map_err(DiagnoseError::NominalMechanism)?;
+    let camera = Camera::new(&s.camera).map_err(DiagnoseError::NominalCamera)?;
+    let scene = Scene::new(&s.scene, camera).map_err(DiagnoseError::NominalScene)?;
     let theta2: Vec<f64> = t_s.iter().map(|&t| mech.ideal(t).theta2_rad).collect();
     let corners: Vec<Option<Corners>> = theta2
         .iter()
@@ -89,8 +84,7 @@ pub fn exact_view(s: &Scenario, t_s: &[f64], screen_sign: f64) -> Result<ExactVi
     config.differentiator = Differentiator::Central3;
     config.reference_compensation = ReferenceCompensation::Off;
     config.timebase = Timebase::Timestamps;
-    let est =
-        estimate(&config, t_s, &corners, None).map_err(|e| fail("estimator", e.to_string()))?;
+    let est = estimate(&config, t_s, &corners, None).map_err(DiagnoseError::ExactView)?;
     let measured_rad = est.primary_series().theta_rad.clone();
     let warp_rad = measured_rad
         .iter()
@@ -128,7 +122,7 @@ pub fn realign_motion(
             .map(|(th, w)| th - w)
             .collect();
         let motion = align_motion(&out, t_s, &straightened, screen_sign)
-            .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
+            .map_err(DiagnoseError::AlignMotion)?;
         out = apply_motion(&out, &motion);
         // The refit moves the wheel's phase; put the marker back where the footage sees it.
         let seen = exact_view(&out, t_s, screen_sign)?;

@@ -245,7 +245,7 @@ impl<'a> Fitter<'a> {
                     // The crank phase and mean speed are nuisance: refit them for this profile.
                     let (td, th) = self.real_theta_det;
                     let a = align_motion(&t.scenario, td, th, aligned_of(self).screen_sign)
-                        .map_err(|x| DiagnoseError::Alignment(x.to_string()))?;
+                        .map_err(DiagnoseError::AlignMotion)?;
                     t.scenario = apply_motion(&t.scenario, &a);
                 }
                 Effect::AxisRunout => {

@@ -97,12 +97,62 @@ pub enum DiagnoseError {
     /// A broken invariant of the code, never a property of the input.
     #[error("internal error: {0}")]
     Internal(&'static str),
-    #[error("nominal scenario: {0}")]
-    Nominal(String),
-    #[error("alignment: {0}")]
-    Alignment(String),
-    #[error("simulation: {0}")]
-    Simulation(String),
+    #[error("the nominal scenario's marker layout")]
+    NominalLayout(#[source] crate::imagestats::StatsError),
+    #[error("the nominal scenario's camera")]
+    NominalCamera(#[source] crate::camera::CameraError),
+    #[error("the nominal scenario's scene")]
+    NominalScene(#[source] crate::scene::SceneError),
+    #[error("the nominal scenario's mechanism")]
+    NominalMechanism(#[source] crate::mechanism::MechanismError),
+    #[error("aligning the nominal's motion to the measured angle")]
+    AlignMotion(#[source] crate::diagnose::align::AlignError),
+    #[error(
+        "the marker centre does not move along a measurable arc; a diagnosis needs footage where \
+         the wheel turns"
+    )]
+    NoArc(#[source] crate::estimate::EstimateError),
+    #[error(
+        "the aligned nominal is not a valid scenario: {}",
+        crate::validation::bullet_list(problems)
+    )]
+    AlignedInvalid {
+        problems: Vec<crate::validation::Problem>,
+    },
+    #[error("the estimator on the camera's view of the exact motion")]
+    ExactView(#[source] crate::estimate::EstimateError),
+    #[error("simulating the nominal: its rig")]
+    SimulateRig(#[source] Box<crate::pipeline::rig::RigError>),
+    #[error("simulating the nominal: rendering and detecting its frames")]
+    SimulateFrames(#[source] Box<crate::pipeline::frames::FramesError>),
+    #[error("estimating the simulated measurement")]
+    SimulateEstimate(#[source] crate::estimate::EstimateError),
+    #[error("the self-check's base scenario")]
+    SuiteBase(#[source] Box<crate::scenario::ScenarioError>),
+    #[error("phone timing log {}", path.display())]
+    PhoneLog {
+        path: PathBuf,
+        #[source]
+        source: crate::io::timing_log::TimingLogError,
+    },
+    #[error("self-check case {case}: rendering its footage")]
+    CaseRender {
+        case: String,
+        #[source]
+        source: Box<crate::pipeline::render_job::RenderJobError>,
+    },
+    #[error("self-check case {case}: writing its footage")]
+    CaseFile {
+        case: String,
+        #[source]
+        source: crate::errors::FileError,
+    },
+    #[error("self-check case {case}: writing a frame")]
+    CasePng {
+        case: String,
+        #[source]
+        source: crate::io::png_out::PngError,
+    },
     #[error("{file}: {message}")]
     Output { file: PathBuf, message: String },
     #[error(transparent)]
@@ -272,8 +322,7 @@ pub fn diagnose_with(
             seeds: options.seeds,
         });
     }
-    let layout = image::marker_layout(nominal)
-        .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
+    let layout = image::marker_layout(nominal).map_err(DiagnoseError::NominalLayout)?;
     real::check_source(nominal, source)?;
     // A shard keeps no report: its real measurement goes to a scratch folder, never committed.
     let staging_dir = match mode {

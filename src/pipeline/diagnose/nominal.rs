@@ -67,9 +67,8 @@ fn circular_median(v: &[f64]) -> f64 {
 }
 
 fn scene_of(s: &Scenario) -> Result<Scene, DiagnoseError> {
-    let camera =
-        Camera::new(&s.camera).map_err(|e| DiagnoseError::Nominal(format!("camera: {e}")))?;
-    Scene::new(&s.scene, camera).map_err(|e| DiagnoseError::Nominal(format!("scene: {e}")))
+    let camera = Camera::new(&s.camera).map_err(DiagnoseError::NominalCamera)?;
+    Scene::new(&s.scene, camera).map_err(DiagnoseError::NominalScene)
 }
 
 /// +1 when θ2 grows counter-clockwise on screen for this scene.
@@ -127,8 +126,8 @@ pub fn align(
         .filter(|(_, th)| th.is_finite())
         .map(|(t, th)| (*t, *th))
         .unzip();
-    let mut motion = align_motion(nominal, &t_det, &th_det, sign)
-        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
+    let mut motion =
+        align_motion(nominal, &t_det, &th_det, sign).map_err(DiagnoseError::AlignMotion)?;
     let mut s = apply_motion(nominal, &motion);
     // A nominal that states a tilted camera or a distorting lens: its angle warp is not a speed.
     let (realigned, refit) = super::camera_warp::realign_motion(&s, &t_det, &th_det, sign)?;
@@ -147,10 +146,9 @@ pub fn align(
     refine_by_simulation(&mut s, &mut geometry, record, est, layout)?;
     let problems = s.validate();
     if !problems.is_empty() {
-        return Err(DiagnoseError::Alignment(format!(
-            "the aligned nominal is not a valid scenario: {}",
-            crate::validation::bullet_list(&problems.0)
-        )));
+        return Err(DiagnoseError::AlignedInvalid {
+            problems: problems.0,
+        });
     }
     let reference = ReferenceTable::new(
         &s,
@@ -270,12 +268,7 @@ fn align_geometry(
         RotationCentreMethod::Geometric,
         2.0,
     )
-    .map_err(|e| {
-        DiagnoseError::Alignment(format!(
-            "the marker centre does not move along a measurable arc ({e}); a diagnosis needs \
-                 footage where the wheel turns"
-        ))
-    })?;
+    .map_err(DiagnoseError::NoArc)?;
     let c = rc.centre_px;
     let r_real = rc.radii_px.first().copied().unwrap_or(0.0);
     let mut sides: Vec<f64> = shapes.iter().map(|(_, sh, _)| sh.side_px).collect();
@@ -286,7 +279,7 @@ fn align_geometry(
     let mut dyn_off = s.dynamics.clone();
     dyn_off.enabled = false;
     let mech = Mechanism::new(&s.mechanism, &s.drive_speed, &dyn_off, s.duration_s + 1.0)
-        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
+        .map_err(DiagnoseError::NominalMechanism)?;
     let theta2: Vec<f64> = shapes
         .iter()
         .map(|(k, _, _)| mech.ideal(record.frames[*k].t_s).theta2_rad)
@@ -424,7 +417,7 @@ impl ReferenceTable {
             &aligned.dynamics,
             t1 + 0.1,
         )
-        .map_err(|e| DiagnoseError::Alignment(crate::errors::full(&e)))?;
+        .map_err(DiagnoseError::NominalMechanism)?;
         let n = ((t1 - t0_s) / step_s).ceil() as usize + 1;
         let samples: Vec<_> = (0..n)
             .map(|k| mech.actual(t0_s + k as f64 * step_s))

@@ -23,6 +23,7 @@
 
 use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
 use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate};
+use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
 use crate::scenario::effects::Effect;
@@ -259,9 +260,10 @@ pub fn phone_logs(repo: &Path) -> Result<Vec<PhoneLog>, DiagnoseError> {
     paths
         .into_iter()
         .map(|path| {
-            let timestamps = crate::io::timing_log::read_timing_log(&path, None).map_err(|e| {
-                DiagnoseError::Simulation(format!("phone log {}: {e}", path.display()))
-            })?;
+            let timestamps = match crate::io::timing_log::read_timing_log(&path, None) {
+                Ok(t) => t,
+                Err(source) => return Err(DiagnoseError::PhoneLog { path, source }),
+            };
             Ok(PhoneLog { path, timestamps })
         })
         .collect()
@@ -437,7 +439,10 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
 /// Renders `case`'s footage into `dir` (PNG frames + `timestamps.csv`) and applies its
 /// post-processing.
 pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
-    let sim = |e: &dyn std::fmt::Display| DiagnoseError::Simulation(format!("{}: {e}", case.name));
+    let file = |source: crate::errors::FileError| DiagnoseError::CaseFile {
+        case: case.name.clone(),
+        source,
+    };
     let job = RenderJob {
         frames: None,
         roi_margin_px: None,
@@ -445,9 +450,12 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
         png: true,
         renderer: case.renderer,
     };
-    render_job(&case.data, dir, &job, &|_, _| {}).map_err(|e| sim(&e))?;
+    render_job(&case.data, dir, &job, &|_, _| {}).map_err(|e| DiagnoseError::CaseRender {
+        case: case.name.clone(),
+        source: Box::new(e),
+    })?;
     let stamps = dir.join("timestamps.csv");
-    let text = std::fs::read_to_string(&stamps).map_err(|e| sim(&e))?;
+    let text = std::fs::read_to_string(&stamps).map_err(|e| file(FileError::io(&stamps)(e)))?;
     let times: Vec<f64> = text
         .lines()
         .skip(1)
@@ -460,7 +468,7 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
             for k in 0..times.len() {
                 out.push_str(&format!("{k},{}\n", k as f64 / fps_hz));
             }
-            std::fs::write(&stamps, out).map_err(|e| sim(&e))?;
+            std::fs::write(&stamps, out).map_err(|e| file(FileError::io(&stamps)(e)))?;
         }
         PostProcess::Flicker {
             amplitude_frac,
@@ -468,7 +476,7 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
         } => {
             for (k, t) in times.iter().enumerate() {
                 let path = dir.join(crate::pipeline::render_job::frame_file_name(k));
-                let mut img = crate::io::images::read_gray(&path).map_err(|e| sim(&e))?;
+                let mut img = crate::io::images::read_gray(&path)?;
                 let gain = 1.0 + amplitude_frac * (2.0 * std::f64::consts::PI * beat_hz * t).sin();
                 for v in img.data.iter_mut() {
                     *v = (*v as f64 * gain).round().clamp(0.0, 255.0) as u8;
@@ -479,7 +487,10 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
                     img.height as u32,
                     &img.data,
                 )
-                .map_err(|e| sim(&e))?;
+                .map_err(|source| DiagnoseError::CasePng {
+                    case: case.name.clone(),
+                    source,
+                })?;
             }
         }
     }
@@ -843,8 +854,8 @@ pub fn write_summary(
 /// The rig every self-check case starts from: the built-in `fast` rig (1280×720, 30 fps,
 /// 4-slot internal drive, optical blur, pixel noise and lighting on) filmed for `duration_s`.
 pub fn suite_base(duration_s: f64) -> Result<Scenario, DiagnoseError> {
-    let mut s = crate::scenario::load_any("fast")
-        .map_err(|e| DiagnoseError::Nominal(crate::errors::full(&e)))?;
+    let mut s =
+        crate::scenario::load_any("fast").map_err(|e| DiagnoseError::SuiteBase(Box::new(e)))?;
     s.name = "selfcheck-base".into();
     s.duration_s = duration_s;
     Ok(s)

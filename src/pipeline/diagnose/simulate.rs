@@ -73,7 +73,7 @@ pub fn simulate_record(
     layout: &MarkerLayout,
     with_images: bool,
 ) -> Result<Record, DiagnoseError> {
-    let rig = Rig::new(scenario).map_err(|e| DiagnoseError::Simulation(crate::errors::full(&e)))?;
+    let rig = Rig::new(scenario).map_err(|e| DiagnoseError::SimulateRig(Box::new(e)))?;
     let n = rig.frame_times.len();
     let mut frames: Vec<FrameRecord> = Vec::with_capacity(n);
     detect_and_inspect_frames(
@@ -96,7 +96,7 @@ pub fn simulate_record(
         },
         &|_| {},
     )
-    .map_err(|e| DiagnoseError::Simulation(crate::errors::full(&e)))?;
+    .map_err(|e| DiagnoseError::SimulateFrames(Box::new(e)))?;
     Ok(Record {
         frames,
         has_images: with_images,
@@ -116,7 +116,7 @@ pub fn estimate_record(scenario: &Scenario, record: &Record) -> Result<Estimate,
         &record.corners(),
         with_reference.then_some(refs.as_slice()),
     )
-    .map_err(|e| DiagnoseError::Simulation(format!("estimation: {e}")))
+    .map_err(DiagnoseError::SimulateEstimate)
 }
 
 /// Track and image cells of a record measured with `scenario`'s estimator.
