@@ -6,16 +6,8 @@ use super::cells::CellKey;
 use super::gap::{excess, GapMap};
 use crate::scenario::effects::Effect;
 
-/// Channels an effect changes. Screening asks how much of the total gap lies in them.
-///
-/// A tilt or a lens distortion changes the marker's shape with its position on the image, and
-/// so with the angle and the velocity, which moves the readout implied by shape against
-/// velocity (`rs_fine`, `rs_readout`) too; but those cells stay out of their signatures. With
-/// them in, footage whose only gap was a rolling shutter's `rs_fine` (z = 12.8), rolling shutter
-/// excluded from the candidates, came out `explained` by a k1 = 0.11 lens (shrink 0.97) or a
-/// 0.4° tilt (0.93): a silent misattribution of a cause outside the candidates. Without them a
-/// (−22°, −28°) tilt that put 98.8 % of its gap in `rs_fine` is bounded out and the diagnosis
-/// says `unexplained` with rolling shutter as the best partial: a miss, stated as one.
+/// Channels an effect changes and its fit aims at (Σ z² over them is the fit objective).
+/// Screening also counts [`screening_only`] cells.
 pub fn signature(e: Effect) -> &'static [&'static str] {
     const KIN: &[&str] = &["theta", "omega", "alpha"];
     match e {
@@ -128,15 +120,40 @@ pub fn signature(e: Effect) -> &'static [&'static str] {
     }
 }
 
-/// Whether `key` belongs to `e`'s signature.
+/// Cells an effect moves but that its fit does not aim at: they count when screening (an
+/// effect whose gap lies there is fitted), not in the fit objective.
+///
+/// A tilt or a lens distortion changes the marker's shape with its position on the image, and
+/// so with the angle and the velocity, which moves the readout implied by shape against
+/// velocity (`rs_fine`, `rs_readout`). Out of screening, a (−22°, −28°) tilt that put 98.8 % of
+/// its gap in `rs_fine` was bounded out unfitted, and so were a (−8°, 15°) tilt and a k1 + k2
+/// lens (`unexplained`, rolling shutter or a k1 lens at its bound the best partial). In the fit
+/// objective, footage whose only gap was a rolling shutter's `rs_fine` (z = 12.8), rolling
+/// shutter excluded from the candidates, came out `explained` by a k1 = 0.11 lens bent to close
+/// that one cell: a silent misattribution. Fitted on the shape, side, radius and kinematic cells
+/// alone, a real tilt or lens closes `rs_fine` as a consequence, and a rolling shutter's
+/// `rs_fine` gives a lens nothing to fit.
+pub fn screening_only(e: Effect) -> &'static [&'static str] {
+    match e {
+        Effect::LensDistortion | Effect::PerspectiveTilt => &["rs_fine", "rs_readout"],
+        _ => &[],
+    }
+}
+
+/// Whether `key` belongs to `e`'s signature (the cells its fit aims at).
 pub fn in_signature(e: Effect, key: &CellKey) -> bool {
     let sig = signature(e);
     // The angle residual's spectral peak belongs to every effect that moves the angle.
     sig.contains(&key.channel) || (key.channel == "theta_peak" && sig.contains(&"theta"))
 }
 
-/// Share of the total gap that lies in `e`'s signature cells: an upper bound on the shrink the
-/// effect could reach. 0 when there is no gap.
+/// Whether `key` can hold `e`'s gap: its signature or its [`screening_only`] cells.
+pub fn in_screening(e: Effect, key: &CellKey) -> bool {
+    in_signature(e, key) || screening_only(e).contains(&key.channel)
+}
+
+/// Share of the total gap that lies in the cells `e` moves ([`in_screening`]): an upper bound
+/// on the shrink the effect could reach. 0 when there is no gap.
 pub fn screening_share(e: Effect, gap: &GapMap) -> f64 {
     if gap.total <= 0.0 {
         return 0.0;
@@ -144,15 +161,15 @@ pub fn screening_share(e: Effect, gap: &GapMap) -> f64 {
     let z0 = gap.options.dead_zone_z;
     gap.cells
         .iter()
-        .filter(|c| in_signature(e, &c.key))
+        .filter(|c| in_screening(e, &c.key))
         .map(|c| excess(c.z, z0))
         .sum::<f64>()
         / gap.total
 }
 
-/// Whether `e`'s signature holds a significant cell.
+/// Whether a cell `e` moves ([`in_screening`]) is significant.
 pub fn signature_significant(e: Effect, gap: &GapMap) -> bool {
-    gap.significant().any(|c| in_signature(e, &c.key))
+    gap.significant().any(|c| in_screening(e, &c.key))
 }
 
 /// Optical blur σ that moves a measured edge σ from `sim_px` (nominal optical σ
@@ -270,6 +287,14 @@ mod tests {
                     "{}: {c}",
                     e.name()
                 );
+            }
+            for c in screening_only(e) {
+                assert!(
+                    super::super::cells::channel(c).is_some(),
+                    "{}: {c}",
+                    e.name()
+                );
+                assert!(!signature(e).contains(c), "{}: {c} twice", e.name());
             }
         }
     }

@@ -6,6 +6,7 @@
 
 use super::camera_warp;
 use super::nominal::Aligned;
+use super::pose_tilt::PoseTilt;
 use super::simulate::{trial_cells, SimContext, TimingSource, Trial};
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
@@ -55,6 +56,8 @@ pub struct RealSide<'a> {
     pub theta_peak_hz: Option<f64>,
     /// The axis-runout form the marker-centre track shows ([`crate::diagnose::runout`]).
     pub runout_form: Option<RunoutForm>,
+    /// The camera tilt the real corners show ([`super::pose_tilt`]).
+    pub pose_tilt: Option<PoseTilt>,
 }
 
 /// Everything the fits need, and the nominal gap every candidate is judged against.
@@ -70,6 +73,8 @@ pub struct Fitter<'a> {
     /// The axis-runout form read off the real marker-centre track: the runout candidate takes
     /// its order and phase (the nominal's own when it states a runout).
     pub runout_form: Option<RunoutForm>,
+    /// The camera tilt read off the real corners: the tilt candidate's start.
+    pub pose_tilt: Option<PoseTilt>,
     /// The aligned nominal (`base`) on the evaluation seeds against the real data.
     pub nominal_gap: GapMap,
     pub base: Trial,
@@ -127,6 +132,7 @@ impl<'a> Fitter<'a> {
             real_theta_det: real.theta_det,
             real_theta_peak_hz: real.theta_peak_hz,
             runout_form: real.runout_form,
+            pose_tilt: real.pose_tilt,
             nominal_gap,
             base,
             fit_seeds,
@@ -147,6 +153,7 @@ impl<'a> Fitter<'a> {
             real_theta_det: self.real_theta_det,
             real_theta_peak_hz: self.real_theta_peak_hz,
             runout_form: self.runout_form,
+            pose_tilt: self.pose_tilt,
             nominal_gap: self.nominal_gap.clone(),
             base: self.base.clone(),
             fit_seeds: self.fit_seeds.clone(),
@@ -489,7 +496,13 @@ impl<'a> Fitter<'a> {
                 }
             }
             Effect::LensDistortion => v[0] = if e.is_on(s) { v[0] } else { 0.0 },
-            Effect::PerspectiveTilt if !e.is_on(s) => v = vec![0.0, 0.0],
+            Effect::PerspectiveTilt => {
+                if let Some(p) = self.pose_tilt {
+                    v = vec![p.tilt_x_deg, p.tilt_y_deg];
+                } else if !e.is_on(s) {
+                    v = vec![0.0, 0.0];
+                }
+            }
             Effect::Compression => v[0] = if e.is_on(s) { v[0] } else { 50.0 },
             _ => {}
         }
@@ -635,14 +648,26 @@ impl<'a> Fitter<'a> {
                         stds[1] = 0.05;
                     }
                 }
+                // The tilt's two angles interact (either turns the marker's keystone): a second
+                // round refits each at the other's fitted value.
                 let searched: Vec<usize> = match e {
-                    Effect::PixelNoise | Effect::PerspectiveTilt => vec![0, 1],
+                    Effect::PerspectiveTilt => vec![0, 1, 0, 1],
+                    Effect::PixelNoise => vec![0, 1],
                     _ => vec![0],
                 };
+                let pose_start = (e == Effect::PerspectiveTilt)
+                    .then_some(self.pose_tilt)
+                    .flatten();
                 for &i in &searched {
                     let spec = specs[i];
                     let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
                     o.max_evaluations = 9;
+                    if let Some(p) = pose_start {
+                        // Started at the corners' tilt: step by its uncertainty, not by a
+                        // sixth of the range (which could cross into the mirror minimum).
+                        let u95 = if i == 0 { p.u95_x_deg } else { p.u95_y_deg };
+                        o.step_u = u95.clamp(0.5, 4.0);
+                    }
                     let base = values.clone();
                     let r = minimise(
                         |x| {
@@ -664,6 +689,13 @@ impl<'a> Fitter<'a> {
                     e.name(),
                     self.fit_seeds.len()
                 );
+                if let Some(p) = pose_start {
+                    method.push_str(&format!(
+                        "; started at the tilt the marker corners show through the nominal \
+                         camera (pose fit: {:.2}° ± {:.2}°, {:.2}° ± {:.2}°), two rounds",
+                        p.tilt_x_deg, p.u95_x_deg, p.tilt_y_deg, p.u95_y_deg
+                    ));
+                }
                 if let (Effect::AxisRunout, Some(f)) = (e, self.fitted_runout_form()) {
                     method.push_str(&format!(
                         "; form from the marker-centre track: {} cycles per wheel revolution, \

@@ -22,6 +22,7 @@ pub mod camera_warp;
 pub mod fit;
 pub mod image;
 pub mod nominal;
+pub mod pose_tilt;
 pub mod real;
 pub mod report;
 pub mod selfcheck;
@@ -395,6 +396,7 @@ pub fn diagnose_with(
         &nominal::runout_samples(&aligned, &real.record, real_time_shift_s)?,
         &crate::diagnose::runout::CYCLES_TRIED,
     );
+    let pose_tilt = pose_tilt::pose_tilt(&aligned.scenario, &real.record);
     let primary = &real.estimate.primary_series().theta_rad;
     let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
         .iter()
@@ -419,6 +421,7 @@ pub fn diagnose_with(
             theta_det: (&t_det, &th_det),
             theta_peak_hz,
             runout_form,
+            pose_tilt,
         },
         base,
         fit_seeds.clone(),
