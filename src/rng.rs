@@ -19,6 +19,8 @@ pub enum Stream {
     Fuzz = 8,
     /// Pixel noise of the independent renderer (`render::independent`).
     IndependentRender = 9,
+    /// Sub-pixel placement of the scene per seed of a decomposition (`pipeline::decompose`).
+    DecomposePlacement = 10,
 }
 
 /// SplitMix64 finaliser: decorrelates nearby (seed, stream, index) triples.

@@ -1,6 +1,6 @@
 //! `geneva reports`: the committed reports under `reports/` — a quick Monte Carlo of `fast`
 //! (the reproducibility check), the seed study redone for the internal and external rigs with
-//! the phone's real frame timing, a per-source decomposition at 4K and 1080p, the seed-camera
+//! the phone's real frame timing, a per-source decomposition at 4K, 1080p and 720p, the seed-camera
 //! sweep (the seed's design question), the dynamics report and the `geneva calibrate` round
 //! trip (`calibration/`). Every number in the
 //! markdown is formatted from computed results.
@@ -723,11 +723,13 @@ fn seed_markdown(rig: SeedRig, base: &Scenario, r: &SeedReport, out_dir: &Path) 
 
 /// The decomposition cases of the report: (folder, resolution label, width, height, image
 /// scale mm/px, better settings).
-pub const DECOMPOSITION_CASES: [(&str, &str, i64, i64, f64, bool); 4] = [
+pub const DECOMPOSITION_CASES: [(&str, &str, i64, i64, f64, bool); 6] = [
     ("4k-seed-settings", "4K", 3840, 2160, 0.195, false),
     ("4k-better-settings", "4K", 3840, 2160, 0.195, true),
     ("1080p-seed-settings", "1080p", 1920, 1080, 0.39, false),
     ("1080p-better-settings", "1080p", 1920, 1080, 0.39, true),
+    ("720p-seed-settings", "720p", 1280, 720, 0.585, false),
+    ("720p-better-settings", "720p", 1280, 720, 0.585, true),
 ];
 
 /// The internal seed rig of the decomposition report (4 s: one index cycle) at a resolution,
@@ -758,7 +760,7 @@ pub fn decomposition_scenario(
 }
 
 /// The seed rule of the report's decompositions: the default target (5 percentage points) with
-/// a cap of 16 seeds instead of 64, so that the four cases regenerate in minutes; a case that
+/// a cap of 16 seeds instead of 64, so that the six cases regenerate in minutes; a case that
 /// needs more says so (stopped at the cap) and `geneva decompose` goes further.
 pub const REPORT_SEED_RULE: SeedRule = SeedRule {
     initial: 4,
@@ -766,14 +768,14 @@ pub const REPORT_SEED_RULE: SeedRule = SeedRule {
     target_half_width: 0.05,
 };
 
-/// Per-source decomposition of the internal seed rig at 4K and 1080p, seed and better settings,
+/// Per-source decomposition of the internal seed rig at 4K, 1080p and 720p, seed and better settings,
 /// seeds chosen by `rule`.
 pub fn decomposition_report(out_dir: &Path, rule: SeedRule) -> Result<Vec<PathBuf>, ReportsError> {
     let mut files = Vec::new();
     let mut md = String::from(
         "# Per-source error decomposition\n\nWhich effect costs how much of the error of the \
          internal seed rig: phone timing, 4.0 s (one index cycle), at 4K (0.195 mm/px, the seed's \
-         camera) and 1080p (0.39 mm/px), with the seed's settings (no corner refinement, mean of \
+         camera), 1080p (0.39 mm/px) and 720p (0.585 mm/px), the same field of view, with the seed's settings (no corner refinement, mean of \
          the corners, truncated bisector centre, `numpy.gradient`) and with better settings \
          (the seed reports' better settings: sub-pixel corners and the toolkit's default \
          estimator). Each row is a part of the fused signal's mean square error; \
