@@ -392,11 +392,20 @@ pub fn diagnose_with(
         crate::diagnose::cells::residual_peak(&t_all, &residual, nyquist_hz).map(|p| p.frequency_hz)
     };
 
-    let runout_form = crate::diagnose::runout::fit_runout_form(
-        &nominal::runout_samples(&aligned, &real.record, real_time_shift_s)?,
-        &crate::diagnose::runout::CYCLES_TRIED,
-    );
-    let pose_tilt = pose_tilt::pose_tilt(&aligned.scenario, &real.record);
+    // What the runout and tilt candidates start from, read off the real track: only when they
+    // are candidates (each costs a fit over every detected frame).
+    let is_candidate = |e: Effect| options.effects.as_ref().is_none_or(|c| c.contains(&e));
+    let runout_form = if is_candidate(Effect::AxisRunout) {
+        crate::diagnose::runout::fit_runout_form(
+            &nominal::runout_samples(&aligned, &real.record, real_time_shift_s)?,
+            &crate::diagnose::runout::CYCLES_TRIED,
+        )
+    } else {
+        None
+    };
+    let pose_tilt = is_candidate(Effect::PerspectiveTilt)
+        .then(|| pose_tilt::pose_tilt(&aligned.scenario, &real.record))
+        .flatten();
     let primary = &real.estimate.primary_series().theta_rad;
     let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
         .iter()
