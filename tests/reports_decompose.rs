@@ -6,7 +6,9 @@
 
 #![cfg(feature = "opencv-detector")]
 
-use geneva_vision::budget::decompose::{SeedRule, StopReason, INTERACTION, QUANTISATION};
+use geneva_vision::budget::decompose::{
+    SeedRule, StopReason, ESTIMATOR, INTERACTION, QUANTISATION,
+};
 use geneva_vision::pipeline::decompose::{decompose_effects, write_outputs, DecomposeOptions};
 use geneva_vision::scenario::{load_any, with_overrides};
 use std::path::Path;
@@ -87,7 +89,7 @@ fn a_large_single_effect_dominates_with_a_separated_interval() {
         for r in dec
             .rows
             .iter()
-            .filter(|r| r.name != QUANTISATION && r.name != INTERACTION)
+            .filter(|r| ![QUANTISATION, ESTIMATOR, INTERACTION].contains(&r.name.as_str()))
         {
             if r.variance.ci95_high < 0.0 {
                 assert!(
@@ -107,6 +109,27 @@ fn a_large_single_effect_dominates_with_a_separated_interval() {
             "{symbol}: quantisation {:?}",
             q.variance
         );
+        // The estimator's own error on exact corners is a row of its own, measured (positive)
+        // and smaller than the error the detected corners give with every effect off.
+        let e = dec.row(ESTIMATOR).unwrap();
+        assert!(
+            e.variance.ci95_low > 0.0,
+            "{symbol}: estimator {:?}",
+            e.variance
+        );
+        assert!(
+            e.variance.mean < dec.none.mean,
+            "{symbol}: estimator {:?} vs none {:?}",
+            e.variance,
+            dec.none
+        );
+        // The rows add up to the whole, recomputed from the per-seed runs.
+        let sum: f64 = dec.rows.iter().map(|r| r.variance.mean).sum();
+        assert!(
+            (sum - dec.all.mean).abs() <= 1e-9 * dec.all.mean,
+            "{symbol}: rows {sum} vs V(all) {}",
+            dec.all.mean
+        );
         if d.stop == StopReason::Settled {
             assert!(dec.widest_share_half_width() < 0.05);
         }
@@ -116,6 +139,7 @@ fn a_large_single_effect_dominates_with_a_separated_interval() {
     assert_eq!(files.len(), 5);
     let md = std::fs::read_to_string(dir.path().join("decomposition.md")).unwrap();
     assert!(md.contains("| pixel_noise |") && md.contains("| corner quantisation |"));
+    assert!(md.contains("| estimator on exact corners |"), "{md}");
     if !lowering.is_empty() {
         assert!(md.contains("lowers the error"), "{lowering:?}\n{md}");
     }

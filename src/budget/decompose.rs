@@ -23,6 +23,11 @@ use serde::{Deserialize, Serialize};
 pub struct PairedRuns {
     pub none: Vec<f64>,
     pub all: Vec<f64>,
+    /// The `none` configuration with the scene's exact corners in place of the detector's:
+    /// the estimator's own error. When present, V(none) is split into this and the corners'
+    /// quantisation V(none) − V(exact).
+    #[serde(default)]
+    pub exact: Option<Vec<f64>>,
     /// (source name, per-seed value with only this source on)
     pub alone: Vec<(String, Vec<f64>)>,
     /// (source name, per-seed value with every source but this one)
@@ -63,8 +68,12 @@ pub struct Decomposition {
     pub rows: Vec<Row>,
 }
 
-/// Name of the row that holds V(none).
+/// Name of the row that holds V(none), or V(none) − V(exact) when the exact-corner run exists:
+/// what detecting the corners on the pixel grid adds to the estimator's own error.
 pub const QUANTISATION: &str = "corner quantisation";
+/// Name of the row that holds V(exact): the estimator's and differentiator's error on the
+/// scene's exact corners, against the same truth (no pixels involved).
+pub const ESTIMATOR: &str = "estimator on exact corners";
 /// Name of the row that holds what the alone contributions leave over.
 pub const INTERACTION: &str = "interaction";
 
@@ -150,6 +159,9 @@ pub fn decompose(runs: &PairedRuns) -> Result<Decomposition, DecomposeError> {
     }
     let mut configs: Vec<(String, &Vec<f64>)> =
         vec![("none".into(), &runs.none), ("all".into(), &runs.all)];
+    if let Some(exact) = &runs.exact {
+        configs.push(("exact corners".into(), exact));
+    }
     for (name, v) in &runs.alone {
         configs.push((format!("{name} alone"), v));
     }
@@ -169,12 +181,25 @@ pub fn decompose(runs: &PairedRuns) -> Result<Decomposition, DecomposeError> {
         }
     }
     let all = &runs.all;
-    let mut rows = vec![Row {
+    let mut rows = Vec::new();
+    let quantisation = match &runs.exact {
+        Some(exact) => {
+            rows.push(Row {
+                name: ESTIMATOR.into(),
+                variance: MeanCi::of(exact),
+                left_out: None,
+                share: ratio_ci(exact, all),
+            });
+            diff(&runs.none, exact)
+        }
+        None => runs.none.clone(),
+    };
+    rows.push(Row {
         name: QUANTISATION.into(),
-        variance: MeanCi::of(&runs.none),
+        variance: MeanCi::of(&quantisation),
         left_out: None,
-        share: ratio_ci(&runs.none, all),
-    }];
+        share: ratio_ci(&quantisation, all),
+    });
     let mut rest = diff(all, &runs.none);
     for (name, v_alone) in &runs.alone {
         let v_out = runs
@@ -293,6 +318,7 @@ mod tests {
         let mut runs = PairedRuns {
             none: vec![],
             all: vec![],
+            exact: None,
             alone: vec![("a".into(), vec![]), ("b".into(), vec![])],
             left_out: vec![("a".into(), vec![]), ("b".into(), vec![])],
         };
@@ -333,6 +359,7 @@ mod tests {
         let runs = PairedRuns {
             none: vec![1.0; 3],
             all: vec![4.0, 5.0, 6.0],
+            exact: None,
             alone: vec![
                 ("a".into(), vec![2.0, 2.0, 3.0]),
                 ("b".into(), vec![2.0, 3.0, 3.0]),
@@ -411,6 +438,38 @@ mod tests {
             let frac = *c as f64 / reps as f64;
             assert!((frac - 0.95).abs() < 0.022, "row {k}: coverage {frac}");
         }
+    }
+
+    /// With the exact-corner run, V(none) splits into the estimator's own error V(exact) and
+    /// the quantisation V(none) − V(exact), per seed: the rows still add up to V(all) seed by
+    /// seed, and an estimator error that differs from seed to seed by less than the
+    /// quantisation is still told apart from it.
+    #[test]
+    fn the_exact_corner_run_splits_the_estimator_from_the_quantisation() {
+        let mut runs = simulate(&mut stream(3), 10, 1.0, [1.0, 2.0], 0.1, 0.0);
+        let normal = Normal::new(0.0, 0.05).unwrap();
+        let mut rng = stream(4);
+        // Seed i: estimator 0.7 + ε_i, quantisation the rest of V(none) = 1.
+        let exact: Vec<f64> = (0..10).map(|_| 0.7 + normal.sample(&mut rng)).collect();
+        runs.exact = Some(exact.clone());
+        let d = decompose(&runs).unwrap();
+        assert_eq!(d.rows[0].name, ESTIMATOR);
+        assert_eq!(d.rows[1].name, QUANTISATION);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let total: f64 = d.rows.iter().map(|r| r.variance.mean).sum();
+        assert!((total - mean(&runs.all)).abs() < 1e-12, "{total}");
+        let e = &d.rows[0];
+        let q = &d.rows[1];
+        assert!((e.variance.mean - mean(&exact)).abs() < 1e-12);
+        assert!((q.variance.mean - (1.0 - mean(&exact))).abs() < 1e-12);
+        assert!(e.share.ci95_low > q.share.ci95_high, "{e:?} {q:?}");
+        assert!(d.configurations.iter().any(|(n, _)| n == "exact corners"));
+        // A run of another length is refused like any unpaired configuration.
+        runs.exact.as_mut().unwrap().pop();
+        assert!(matches!(
+            decompose(&runs).unwrap_err(),
+            DecomposeError::Unbalanced { .. }
+        ));
     }
 
     #[test]

@@ -100,8 +100,8 @@ enum Command {
     /// per_seed.csv, error histograms, and the first seed's full run in seed0/ (resumable,
     /// shardable: --shard I/N, then `montecarlo merge DIR`).
     Montecarlo(budget_cmd::MonteCarloArgs),
-    /// Per-source decomposition of the omega2 and alpha2 mean square error (corner quantisation,
-    /// each effect alone and left out, interaction) with paired 95 % CIs; seeds are added until
+    /// Per-source decomposition of the omega2 and alpha2 mean square error (the estimator on
+    /// exact corners, corner quantisation, each effect alone and left out, interaction) with paired 95 % CIs; seeds are added until
     /// every share's CI is narrow enough or a cap is hit.
     Decompose(budget_cmd::DecomposeArgs),
     /// Regenerate the reports (fast, seed-internal-4k, seed-external-4k, decomposition, seed-camera, dynamics, defaults) deterministically.

@@ -11,10 +11,10 @@
 //! headline ([`error_variances`]), so the part of the rattle no camera can follow is not charged
 //! to a detection source.
 
-use super::run::{run, RunError, RunOptions};
+use super::run::{run, CornerSource, RunError, RunOptions};
 use crate::budget::decompose::{
     decompose, next_seeds, DecomposeError, Decomposition, PairedRuns, SeedRule, StopReason,
-    INTERACTION, QUANTISATION,
+    ESTIMATOR, INTERACTION, QUANTISATION,
 };
 use crate::budget::report::Budget;
 use crate::budget::MeanCi;
@@ -65,12 +65,17 @@ pub fn error_variances(b: &Budget) -> [f64; 2] {
     [b.omega.rms * b.omega.rms, b.alpha.rms * b.alpha.rms]
 }
 
-/// One configuration: a name (`none`, `all`, `X alone`, `X left out`) and its scenario.
+/// One configuration: a name (`none`, `all`, `X alone`, `X left out`, `exact corners`), its
+/// scenario and where its corners come from.
 #[derive(Debug, Clone)]
 pub struct Configuration {
     pub name: String,
     pub scenario: Scenario,
+    pub corners: CornerSource,
 }
+
+/// Name of the configuration that runs the estimator on the `none` scenario's exact corners.
+pub const EXACT_CORNERS: &str = "exact corners";
 
 /// The configurations of a decomposition of `base`.
 #[derive(Debug, Clone)]
@@ -81,7 +86,9 @@ pub struct Plan {
     pub motion: Vec<Effect>,
     /// Effects off in `base`.
     pub off: Vec<Effect>,
-    /// `none`, `all`, then per source `alone` and `left out`.
+    /// `none`, `all`, then per source `alone` and `left out`, then `exact corners` (the
+    /// `none` scenario with the detector replaced by the scene's exact corners: what is left is
+    /// the estimator's own error, and V(none) − V(exact corners) is the corners' quantisation).
     pub configurations: Vec<Configuration>,
     /// For each configuration, the first configuration with the same scenario (run once).
     pub same_as: Vec<usize>,
@@ -129,10 +136,12 @@ impl Plan {
             Configuration {
                 name: "none".into(),
                 scenario: none.clone(),
+                corners: CornerSource::Detected,
             },
             Configuration {
                 name: "all".into(),
                 scenario: base.clone(),
+                corners: CornerSource::Detected,
             },
         ];
         for group in &sources {
@@ -144,15 +153,25 @@ impl Plan {
             configurations.push(Configuration {
                 name: format!("{name} alone"),
                 scenario: alone,
+                corners: CornerSource::Detected,
             });
             configurations.push(Configuration {
                 name: format!("{name} left out"),
                 scenario: out,
+                corners: CornerSource::Detected,
             });
         }
+        configurations.push(Configuration {
+            name: EXACT_CORNERS.into(),
+            scenario: none,
+            corners: CornerSource::Exact,
+        });
         let text: Vec<String> = configurations
             .iter()
-            .map(|c| serde_json::to_string(&c.scenario).unwrap_or_default())
+            .map(|c| {
+                let scenario = serde_json::to_string(&c.scenario).unwrap_or_default();
+                format!("{:?} {scenario}", c.corners)
+            })
             .collect();
         let same_as = (0..text.len())
             .map(|i| text.iter().position(|t| *t == text[i]).unwrap_or(i))
@@ -224,6 +243,11 @@ fn paired(plan: &Plan, per_seed: &[Vec<[f64; 2]>], q: usize) -> PairedRuns {
     let mut runs = PairedRuns {
         none: series(0),
         all: series(1),
+        exact: plan
+            .configurations
+            .iter()
+            .position(|c| c.corners == CornerSource::Exact)
+            .map(series),
         alone: vec![],
         left_out: vec![],
     };
@@ -342,6 +366,7 @@ fn run_one(c: &Configuration, k: usize, roi: bool) -> Result<[f64; 2], Decomposi
         roi,
         plots: false,
         write_files: false,
+        corners: c.corners,
         ..RunOptions::default()
     };
     let out =
@@ -376,7 +401,9 @@ fn table(d: &Decomposition, symbol: &str, unit: &str) -> String {
         if r.share_indistinguishable_from_zero() {
             note.push("not distinguishable from 0".to_string());
         }
-        if r.name != QUANTISATION && r.name != INTERACTION && r.variance.ci95_high < 0.0 {
+        if ![QUANTISATION, ESTIMATOR, INTERACTION].contains(&r.name.as_str())
+            && r.variance.ci95_high < 0.0
+        {
             note.push(
                 "lowers the error (it smooths or dithers the corners' pixel quantisation)".into(),
             );
@@ -402,7 +429,10 @@ pub fn markdown_table(d: &DecompositionOutput) -> String {
     let mut s = String::new();
     s.push_str(&format!(
         "Mean square error (MSE) of the fused ω2 and α2 signals against {}, split into rows that \
-         add up to the whole: corner quantisation (every optional effect off), each source's \
+         add up to the whole: the estimator on exact corners (every optional effect off and the \
+         detector replaced by the scene's exact corners: the estimator's and differentiator's own \
+         error, no pixels), corner quantisation (every optional effect off, detected on the \
+         rendered pixels, minus the row before: what the pixel grid adds), each source's \
          contribution alone (V(alone) − V(none), paired by seed), and the interaction (what the \
          alone contributions leave over). Every configuration ran the same {} seed(s) ({}), with \
          common random numbers and a sub-pixel placement of the scene drawn per seed (corner \
@@ -590,10 +620,12 @@ mod tests {
         }
         let plan = Plan::new(&base);
         assert_eq!(plan.sources.len(), 2);
-        assert_eq!(plan.configurations.len(), 6);
+        assert_eq!(plan.configurations.len(), 7);
         assert_eq!(plan.same_as[5], 2);
         assert_eq!(plan.same_as[4], 3);
-        assert_eq!(plan.distinct(), vec![0, 1, 2, 3]);
+        // `exact corners` has the `none` scenario but other corners: it runs on its own.
+        assert_eq!(plan.configurations[6].name, EXACT_CORNERS);
+        assert_eq!(plan.distinct(), vec![0, 1, 2, 3, 6]);
     }
 
     #[test]

@@ -25,6 +25,8 @@ pub enum FramePath {
     FullFrame,
     /// The window was tried, then the whole frame (marker not found in the window).
     RoiThenFullFrame,
+    /// No image: the scene's exact corners ([`crate::pipeline::run::CornerSource::Exact`]).
+    Exact,
 }
 
 /// Detection result of one frame.

@@ -28,14 +28,25 @@ pub enum RunError {
     },
     #[error(transparent)]
     Frames(#[from] super::frames::FramesError),
-    #[error("estimation: {0} (the tracks are in {1})")]
-    Estimate(crate::estimate::EstimateError, PathBuf),
+    // No path to the tracks: a failed run's staging folder, where they were, is removed.
+    #[error("estimation: {0}")]
+    Estimate(crate::estimate::EstimateError),
     #[error(transparent)]
     Csv(#[from] crate::io::csv_out::CsvError),
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
-    #[error("{file}: {message}")]
-    Json { file: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] crate::errors::FileError),
+    #[error(
+        "the scenario's {frames} frame(s) cover {arc_deg:.3}° of the wheel's rotation: the \
+         rotation-centre fit needs at least 3 frames and {min_arc_deg}° \
+         (estimator.min_arc_deg); a longer duration_s, a higher frame rate or a faster drive"
+    )]
+    NotMeasurable {
+        frames: usize,
+        arc_deg: f64,
+        min_arc_deg: f64,
+    },
 }
 
 /// Options of a run.
@@ -47,6 +58,22 @@ pub struct RunOptions {
     /// Write tracks/kinematics/budget files (false: compute only).
     pub write_files: bool,
     pub chunk_frames: usize,
+    /// Where the corners come from: detection on the rendered frames (what `geneva run` does),
+    /// or the scene's exact corners with no image at all (the decomposition's estimator-only
+    /// configuration).
+    pub corners: CornerSource,
+}
+
+/// Where a run's corners come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CornerSource {
+    /// The detector on the rendered frames.
+    Detected,
+    /// The exact projection of the marker's outer corners at each frame's render time, with
+    /// nothing rendered: what the estimator makes of perfect corners. Only meaningful with every
+    /// image effect off (a blurred, shuttered or noisy picture has no single exact corner); the
+    /// decomposition uses it on its `none` configuration.
+    Exact,
 }
 
 impl Default for RunOptions {
@@ -56,6 +83,7 @@ impl Default for RunOptions {
             plots: true,
             write_files: true,
             chunk_frames: 32,
+            corners: CornerSource::Detected,
         }
     }
 }
@@ -101,6 +129,7 @@ pub fn run(
 ) -> Result<RunOutput, RunError> {
     let started = Instant::now();
     let rig = Rig::new(scenario)?;
+    measurable(&rig)?;
     if options.write_files {
         std::fs::create_dir_all(out_dir).map_err(|source| RunError::OutDir {
             dir: out_dir.into(),
@@ -122,33 +151,88 @@ pub fn run(
         chunk_frames: options.chunk_frames,
     };
     let marker_id = scenario.detector.marker_id;
-    detect_frames(
-        &rig,
-        0..n,
-        loop_options,
-        |chunk| {
-            if let Some(w) = writer.as_mut() {
-                for d in chunk {
-                    w.row(&TrackRow {
-                        frame: d.frame,
-                        t_s: d.t_s,
-                        marker_id,
-                        corners_px: d.corners_px,
-                        reference_px: d.reference_px,
-                    })?;
-                }
+    let mut take = |chunk: &[FrameDetection]| -> Result<(), crate::io::csv_out::CsvError> {
+        if let Some(w) = writer.as_mut() {
+            for d in chunk {
+                w.row(&TrackRow {
+                    frame: d.frame,
+                    t_s: d.t_s,
+                    marker_id,
+                    corners_px: d.corners_px,
+                    reference_px: d.reference_px,
+                })?;
             }
-            detections.extend_from_slice(chunk);
-            Ok(())
-        },
-        &|done| progress(done, n),
-    )?;
+        }
+        detections.extend_from_slice(chunk);
+        Ok(())
+    };
+    match options.corners {
+        CornerSource::Detected => {
+            detect_frames(&rig, 0..n, loop_options, take, &|done| progress(done, n))?
+        }
+        CornerSource::Exact => {
+            let exact = exact_detections(&rig, with_reference);
+            take(&exact)?;
+            progress(n, n);
+        }
+    }
     if let Some(w) = writer {
         w.finish()?;
     }
     let mut output = judge(&rig, detections, out_dir, options, &tracks_path)?;
     output.elapsed_s = started.elapsed().as_secs_f64();
     Ok(output)
+}
+
+/// Refuses a rig whose frames the estimator cannot measure whatever the images: fewer than 3
+/// frames, or an arc of the wheel's actual motion over the frames shorter than the rotation-centre
+/// fit accepts. `geneva scenario check` runs it too, so such a scenario fails there and not after
+/// its frames are rendered.
+pub fn measurable(rig: &Rig) -> Result<(), RunError> {
+    let times = rig.frame_times.as_slice();
+    let (lo, hi) = times
+        .iter()
+        .map(|&t| rig.mechanism.actual(t).theta2_rad)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), th| {
+            (lo.min(th), hi.max(th))
+        });
+    let arc_deg = if times.is_empty() {
+        0.0
+    } else {
+        (hi - lo).to_degrees()
+    };
+    let min_arc_deg = rig.scenario.estimator.min_arc_deg;
+    if times.len() < 3 || arc_deg < min_arc_deg {
+        return Err(RunError::NotMeasurable {
+            frames: times.len(),
+            arc_deg,
+            min_arc_deg,
+        });
+    }
+    Ok(())
+}
+
+/// The scene's exact corners at every frame's render time (the instant the picture shows), as
+/// detections: no rendering, no pixel grid, no detector.
+pub fn exact_detections(rig: &Rig, with_reference: bool) -> Vec<FrameDetection> {
+    let scene = rig.animated();
+    let reference = if with_reference {
+        scene.reference_marker_corners_px()
+    } else {
+        None
+    };
+    rig.frame_times
+        .as_slice()
+        .iter()
+        .enumerate()
+        .map(|(frame, &t_s)| FrameDetection {
+            frame,
+            t_s,
+            corners_px: Some(scene.marker_corners_px(rig.render_time_s(t_s))),
+            reference_px: reference,
+            path: FramePath::Exact,
+        })
+        .collect()
 }
 
 /// Estimation and error budget of detected frames against the rig's truth.
@@ -171,7 +255,7 @@ fn judge(
         &corners,
         with_reference.then_some(reference.as_slice()),
     )
-    .map_err(|e| RunError::Estimate(e, tracks_path.to_path_buf()))?;
+    .map_err(RunError::Estimate)?;
     let RunTruths {
         truth,
         ideal,
@@ -212,14 +296,10 @@ fn judge(
             None,
         )?;
         let json_path = out_dir.join("budget.json");
-        let text = serde_json::to_string_pretty(&budget).map_err(|e| RunError::Json {
-            file: json_path.clone(),
-            message: crate::errors::full(&e),
-        })?;
-        std::fs::write(&json_path, text + "\n").map_err(|e| RunError::Json {
-            file: json_path.clone(),
-            message: crate::errors::full(&e),
-        })?;
+        let text = serde_json::to_string_pretty(&budget)
+            .map_err(crate::errors::FileError::json(&json_path))?;
+        std::fs::write(&json_path, text + "\n")
+            .map_err(crate::errors::FileError::io(&json_path))?;
         files.extend([tracks_path.to_path_buf(), kin, json_path]);
         if options.plots {
             files.extend(plot_measured_vs_truth(
@@ -236,7 +316,10 @@ fn judge(
         .iter()
         .filter(|d| d.path == FramePath::Roi)
         .count();
-    let full_frames = detections.len() - roi_frames;
+    let full_frames = detections
+        .iter()
+        .filter(|d| matches!(d.path, FramePath::FullFrame | FramePath::RoiThenFullFrame))
+        .count();
     Ok(RunOutput {
         budget,
         signals,

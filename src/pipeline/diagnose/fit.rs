@@ -658,6 +658,7 @@ impl<'a> Fitter<'a> {
                 let pose_start = (e == Effect::PerspectiveTilt)
                     .then_some(self.pose_tilt)
                     .flatten();
+                let mut at_minimum = f64::INFINITY;
                 for &i in &searched {
                     let spec = specs[i];
                     let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
@@ -683,6 +684,7 @@ impl<'a> Fitter<'a> {
                     );
                     values[i] = r.value;
                     stds[i] = r.std;
+                    at_minimum = r.objective;
                 }
                 method = format!(
                     "simulated method of moments: Σ z² over the {} signature cells, {} fit seeds",
@@ -695,6 +697,25 @@ impl<'a> Fitter<'a> {
                          camera (pose fit: {:.2}° ± {:.2}°, {:.2}° ± {:.2}°), two rounds",
                         p.tilt_x_deg, p.u95_x_deg, p.tilt_y_deg, p.u95_y_deg
                     ));
+                    // The simulated moments carry the simulation's own rendering: a tilt read
+                    // through another renderer's edges lands off by more than the curvature
+                    // says (a 20° tilt fitted at 18.6° ± 0.08°, its pose fit 20.1° ± 0.5°). The
+                    // pose fit measures the tilt directly; when the moments cannot tell it
+                    // from their minimum (Σ z² within χ²₂(95 %) of it), it is the value reported.
+                    let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+                    let pose_values = vec![p.tilt_x_deg, p.tilt_y_deg];
+                    applied.push((e, pose_values.clone()));
+                    let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+                    let at_pose = self.objective(&effects, &applied);
+                    if let Some(v) = pose_reported(at_pose, at_minimum, &stds, &p) {
+                        method.push_str(&format!(
+                            "; reported at the pose fit: its Σ z² ({at_pose:.1}) is within \
+                             {POSE_DELTA_CHI2} of the moments' minimum ({at_minimum:.1} at \
+                             {:.2}°, {:.2}°)",
+                            values[0], values[1]
+                        ));
+                        (values, stds) = v;
+                    }
                 }
                 if let (Effect::AxisRunout, Some(f)) = (e, self.fitted_runout_form()) {
                     method.push_str(&format!(
@@ -956,4 +977,83 @@ pub fn cell_shrink(before: &GapMap, after: &GapMap) -> Vec<(crate::diagnose::cel
             (c.key, 1.0 - e1 / e0)
         })
         .collect()
+}
+
+/// Δ Σ z² of χ² with 2 degrees of freedom at 95 %: two tilts the moments cannot tell apart.
+pub const POSE_DELTA_CHI2: f64 = 5.99;
+
+/// The tilt to report when the pose fit's objective `at_pose` is within [`POSE_DELTA_CHI2`] of the
+/// moments' minimum `at_minimum` (whose values have standard uncertainties `stds`): the pose
+/// fit's values, each with the
+/// pose fit's standard uncertainty and the moments' in quadrature. `None` when the moments
+/// reject the pose fit, or it is not finite.
+#[allow(clippy::type_complexity)] // (values, stds), as in `Fitted`
+pub fn pose_reported(
+    at_pose: f64,
+    at_minimum: f64,
+    stds: &[f64],
+    pose: &PoseTilt,
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let finite = [
+        pose.tilt_x_deg,
+        pose.tilt_y_deg,
+        pose.u95_x_deg,
+        pose.u95_y_deg,
+    ]
+    .iter()
+    .all(|v| v.is_finite());
+    if !finite || !at_pose.is_finite() || at_pose > at_minimum + POSE_DELTA_CHI2 {
+        return None;
+    }
+    let combine = |u95: f64, sd: f64| {
+        let sd = if sd.is_finite() { sd } else { 0.0 };
+        ((u95 / 1.96).powi(2) + sd * sd).sqrt()
+    };
+    Some((
+        vec![pose.tilt_x_deg, pose.tilt_y_deg],
+        vec![
+            combine(pose.u95_x_deg, stds.first().copied().unwrap_or(0.0)),
+            combine(pose.u95_y_deg, stds.get(1).copied().unwrap_or(0.0)),
+        ],
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pose() -> PoseTilt {
+        PoseTilt {
+            tilt_x_deg: 20.1,
+            tilt_y_deg: -3.0,
+            u95_x_deg: 0.98,
+            u95_y_deg: 1.96,
+        }
+    }
+
+    #[test]
+    fn the_pose_fit_is_reported_when_the_moments_cannot_reject_it() {
+        let (v, sd) = pose_reported(14.0, 10.0, &[0.3, 0.4], &pose()).unwrap();
+        assert_eq!(v, vec![20.1, -3.0]);
+        assert!((sd[0] - (0.25f64 + 0.09).sqrt()).abs() < 1e-12, "{sd:?}");
+        assert!((sd[1] - (1.0f64 + 0.16).sqrt()).abs() < 1e-12, "{sd:?}");
+        // Exactly at the threshold it is kept; beyond it the moments' minimum stands.
+        assert!(pose_reported(10.0 + POSE_DELTA_CHI2, 10.0, &[0.3, 0.4], &pose()).is_some());
+        assert!(pose_reported(10.0 + POSE_DELTA_CHI2 + 0.01, 10.0, &[0.3, 0.4], &pose()).is_none());
+    }
+
+    #[test]
+    fn a_failed_pose_objective_or_a_non_finite_pose_reports_nothing() {
+        assert!(pose_reported(f64::INFINITY, 10.0, &[0.3, 0.4], &pose()).is_none());
+        assert!(pose_reported(f64::NAN, 10.0, &[0.3, 0.4], &pose()).is_none());
+        let mut p = pose();
+        p.u95_y_deg = f64::NAN;
+        assert!(pose_reported(11.0, 10.0, &[0.3, 0.4], &p).is_none());
+        // A flat objective (infinite curvature σ) leaves the pose fit's own uncertainty.
+        let (_, sd) = pose_reported(11.0, 10.0, &[f64::INFINITY, 0.0], &pose()).unwrap();
+        assert!(
+            (sd[0] - 0.5).abs() < 1e-12 && (sd[1] - 1.0).abs() < 1e-12,
+            "{sd:?}"
+        );
+    }
 }
