@@ -243,6 +243,13 @@ fn a_truncated_video_is_reported_with_its_last_good_frame() {
         text.contains("lists 60 frames") && text.contains(&format!("last good frame {last}")),
         "{text}"
     );
+    // Recorded beside the results, not only on the terminal.
+    let note = std::fs::read_to_string(dir.path().join("out").join("truncated_video.txt"))
+        .expect("truncated_video.txt");
+    assert!(
+        note.contains(&text) && note.contains(&format!("{} frames lost", 60 - t.decoded)),
+        "{note}"
+    );
     // The whole file is not truncated.
     let whole_out = analyze(
         &Source::Video(whole),
@@ -252,6 +259,7 @@ fn a_truncated_video_is_reported_with_its_last_good_frame() {
     )
     .unwrap();
     assert!(whole_out.input.truncation.is_none());
+    assert!(!dir.path().join("out2").join("truncated_video.txt").exists());
     assert_eq!(whole_out.tracks.len(), 60);
 }
 

@@ -130,8 +130,11 @@ fn prediction_is_a_close_upper_bound_at_the_fast_scale() {
     );
 }
 
-/// Why: switching pixel noise off changes the ω error σ by little — quantisation, not noise,
-/// is the detection error at these scales.
+/// Why: quantisation, not noise, is the detection error at these scales. Same seed with and
+/// without pixel noise (common random numbers: the same placement and frames), so
+/// σ²(on) = σ²(off) + the noise's part. "Dominates" is the definition tested: the noise's
+/// part of the ω error variance, 1 − σ²(off)/σ²(on), is below one half. And noise does not
+/// lower the error beyond what one seed's white-noise sampling allows (ratio ≥ exp(−3·SE)).
 #[test]
 fn quantisation_not_pixel_noise_dominates_the_detection_error() {
     for mm_per_px in [0.44, 0.52, 0.58] {
@@ -145,16 +148,25 @@ fn quantisation_not_pixel_noise_dominates_the_detection_error() {
             on.bounds["centre"].measured_omega_std_rad_s,
             off.bounds["centre"].measured_omega_std_rad_s,
         );
+        let noise_part = 1.0 - (b * b) / (a * a);
         assert!(
-            (a / b - 1.0).abs() < 0.25,
-            "{mm_per_px} mm/px: ω σ {a:.3e} with noise, {b:.3e} without"
+            noise_part < 0.5,
+            "{mm_per_px} mm/px: pixel noise holds {:.0} % of the ω error variance (σ {a:.3e} \
+             with noise, {b:.3e} without)",
+            100.0 * noise_part
+        );
+        let (se_w, _) = white_noise_se(on.frames.detected as f64);
+        assert!(
+            a / b > (-3.0 * se_w).exp(),
+            "{mm_per_px} mm/px: noise lowered the ω error σ from {b:.3e} to {a:.3e}"
         );
     }
 }
 
 /// Finding: with cornerSubPix the corner errors are smooth functions of the marker's
 /// sub-pixel position (correlated from frame to frame), so differentiation amplifies them far
-/// less than white noise — measured σ is under half the white-noise prediction.
+/// less than white noise — measured σ is below the white-noise band of one seed (derived from
+/// its sampling error; measured: under half the prediction).
 #[test]
 fn subpix_errors_are_correlated_so_the_white_noise_prediction_overestimates() {
     let b = budget(
@@ -165,15 +177,14 @@ fn subpix_errors_are_correlated_so_the_white_noise_prediction_overestimates() {
             Value::String("subpix".into()),
         )],
     );
+    // White noise would put the ratios within exp(±3·SE) of 1 (SE the sampling error of one
+    // seed's σ ratio); correlated errors put them below that band (measured: under half).
+    let (se_w, se_a) = white_noise_se(b.frames.detected as f64);
     for signal in ["centre", "fused"] {
         let (w, a) = ratios(&b.bounds[signal]);
         assert!(
-            w < 0.5 && a < 0.5,
-            "{signal}: ω ratio {w:.3}, α ratio {a:.3}"
-        );
-        assert!(
-            w > 0.05 && a > 0.05,
-            "{signal}: still noise-driven: {w:.3}, {a:.3}"
+            w < (-3.0 * se_w).exp() && a < (-3.0 * se_a).exp(),
+            "{signal}: ω ratio {w:.3}, α ratio {a:.3}: within the white-noise band"
         );
     }
 }

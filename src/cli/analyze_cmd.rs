@@ -115,9 +115,13 @@ fn input_summary(
         .frames_present
         .saturating_sub(unreadable)
         .saturating_sub(detected);
+    let lost = input
+        .lost_to_truncation()
+        .map(|n| format!(", {n} listed by the video's container but cut off"))
+        .unwrap_or_default();
     let mut lines = vec![format!(
         "{span} frames ({}–{}): {detected} with the marker, {undetected} without (never \
-         interpolated), {unreadable} unreadable, {absent} absent from the input",
+         interpolated), {unreadable} unreadable, {absent} absent from the input{lost}",
         input.first_frame, input.last_frame
     )];
     if !input.gaps.is_empty() {

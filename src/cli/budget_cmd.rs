@@ -152,10 +152,29 @@ pub struct DecomposeArgs {
     out: PathBuf,
     #[arg(long)]
     full_frame: bool,
+    /// Run even when the first round's estimated time or memory is above the limits.
+    #[arg(long)]
+    yes: bool,
 }
 
 pub fn decompose(a: DecomposeArgs) -> Result<()> {
     let s = scenario::load_any(&a.scenario)?;
+    // The first round: every configuration that runs, times the first seeds (more rounds may
+    // follow, up to --max-seeds; each is printed as it ends).
+    let configurations = geneva_vision::pipeline::decompose::Plan::new(&s)
+        .distinct()
+        .len();
+    let work = geneva_vision::pipeline::workload::Workload::of(&s, !a.full_frame)
+        .times((configurations * a.seeds.max(1)) as f64);
+    super::work::confirm(
+        &format!(
+            "the first round of the decomposition of {} ({configurations} configurations × {} \
+             seeds)",
+            s.name, a.seeds
+        ),
+        &work,
+        a.yes,
+    )?;
     let options = DecomposeOptions {
         rule: SeedRule {
             initial: a.seeds,

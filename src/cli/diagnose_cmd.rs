@@ -42,6 +42,10 @@ pub struct DiagnoseArgs {
     /// Write the report from the complete shards in DIR/shards/ (same arguments as the shards).
     #[arg(long, conflicts_with = "max_minutes")]
     merge: bool,
+    /// Run even when the nominal's simulations alone are estimated above the time or memory
+    /// limits.
+    #[arg(long)]
+    yes: bool,
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
@@ -53,6 +57,17 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
             bail!("--max-minutes {m}: must be a positive number of minutes");
         }
     }
+    // A lower bound: the nominal simulated once per seed, before any candidate is fitted.
+    let work =
+        geneva_vision::pipeline::workload::Workload::of(&nominal, true).times(a.seeds as f64);
+    super::work::confirm(
+        &format!(
+            "the diagnosis's nominal simulations alone ({} seeds of {})",
+            a.seeds, nominal.name
+        ),
+        &work,
+        a.yes,
+    )?;
     let options = DiagnoseOptions {
         seeds: a.seeds,
         effects,

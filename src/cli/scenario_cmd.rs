@@ -31,6 +31,7 @@ pub fn run(cmd: ScenarioCmd) -> Result<()> {
                 ),
                 None => {
                     let rig = Rig::new(&s).with_context(|| spec.clone())?;
+                    geneva_vision::pipeline::run::measurable(&rig).with_context(|| spec.clone())?;
                     println!(
                         "rig: {} frames, the marker inside the image in every one",
                         rig.frame_times.len()

@@ -56,6 +56,10 @@ pub struct SelfCheckArgs {
     /// Start over when the folder holds another plan's cases.
     #[arg(long)]
     restart: bool,
+    /// Run even when the cases' renders and nominal simulations alone are estimated above the
+    /// time or memory limits.
+    #[arg(long)]
+    yes: bool,
 }
 
 pub fn run(a: SelfCheckArgs) -> Result<()> {
@@ -98,6 +102,17 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     let all = cases(&base, &plan, &phone_logs(repo)?);
+    // A lower bound: each case's footage rendered once and its nominal simulated per seed.
+    let work = geneva_vision::pipeline::workload::Workload::of(&base, true)
+        .times((all.len() * (1 + options.seeds)) as f64);
+    super::work::confirm(
+        &format!(
+            "the self-check's renders and nominal simulations alone ({} cases)",
+            all.len()
+        ),
+        &work,
+        a.yes,
+    )?;
     let text = plan.describe(&base, &options);
     eprintln!("diagnose-selfcheck: {} case(s). {text}", all.len());
     let study = SelfCheck::new(all, options, text);

@@ -335,7 +335,8 @@ impl DetectorConfig {
                 f("max_marker_perimeter_rate"),
                 format!(
                     "must be >= min_marker_perimeter_rate ({}), got {}",
-                    self.min_marker_perimeter_rate, self.max_marker_perimeter_rate
+                    crate::validation::short(self.min_marker_perimeter_rate),
+                    crate::validation::short(self.max_marker_perimeter_rate)
                 ),
             );
         }

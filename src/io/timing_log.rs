@@ -26,6 +26,7 @@ pub fn guess_format(path: &Path, text: &str) -> LogFormat {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if ext == "json" || text.trim_start().starts_with('{') {
         LogFormat::FfprobeJson
     } else if text
@@ -156,6 +157,53 @@ impl From<TimingLogError> for FitLogError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue #14: a spreadsheet's UTF-8 byte order mark made the header a time
+    /// ("time '\u{feff}frame' is not a number"). Every format, read from a file with its format
+    /// guessed, gives the same times with and without one.
+    #[test]
+    fn a_byte_order_mark_is_accepted_in_every_timing_format() {
+        let logs = [
+            (
+                "a.csv",
+                "frame,t_s\n0,0.0\n1,0.0333\n2,0.0667\n".to_string(),
+            ),
+            (
+                "b.csv",
+                "frame,0.0\nframe,0.0333\nframe,0.0667\n".to_string(),
+            ),
+            ("c.csv", "0.0\n0.0333\n0.0667\n".to_string()),
+            (
+                "d.json",
+                "{\"frames\": [{\"pts_time\": \"0.0\"}, {\"pts_time\": \"0.0333\"}, \
+                 {\"pts_time\": \"0.0667\"}]}\n"
+                    .to_string(),
+            ),
+            (
+                "e.log",
+                (0..3)
+                    .map(|n| {
+                        format!(
+                            "[Parsed_showinfo_0 @ 0x1] n:{n} pts:{} pts_time:{:.4} duration:1\n",
+                            n * 1000,
+                            [0.0, 0.0333, 0.0667][n]
+                        )
+                    })
+                    .collect(),
+            ),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text) in logs {
+            let plain = dir.path().join(name);
+            let bom = dir.path().join(format!("bom-{name}"));
+            std::fs::write(&plain, &text).unwrap();
+            std::fs::write(&bom, format!("\u{feff}{text}")).unwrap();
+            let a = read_timing_log(&plain, None).unwrap();
+            let b = read_timing_log(&bom, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(a.as_slice(), b.as_slice(), "{name}");
+            assert_eq!(b.len(), 3, "{name}");
+        }
+    }
 
     #[test]
     fn guesses_formats() {

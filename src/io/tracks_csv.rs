@@ -261,6 +261,19 @@ impl TracksParser {
         if line.trim().is_empty() {
             return Ok(());
         }
+        // Every writer ends its lines; a last line without one is a file cut mid-row, whose
+        // last number may be cut too (`…,242` read as `…,24` moved a fitted centre by 300 px).
+        if !raw.ends_with('\n') {
+            return Err(TracksReadError::Header {
+                file: self.file.clone(),
+                line: self.line_no,
+                message: format!(
+                    "the file ends inside this line, after `{}` (no end of line): the file was \
+                     cut and the last value may be too; end the line if it is complete",
+                    line.rsplit(',').next().unwrap_or(line).trim()
+                ),
+            });
+        }
         match &self.columns {
             None => {
                 self.columns = Some(self.header(line)?);
@@ -515,6 +528,28 @@ mod tests {
         let p = dir.path().join("bom.csv");
         std::fs::write(&p, text.as_bytes()).unwrap();
         assert_eq!(read_tracks(&p, Some(0)).unwrap().len(), 1);
+    }
+
+    #[test]
+    fn a_file_cut_inside_its_last_row_is_an_error_naming_the_line() {
+        // Issue #14: `…,242` cut to `…,24` was read as a corner 218 px away, exit 0.
+        let whole = format!("{HEAD}{}{}", row(0, "0"), row(1, "0"));
+        assert_eq!(parse_tracks_t(&whole, Path::new("t.csv")).unwrap().len(), 2);
+        let cut = &whole[..whole.len() - 2];
+        let err = parse_tracks_t(cut, Path::new("t.csv")).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, TracksReadError::Header { line: 3, .. }) && text.contains("cut"),
+            "{text}"
+        );
+        // Through the streaming reader too.
+        let err = read_tracks_from(cut.as_bytes(), Path::new("t.csv"), Some(0)).unwrap_err();
+        assert!(
+            matches!(err, TracksReadError::Header { line: 3, .. }),
+            "{err}"
+        );
+        // A header alone without its line end is cut as well (no row can follow it).
+        assert!(parse_tracks_t(HEAD.trim_end(), Path::new("t.csv")).is_err());
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Writing rendered frames as an MP4 that keeps the variable frame timestamps.
 //!
-//! Frames are staged as PNG files in a temporary folder beside the output (memory stays flat);
+//! Frames are staged as PNG files in a temporary folder beside the output (memory stays flat),
+//! and the video is encoded there and renamed into place when complete;
 //! `finish` runs ffmpeg's concat demuxer with each frame's duration, which gives every frame its
 //! own presentation time (no resampling to a constant rate), and encodes H.264 with lossless luma
 //! (`-qp 0`) in a 90 kHz track timescale (timestamps exact to 11 µs, like phone footage).
@@ -108,6 +109,13 @@ impl VideoWriter {
             .and_then(|mut f| f.write_all(list.as_bytes()))
             .map_err(|e| io(format!("cannot write {}: {e}", list_path.display())))?;
         let start = self.times_s.first().copied().unwrap_or(0.0);
+        // Encoded inside the staging folder (beside the output, same file system) and renamed
+        // into place when complete: a failed encode (disk full, killed) leaves any earlier
+        // video at `file` as it was, never a half-written one.
+        let encoded = self.staging.join(format!(
+            "encoded.{}",
+            file.extension().and_then(|e| e.to_str()).unwrap_or("mp4")
+        ));
         let output = Command::new("ffmpeg")
             .args(["-y", "-v", "error", "-f", "concat", "-safe", "0", "-i"])
             .arg(&list_path)
@@ -123,10 +131,9 @@ impl VideoWriter {
             ])
             .args(["-video_track_timescale", "90000", "-output_ts_offset"])
             .arg(format!("{start:.9}"))
-            .arg(&file)
+            .arg(&encoded)
             .output();
-        let _ = std::fs::remove_dir_all(&self.staging);
-        match output {
+        let result = match output {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 Err(VideoOutError::NoFfmpeg { file })
             }
@@ -135,7 +142,43 @@ impl VideoWriter {
                 file,
                 stderr: String::from_utf8_lossy(&o.stderr).trim().to_string(),
             }),
-            Ok(_) => Ok(file),
-        }
+            Ok(_) => std::fs::rename(&encoded, &file)
+                .map(|_| file.clone())
+                .map_err(|e| io(format!("cannot move the encoded video into place: {e}"))),
+        };
+        let _ = std::fs::remove_dir_all(&self.staging);
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue #14: with the disk full, ffmpeg wrote over a good video in place and left an
+    /// unplayable one. A failed encode (here: 3×3 px, which H.264 in 4:2:0 refuses; or no ffmpeg)
+    /// leaves the earlier file untouched and no staging folder behind.
+    #[test]
+    fn a_failed_encode_leaves_the_earlier_video_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.mp4");
+        std::fs::write(&path, b"an earlier, good video").unwrap();
+        let mut w = VideoWriter::create(&path, 3, 3, &[0.0, 0.04]).unwrap();
+        w.write_frame(&[0u8; 9]).unwrap();
+        w.write_frame(&[255u8; 9]).unwrap();
+        let err = w.finish().unwrap_err();
+        assert!(
+            matches!(
+                err,
+                VideoOutError::Ffmpeg { .. } | VideoOutError::NoFfmpeg { .. }
+            ),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), b"an earlier, good video");
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("old.mp4")]);
     }
 }

@@ -96,7 +96,10 @@ impl MechanismConfig {
         if !(0.0..0.5).contains(&self.entry_exit_fraction) {
             problems.push(
                 f("entry_exit_fraction"),
-                format!("must be in [0, 0.5), got {}", self.entry_exit_fraction),
+                format!(
+                    "must be in [0, 0.5), got {}",
+                    crate::validation::short(self.entry_exit_fraction)
+                ),
             );
         }
         if let Some(t) = self.theta1_start_rad {
@@ -124,7 +127,8 @@ impl MechanismConfig {
                 f("pin_diameter_mm"),
                 format!(
                     "must be <= slot_width_mm ({}), got {}",
-                    self.slot_width_mm, self.pin_diameter_mm
+                    crate::validation::short(self.slot_width_mm),
+                    crate::validation::short(self.pin_diameter_mm)
                 ),
             );
         }

@@ -74,7 +74,10 @@ impl DriveSpeedConfig {
             if !v.is_finite() || v == 0.0 || v.abs() > MAX_SPEED_RAD_S {
                 p.push(
                     field,
-                    format!("must be non-zero with |value| <= {MAX_SPEED_RAD_S}, got {v}"),
+                    format!(
+                        "must be non-zero with |value| <= {MAX_SPEED_RAD_S}, got {}",
+                        crate::validation::short(v)
+                    ),
                 );
             }
         };
@@ -92,7 +95,9 @@ impl DriveSpeedConfig {
                     problems.push(
                         join(path, "mid_rad_s"),
                         format!(
-                            "must have the same sign as end_rad_s ({end_rad_s}), got {mid_rad_s}"
+                            "must have the same sign as end_rad_s ({}), got {}",
+                            crate::validation::short(*end_rad_s),
+                            crate::validation::short(*mid_rad_s)
                         ),
                     );
                 }
@@ -129,7 +134,11 @@ impl DriveSpeedConfig {
                     if !increasing || !w[0].is_finite() || !w[1].is_finite() {
                         problems.push(
                             format!("{}[{}]", join(path, "t_s"), i + 1),
-                            format!("must be finite and > t_s[{i}] ({}), got {}", w[0], w[1]),
+                            format!(
+                                "must be finite and > t_s[{i}] ({}), got {}",
+                                crate::validation::short(w[0]),
+                                crate::validation::short(w[1])
+                            ),
                         );
                         break;
                     }
@@ -140,7 +149,10 @@ impl DriveSpeedConfig {
                     if w * omega1_rad_s[0] < 0.0 {
                         problems.push(
                             field,
-                            format!("must have the same sign as omega1_rad_s[0], got {w}"),
+                            format!(
+                                "must have the same sign as omega1_rad_s[0], got {}",
+                                crate::validation::short(w)
+                            ),
                         );
                         break;
                     }

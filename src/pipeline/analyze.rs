@@ -107,6 +107,8 @@ pub enum AnalyzeError {
     Csv(#[from] crate::io::csv_out::CsvError),
     #[error(transparent)]
     Plot(#[from] crate::plot::PlotError),
+    #[error(transparent)]
+    File(#[from] crate::errors::FileError),
 }
 
 /// A frame that exists in the input but was not searched: it is recorded as missing (empty
@@ -519,6 +521,20 @@ pub fn analyze(
     if !input.unreadable.is_empty() {
         let path = out_dir.join("unreadable_frames.csv");
         write_unreadable(&path, &input.unreadable)?;
+        files.push(path);
+    }
+    // A video cut short is recorded beside the results, not only said on the terminal.
+    if let Some(t) = &input.truncation {
+        let path = out_dir.join("truncated_video.txt");
+        let lost = input
+            .lost_to_truncation()
+            .map(|n| format!("{n} frames lost; "))
+            .unwrap_or_default();
+        let text = format!(
+            "truncated video: {t}\n{lost}the analysis covers the {} frames that decode\n",
+            t.decoded
+        );
+        std::fs::write(&path, text).map_err(crate::errors::FileError::io(&path))?;
         files.push(path);
     }
     Ok(AnalyzeOutput {

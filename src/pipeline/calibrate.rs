@@ -19,6 +19,7 @@ use crate::calibrate::{
     FootageStats, FrameObservation, TemporalSample,
 };
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
+use crate::errors::FileError;
 use crate::imagestats::{
     blockiness, jpeg_quality, marker_levels, marker_regions, motion_ratio, outer_edge_profiles,
     refined_corners, temporal_noise, EdgeOptions, EdgeProfile, LevelOptions, MarkerLayout,
@@ -67,8 +68,17 @@ impl Footage {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrateJobError {
-    #[error("--base {spec}: {message}")]
-    Base { spec: String, message: String },
+    #[error("--base {spec}")]
+    Base {
+        spec: String,
+        source: crate::scenario::ScenarioError,
+    },
+    #[error(
+        "--base {spec}: does not state the marker's side `scene.marker.size_mm` (the printed \
+         black square, mm): the image scale is measured against it, so calibrate needs it from \
+         you"
+    )]
+    BaseWithoutSide { spec: String },
     #[error("--base: the marker layout")]
     MarkerLayout(#[source] crate::imagestats::StatsError),
     #[error("--base: the detector")]
@@ -133,8 +143,22 @@ pub enum CalibrateJobError {
     Video(#[from] crate::io::video::VideoError),
     #[error(transparent)]
     TimingLog(#[from] crate::io::timing_log::TimingLogError),
-    #[error("{path}: {message}")]
-    Output { path: PathBuf, message: String },
+    #[error(transparent)]
+    OutputDir(#[from] crate::io::output_dir::OutputError),
+    #[error(transparent)]
+    File(#[from] crate::errors::FileError),
+    #[error("{path}: the calibrated scenario")]
+    Scenario {
+        path: PathBuf,
+        source: crate::scenario::ScenarioError,
+    },
+    #[error("{path}: the calibrated rig")]
+    Rig {
+        path: PathBuf,
+        source: crate::pipeline::rig::RigError,
+    },
+    #[error(transparent)]
+    Png(#[from] crate::io::png_out::PngError),
 }
 
 /// The calibration and what was written.
@@ -641,23 +665,21 @@ fn frames_hint(footage: &Footage) -> usize {
 
 /// Loads the base scenario and checks that it states what the footage cannot tell.
 pub fn load_base(spec: &str) -> Result<Scenario, CalibrateJobError> {
-    let err = |message: String| CalibrateJobError::Base {
+    let err = |source| CalibrateJobError::Base {
         spec: spec.to_string(),
-        message,
+        source,
     };
-    let stated = crate::scenario::stated_fields(spec).map_err(|e| err(crate::errors::full(&e)))?;
+    let stated = crate::scenario::stated_fields(spec).map_err(err)?;
     let side = stated
         .get("scene")
         .and_then(|s| s.get("marker"))
         .and_then(|m| m.get("size_mm"));
     if side.is_none() {
-        return Err(err(
-            "does not state the marker's side `scene.marker.size_mm` (the printed black square, \
-             mm): the image scale is measured against it, so calibrate needs it from you"
-                .into(),
-        ));
+        return Err(CalibrateJobError::BaseWithoutSide {
+            spec: spec.to_string(),
+        });
     }
-    crate::scenario::load_any(spec).map_err(|e| err(crate::errors::full(&e)))
+    crate::scenario::load_any(spec).map_err(err)
 }
 
 /// Measures the footage: every frame's observation plus the footage-wide statistics.
@@ -684,10 +706,12 @@ fn measure(
     Ok((stats, times, overlay))
 }
 
-fn out_err(path: &Path, e: impl std::error::Error) -> CalibrateJobError {
-    CalibrateJobError::Output {
+fn scenario_err(
+    path: &Path,
+) -> impl FnOnce(crate::scenario::ScenarioError) -> CalibrateJobError + '_ {
+    move |source| CalibrateJobError::Scenario {
         path: path.to_path_buf(),
-        message: crate::errors::full(&e),
+        source,
     }
 }
 
@@ -705,7 +729,7 @@ pub fn calibrate(
 ) -> Result<CalibrateOutput, CalibrateJobError> {
     let base = load_base(base_spec)?;
     let single_frame = options.single_frame || matches!(footage, Footage::Image(_));
-    let staged = OutputDir::create(out_dir).map_err(|e| out_err(out_dir, e))?;
+    let staged = OutputDir::create(out_dir)?;
     let (stats, times, overlay) = measure(footage, &base, single_frame, progress)?;
     let cal = fit_rig(&base, &stats, &CalibrateOptions { single_frame })?;
     let out = write_outputs(
@@ -718,10 +742,10 @@ pub fn calibrate(
         overlay,
         cal,
     )?;
-    let files = staged.commit().map_err(|e| out_err(out_dir, e))?;
+    let files = staged.commit()?;
     // Loaded back from its final place: the timestamps file it names is beside it.
     let scenario_path = out_dir.join("scenario.toml");
-    let scenario = crate::scenario::load(&scenario_path).map_err(|e| out_err(&scenario_path, e))?;
+    let scenario = crate::scenario::load(&scenario_path).map_err(scenario_err(&scenario_path))?;
     Ok(CalibrateOutput {
         scenario,
         files,
@@ -754,7 +778,7 @@ fn write_outputs(
                 source,
             })?;
         std::fs::write(&ts_path, crate::timing::to_frames_csv(&ts))
-            .map_err(|e| out_err(&ts_path, e))?;
+            .map_err(FileError::io(&ts_path))?;
         files.push(ts_path.clone());
     }
     let extend = {
@@ -796,7 +820,7 @@ fn write_outputs(
             pairs.push((x.path.clone(), v));
         }
         crate::scenario::with_overrides(base, &pairs, &scenario_path)
-            .map_err(|e| out_err(&scenario_path, e))
+            .map_err(scenario_err(&scenario_path))
     };
     let first = typed(&ovs)?;
     // Below the printed precision it is no correction worth a note.
@@ -843,9 +867,9 @@ fn write_outputs(
         );
     }
     let text = scenario_toml(&ovs, &ctx, &cal);
-    std::fs::write(&scenario_path, &text).map_err(|e| out_err(&scenario_path, e))?;
+    std::fs::write(&scenario_path, &text).map_err(FileError::io(&scenario_path))?;
     files.push(scenario_path.clone());
-    let scenario = crate::scenario::load(&scenario_path).map_err(|e| out_err(&scenario_path, e))?;
+    let scenario = crate::scenario::load(&scenario_path).map_err(scenario_err(&scenario_path))?;
     let check = match &overlay {
         Some((frame, crop, corners)) => Some(render_check(
             &scenario,
@@ -872,7 +896,7 @@ fn write_outputs(
     }
     let md_path = out_dir.join("calibration.md");
     std::fs::write(&md_path, calibration_markdown(&cal, &ctx, check.as_ref()))
-        .map_err(|e| out_err(&md_path, e))?;
+        .map_err(FileError::io(&md_path))?;
     files.push(md_path);
     Ok(CalibrateOutput {
         calibration: cal,
@@ -1213,7 +1237,11 @@ fn render_check(
     path: &Path,
     base: &Scenario,
 ) -> Result<ReRenderCheck, CalibrateJobError> {
-    let rig = crate::pipeline::rig::Rig::new(scenario).map_err(|e| out_err(path, e))?;
+    let rig =
+        crate::pipeline::rig::Rig::new(scenario).map_err(|source| CalibrateJobError::Rig {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let times = rig.frame_times.as_slice();
     let k = frame.min(times.len().saturating_sub(1));
     let t_s = times.get(k).copied().unwrap_or(0.0);
@@ -1224,9 +1252,11 @@ fn render_check(
         window: crop.rect,
     };
     let full = render_frame(&scene, &rig.settings, &req);
+    // Noise off; the fitted compression stays on: compressed footage is compared with the
+    // scenario's picture through the same codec (block edges and ringing are the picture, not
+    // noise), so that what is left is the noise the codec let through.
     let mut clean_settings = rig.settings.clone();
     clean_settings.effects.pixel_noise.enabled = false;
-    clean_settings.effects.compression.enabled = false;
     let clean = render_frame(&scene, &clean_settings, &req);
     // Compare over the black square and half its white margin.
     let m = &base.scene.marker;
@@ -1273,7 +1303,10 @@ fn render_check(
         t_s,
         window: (win.x0, win.y0, win.width, win.height),
         residual_rms_dn: (ss / count).sqrt(),
-        expected_noise_dn: (vs / count).sqrt(),
+        // The render is rounded to whole DN too: its rounding error (uniform, 1/12 DN², and
+        // independent of the footage's noise) is part of footage − render. The fitted σ already
+        // holds the footage's own rounding.
+        expected_noise_dn: (vs / count + 1.0 / 12.0).sqrt(),
     };
     // Overlay: footage | render | 128 + 4·(footage − clean render).
     let (w, h) = (crop.rect.width, crop.rect.height);
@@ -1293,6 +1326,6 @@ fn render_check(
                 .clamp(0.0, 255.0) as u8;
         }
     }
-    write_gray_png(path, ow as u32, h as u32, &img).map_err(|e| out_err(path, e))?;
+    write_gray_png(path, ow as u32, h as u32, &img)?;
     Ok(check)
 }

@@ -28,8 +28,8 @@ pub enum DynamicsReportError {
     },
     #[error(transparent)]
     Plot(#[from] PlotError),
-    #[error("{file}: {message}")]
-    Write { file: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] crate::errors::FileError),
 }
 
 /// One configuration of the seed rig, simulated and read.
@@ -190,10 +190,7 @@ fn plots(
 
 /// Writes `out_dir/README.md` and the plots; returns the files.
 pub fn dynamics_report(out_dir: &Path) -> Result<Vec<PathBuf>, DynamicsReportError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| DynamicsReportError::Write {
-        file: out_dir.into(),
-        message: crate::errors::full(&e),
-    })?;
+    std::fs::create_dir_all(out_dir).map_err(crate::errors::FileError::io(out_dir))?;
     let old = simulate("old default (penalty)", |d| {
         d.contact_model = ContactModel::Penalty
     })?;
@@ -502,10 +499,7 @@ pub fn dynamics_report(out_dir: &Path) -> Result<Vec<PathBuf>, DynamicsReportErr
          ![vs theta1](omega2_alpha2_vs_theta1.png)\n\n![vs time](omega2_alpha2_vs_time.png)"
     );
     let readme = out_dir.join("README.md");
-    std::fs::write(&readme, md).map_err(|e| DynamicsReportError::Write {
-        file: readme.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    std::fs::write(&readme, md).map_err(crate::errors::FileError::io(&readme))?;
     let mut all = files;
     all.push(readme);
     Ok(all)

@@ -40,11 +40,17 @@ pub enum MonteCarloError {
     NoCompleteShard { dir: PathBuf },
     #[error(transparent)]
     Shard(#[from] ShardError),
-    #[error("{file}: unit {unit}: {message}")]
-    Record {
+    #[error("{file}: unit {unit}: the seed's record")]
+    RecordWrite {
         file: PathBuf,
         unit: usize,
-        message: String,
+        source: toml::ser::Error,
+    },
+    #[error("{file}: unit {unit}: the seed's record")]
+    RecordRead {
+        file: PathBuf,
+        unit: usize,
+        source: Box<toml::de::Error>,
     },
 }
 
@@ -262,10 +268,10 @@ impl Study for McStudy<'_> {
     fn run_unit(&self, unit: usize, work_dir: &Path) -> Result<String, MonteCarloError> {
         let scenario = self.scenario.ok_or(MonteCarloError::NoSeeds)?;
         let r = run_one(scenario, unit, &self.options, &work_dir.join("seed0"))?;
-        toml::to_string(&r).map_err(|e| MonteCarloError::Record {
+        toml::to_string(&r).map_err(|source| MonteCarloError::RecordWrite {
             file: work_dir.into(),
             unit,
-            message: crate::errors::full(&e),
+            source,
         })
     }
 
@@ -279,10 +285,10 @@ impl Study for McStudy<'_> {
             .iter()
             .enumerate()
             .map(|(unit, text)| {
-                toml::from_str::<SeedRecord>(text).map_err(|e| MonteCarloError::Record {
+                toml::from_str::<SeedRecord>(text).map_err(|source| MonteCarloError::RecordRead {
                     file: unit_dirs(unit),
                     unit,
-                    message: crate::errors::full(&e),
+                    source: Box::new(source),
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -57,7 +57,8 @@ impl Workload {
         let frames = match (&s.frame_timing.model, &s.timing_log) {
             (TimingModel::Log(_), Some(log)) => log.len() as f64,
             (TimingModel::Vfr(v), _) => s.duration_s * v.actual_fps(fps) + 2.0,
-            _ => s.duration_s * fps + 1.0,
+            // Frames k / fps before duration_s: the constant schedule's count.
+            _ => s.duration_s * fps,
         }
         .ceil();
         let blur = &s.effects.motion_blur;
@@ -222,7 +223,7 @@ mod tests {
     #[test]
     fn small_runs_pass_and_huge_ones_need_confirmation() {
         let fast = Workload::of(&load_builtin("fast").unwrap(), true);
-        assert_eq!(fast.frames, 61.0);
+        assert_eq!(fast.frames, 60.0);
         assert_eq!((fast.width_px, fast.height_px), (1280, 720));
         assert!(fast.over_limits().is_none(), "{fast}");
         assert!(fast.time_s() < 10.0 && fast.memory_bytes() < 1e9, "{fast}");
@@ -254,7 +255,7 @@ mod tests {
     fn estimates_print_short_numbers() {
         let w = Workload::of(&load_builtin("fast").unwrap(), true);
         let text = w.to_string();
-        assert!(text.starts_with("61 frames of 1280x720 px"), "{text}");
+        assert!(text.starts_with("60 frames of 1280x720 px"), "{text}");
         assert!(duration(1e300).ends_with("days") && duration(1e300).len() < 20);
         assert_eq!(bytes(2.5e9), "2.5 GB");
     }

@@ -55,7 +55,10 @@ pub enum SweepError {
         expected: String,
         found: String,
     },
-    #[error("{file}: point `{point}` is not a valid scenario (a mistake in the sweep file: nothing was run)")]
+    // No `{file}` here: the scenario error it holds names the sweep file already.
+    #[error(
+        "point `{point}` is not a valid scenario (a mistake in the sweep file: nothing was run)"
+    )]
     Point {
         file: PathBuf,
         point: String,

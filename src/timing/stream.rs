@@ -31,10 +31,17 @@ pub struct Streamed {
 /// Calls `each` with every frame time of the log, in frame order, after checking that it is
 /// finite and later than the one before (the checks of [`super::Timestamps::new`]).
 pub fn stream_frame_times<R: BufRead>(
-    reader: R,
+    mut reader: R,
     format: LogFormat,
     each: &mut dyn FnMut(f64) -> Result<(), TimingError>,
 ) -> Result<Streamed, TimingError> {
+    // A UTF-8 byte order mark (spreadsheets write one) is not part of the first record.
+    if reader
+        .fill_buf()
+        .is_ok_and(|b| b.starts_with(b"\xEF\xBB\xBF"))
+    {
+        reader.consume(3);
+    }
     let mut checked = Checked {
         each,
         count: 0,

@@ -157,6 +157,18 @@ pub enum DiagnoseError {
     #[error("{file}: {message}")]
     Output { file: PathBuf, message: String },
     #[error(transparent)]
+    File(#[from] crate::errors::FileError),
+    #[error(transparent)]
+    OutputDir(#[from] crate::io::output_dir::OutputError),
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    #[error("{place}: {what}")]
+    Record {
+        place: PathBuf,
+        what: String,
+        source: serde_json::Error,
+    },
+    #[error(transparent)]
     Shard(#[from] crate::shard::ShardError),
     #[error(transparent)]
     Image(#[from] crate::io::images::ImageError),
@@ -335,11 +347,7 @@ pub fn diagnose_with(
     let staging = match mode {
         Mode::Merge => OutputDir::create_carrying(&staging_dir, &[crate::shard::SHARDS]),
         _ => OutputDir::create(&staging_dir),
-    }
-    .map_err(|e| DiagnoseError::Output {
-        file: staging_dir.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    }?;
 
     progress("measuring the real footage", 0, 1);
     let real = real::measure_real(
@@ -607,10 +615,7 @@ pub fn diagnose_with(
     progress("writing the report", 0, 1);
     let files = report::write(&diagnosis, &fitter, &real, &staging)?;
     let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
-    staging.commit().map_err(|e| DiagnoseError::Output {
-        file: out_dir.to_path_buf(),
-        message: crate::errors::full(&e),
-    })?;
+    staging.commit()?;
     Ok(Finished::Diagnosis(Box::new(diagnosis), files))
 }
 

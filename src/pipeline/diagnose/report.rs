@@ -11,6 +11,7 @@ use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::gap::{CellGap, GapMap};
 use crate::diagnose::record::Record;
+use crate::errors::FileError;
 use crate::io::output_dir::OutputDir;
 use crate::plot::{bars_png, heatmap::heatmap_png, heatmap::Heatmap, stacked_png, Panel, Series};
 use crate::plot::{MEASURED, SECOND, THIRD};
@@ -401,10 +402,7 @@ fn gap_table(g: &GapMap, nyquist_hz: f64, rows: usize) -> String {
 }
 
 fn plot_err(e: crate::plot::PlotError) -> DiagnoseError {
-    DiagnoseError::Output {
-        file: PathBuf::from(e.file),
-        message: e.message,
-    }
+    DiagnoseError::Plot(e)
 }
 
 /// Heatmaps of |z|: one per banded channel (band × phase) and one for the others.
@@ -628,19 +626,10 @@ pub fn write(
         .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().to_string()))
         .collect();
     let md_path = dir.join("diagnosis.md");
-    std::fs::write(&md_path, markdown(d, &figures)).map_err(|e| DiagnoseError::Output {
-        file: md_path.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    std::fs::write(&md_path, markdown(d, &figures)).map_err(FileError::io(&md_path))?;
     let json_path = dir.join("diagnosis.json");
-    let text = serde_json::to_string_pretty(&to_json(d)).map_err(|e| DiagnoseError::Output {
-        file: json_path.clone(),
-        message: crate::errors::full(&e),
-    })?;
-    std::fs::write(&json_path, text + "\n").map_err(|e| DiagnoseError::Output {
-        file: json_path.clone(),
-        message: crate::errors::full(&e),
-    })?;
+    let text = serde_json::to_string_pretty(&to_json(d)).map_err(FileError::json(&json_path))?;
+    std::fs::write(&json_path, text + "\n").map_err(FileError::io(&json_path))?;
     files.insert(0, md_path);
     files.insert(0, json_path);
     Ok(files)

@@ -548,10 +548,7 @@ pub fn run_case(
     let dir = work_dir.join(&case.name);
     let frames = dir.join("frames");
     if frames.exists() {
-        std::fs::remove_dir_all(&frames).map_err(|e| DiagnoseError::Output {
-            file: frames.clone(),
-            message: crate::errors::full(&e),
-        })?;
+        std::fs::remove_dir_all(&frames).map_err(crate::errors::FileError::io(&frames))?;
     }
     render_case(case, &frames)?;
     let mut o = options.clone();
@@ -650,9 +647,10 @@ impl Study for SelfCheck {
     fn run_unit(&self, unit: usize, work_dir: &Path) -> Result<String, DiagnoseError> {
         let case = &self.cases[unit];
         let outcome = run_case(case, &work_dir.join("cases"), &self.options)?;
-        serde_json::to_string(&outcome).map_err(|e| DiagnoseError::Output {
-            file: work_dir.to_path_buf(),
-            message: format!("{}: {e}", case.name),
+        serde_json::to_string(&outcome).map_err(|source| DiagnoseError::Record {
+            place: work_dir.to_path_buf(),
+            what: format!("case {}: its record", case.name),
+            source,
         })
     }
 
@@ -665,9 +663,10 @@ impl Study for SelfCheck {
         let outcomes: Vec<CaseOutcome> = records
             .iter()
             .map(|r| {
-                serde_json::from_str(r).map_err(|e| DiagnoseError::Output {
-                    file: out_dir.to_path_buf(),
-                    message: format!("a case record does not parse: {e}"),
+                serde_json::from_str(r).map_err(|source| DiagnoseError::Record {
+                    place: out_dir.to_path_buf(),
+                    what: "a case record does not parse".into(),
+                    source,
                 })
             })
             .collect::<Result<_, _>>()?;
@@ -704,10 +703,7 @@ pub fn write_summary(
     let s = score(outcomes);
     let w = |name: &str, text: String| {
         let path = out_dir.join(name);
-        std::fs::write(&path, text).map_err(|e| DiagnoseError::Output {
-            file: path.clone(),
-            message: crate::errors::full(&e),
-        })
+        std::fs::write(&path, text).map_err(|e| crate::errors::FileError::io(&path)(e).into())
     };
     let opt = |v: Option<f64>, unit: &str, k: f64| {
         v.map_or("–".into(), |v| format!("{:.2}{unit}", v * k))

@@ -247,9 +247,10 @@ pub fn encode(e: &Evaluated, simulations: usize) -> Result<String, DiagnoseError
         params: e.outcome.params,
         significant_left: e.outcome.significant_left,
     };
-    serde_json::to_string(&record).map_err(|err| DiagnoseError::Output {
-        file: "candidate record".into(),
-        message: err.to_string(),
+    serde_json::to_string(&record).map_err(|source| DiagnoseError::Record {
+        place: "candidate record".into(),
+        what: "cannot be written".into(),
+        source,
     })
 }
 
@@ -259,8 +260,11 @@ pub fn decode(text: &str, place: &Path) -> Result<(Evaluated, usize), DiagnoseEr
         file: place.to_path_buf(),
         message,
     };
-    let r: Record = serde_json::from_str(text)
-        .map_err(|e| bad(format!("a candidate record does not parse: {e}")))?;
+    let r: Record = serde_json::from_str(text).map_err(|source| DiagnoseError::Record {
+        place: place.to_path_buf(),
+        what: "a candidate record does not parse".into(),
+        source,
+    })?;
     let effects = r
         .effects
         .iter()

@@ -62,7 +62,8 @@ impl LightingConfig {
                 join(path, "white_level_dn"),
                 format!(
                     "must be above black_level_dn ({}), got {}",
-                    self.black_level_dn, self.white_level_dn
+                    crate::validation::short(self.black_level_dn),
+                    crate::validation::short(self.white_level_dn)
                 ),
             );
         }

@@ -42,7 +42,10 @@ impl MotionBlurConfig {
         if !(self.max_step_px > 0.0 && self.max_step_px <= 10.0) {
             problems.push(
                 join(path, "max_step_px"),
-                format!("must be in (0, 10], got {}", self.max_step_px),
+                format!(
+                    "must be in (0, 10], got {}",
+                    crate::validation::short(self.max_step_px)
+                ),
             );
         }
         problems.range(
