@@ -40,11 +40,11 @@ pub struct ReRenderCheck {
     pub t_s: f64,
     /// Window compared (x0, y0, width, height), px.
     pub window: (i64, i64, usize, usize),
-    /// RMS of footage − noise-free render (through the fitted compression, if any) over the
-    /// window, DN.
+    /// RMS of footage − noise-free, uncompressed render over the window, DN.
     pub residual_rms_dn: f64,
     /// RMS of footage − render the fitted model predicts over the same pixels, DN: the fitted
-    /// noise σ and the render's own rounding to whole DN (1/12 DN²) in quadrature.
+    /// noise σ, the render's own rounding to whole DN (1/12 DN²) and, with the fitted
+    /// compression, the codec's distortion of the clean render, in quadrature.
     pub expected_noise_dn: f64,
 }
 
@@ -743,10 +743,11 @@ pub fn calibration_markdown(
     if let Some(c) = check {
         let _ = writeln!(
             s,
-            "\n## Re-rendering check\n\nFrame {} (t = {:.4} s) rendered from the calibrated scenario without noise (through the fitted \
-             compression, if any): RMS of footage − render over the marker window ({}×{} px at {}, {}) is {:.3} DN, \
-             against {:.3} DN the fitted model predicts there (its noise σ and the render's rounding to whole DN, \
-             1/12 DN², in quadrature): ratio {:.3} (≤ 1.2 means the scenario reproduces the footage down to its noise).",
+            "\n## Re-rendering check\n\nFrame {} (t = {:.4} s) rendered from the calibrated scenario without noise or compression: RMS of \
+             footage − render over the marker window ({}×{} px at {}, {}) is {:.3} DN, against {:.3} DN the fitted \
+             model predicts there (its noise σ, the render's rounding to whole DN (1/12 DN²) and, with the fitted \
+             compression, the codec's distortion of the clean render, in quadrature): ratio {:.3} (≤ 1.2 means the \
+             scenario reproduces the footage down to its noise).",
             c.frame,
             c.t_s,
             c.window.2,

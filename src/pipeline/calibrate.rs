@@ -1252,12 +1252,18 @@ fn render_check(
         window: crop.rect,
     };
     let full = render_frame(&scene, &rig.settings, &req);
-    // Noise off; the fitted compression stays on: compressed footage is compared with the
-    // scenario's picture through the same codec (block edges and ringing are the picture, not
-    // noise), so that what is left is the noise the codec let through.
     let mut clean_settings = rig.settings.clone();
     clean_settings.effects.pixel_noise.enabled = false;
+    clean_settings.effects.compression.enabled = false;
     let clean = render_frame(&scene, &clean_settings, &req);
+    // With the fitted compression, the codec's own distortion of the clean picture (block
+    // edges, ringing) is part of what the model predicts for footage − clean render: it is
+    // measured on the clean render coded at the fitted quality and added to the noise.
+    let coded = rig.settings.effects.compression.enabled.then(|| {
+        let mut coded_settings = rig.settings.clone();
+        coded_settings.effects.pixel_noise.enabled = false;
+        render_frame(&scene, &coded_settings, &req)
+    });
     // Compare over the black square and half its white margin.
     let m = &base.scene.marker;
     let (x0, y0, x1, y1) = corners_bbox_px(corners);
@@ -1294,6 +1300,9 @@ fn render_check(
             let d = a as f64 - b as f64;
             ss += d * d;
             vs += var_at(b as f64);
+            if let Some(c) = coded.as_ref().and_then(|c| c.get(x, y)) {
+                vs += (c as f64 - b as f64).powi(2);
+            }
             count += 1;
         }
     }
@@ -1305,7 +1314,7 @@ fn render_check(
         residual_rms_dn: (ss / count).sqrt(),
         // The render is rounded to whole DN too: its rounding error (uniform, 1/12 DN², and
         // independent of the footage's noise) is part of footage − render. The fitted σ already
-        // holds the footage's own rounding.
+        // holds the footage's own rounding; the codec's distortion is in `vs` when compressed.
         expected_noise_dn: (vs / count + 1.0 / 12.0).sqrt(),
     };
     // Overlay: footage | render | 128 + 4·(footage − clean render).

@@ -39,7 +39,7 @@ pub struct CaseResult {
     /// The truth scenario's text.
     pub truth_toml: String,
     pub checks: Vec<Check>,
-    /// Re-render residual over noise.
+    /// Re-render residual over the RMS the fitted model predicts.
     pub rerender_ratio: Option<f64>,
     /// The footage is JPEG-compressed (the noise it shows is partly the codec's).
     pub compressed: bool,
@@ -408,7 +408,7 @@ pub fn summary(results: &[CaseResult]) -> String {
     let within = all.iter().filter(|c| c.within).count();
     let ratios: Vec<f64> = results.iter().filter_map(|r| r.rerender_ratio).collect();
     s.push_str(&format!(
-        "\nAll parameters: {within}/{} within their 95 % interval ({:.1} %). Re-render residual / noise: worst {:.3} over {} cases.\n",
+        "\nAll parameters: {within}/{} within their 95 % interval ({:.1} %). Re-render residual / the RMS the fitted model predicts: worst {:.3} over {} cases.\n",
         all.len(),
         100.0 * within as f64 / all.len().max(1) as f64,
         ratios.iter().copied().fold(0.0, f64::max),
@@ -515,7 +515,7 @@ pub fn criteria(results: &[CaseResult]) -> Vec<(String, String, Option<bool>)> {
     let ratios: Vec<f64> = results.iter().filter_map(|r| r.rerender_ratio).collect();
     let ok = ratios.iter().filter(|q| **q <= 1.2).count();
     out.push((
-        "re-render residual ≤ 1.2 × the fitted noise".to_string(),
+        "re-render residual ≤ 1.2 × the RMS the fitted model predicts (noise, the render's rounding, the codec's distortion)".to_string(),
         format!(
             "{ok}/{} (worst {:.3})",
             ratios.len(),
