@@ -86,6 +86,19 @@ impl Problems {
     }
 }
 
+/// `text` with every number quoted in backticks that is longer than 12 characters written
+/// with [`short`]: serde and toml print a float's every digit (`1e308` as 309 of them).
+pub fn shorten_quoted_numbers(text: &str) -> String {
+    text.split('`')
+        .enumerate()
+        .map(|(k, part)| match part.parse::<f64>() {
+            Ok(v) if k % 2 == 1 && part.len() > 12 => short(v),
+            _ => part.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("`")
+}
+
 /// A number as short as it can be written and still read back exactly: plain decimal up to 8
 /// characters (`10000`, `0.00001`), else plain or scientific, whichever is shorter (`1e308`,
 /// `2.5e-300`; never 309 digits).
@@ -111,6 +124,19 @@ pub fn join(parent: &str, field: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn long_quoted_numbers_are_shortened_and_nothing_else_changes() {
+        let long = format!("{}", 1e308);
+        let text = format!("invalid type: floating point `{long}`, expected usize");
+        assert_eq!(
+            shorten_quoted_numbers(&text),
+            "invalid type: floating point `1e308`, expected usize"
+        );
+        let kept = "field `detector.roi` is `12345`; `x` `0.1`";
+        assert_eq!(shorten_quoted_numbers(kept), kept);
+        assert_eq!(shorten_quoted_numbers("no quotes 1e308"), "no quotes 1e308");
+    }
 
     #[test]
     fn range_messages_name_field_and_bounds() {

@@ -182,3 +182,35 @@ fn a_reader_that_goes_away_ends_the_process_quietly() {
     assert!(!e.contains("panicked") && !e.contains("Broken pipe"), "{e}");
     assert_ne!(o.status.code(), Some(101), "{e}");
 }
+
+#[test]
+fn a_failed_estimation_keeps_the_detections_it_names() {
+    // Issue #14 audit: the error named tracks in a staging folder that had just been removed.
+    let dir = tempfile::tempdir().unwrap();
+    let o = geneva(
+        dir.path(),
+        &["render", "fast", "--frames", "0..2", "--out", "fr"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = geneva(
+        dir.path(),
+        &[
+            "analyze",
+            "--frames",
+            "fr",
+            "--timestamps",
+            "fr/timestamps.csv",
+            "--out",
+            "an",
+        ],
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("too few detected frames") && e.contains("an/tracks.csv"),
+        "{e}"
+    );
+    assert!(!e.contains(".partial") && repeated(&e).is_empty(), "{e}");
+    let tracks = std::fs::read_to_string(dir.path().join("an/tracks.csv")).unwrap();
+    assert_eq!(tracks.lines().count(), 3, "{tracks}");
+}

@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use geneva_vision::estimate::{EstimatorConfig, Signal};
-use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions};
+use geneva_vision::pipeline::analyze::{analyze, AnalyzeError, AnalyzeOptions};
 use geneva_vision::pipeline::defaults_study::defaults_reason;
 use geneva_vision::scenario;
 use std::path::PathBuf;
@@ -39,11 +39,27 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     };
     let staged = geneva_vision::io::output_dir::OutputDir::create(&a.out)?;
     let bar = super::run_cmd::progress_bar(0, "detect");
-    let out = analyze(&source, &options, staged.path(), &|done, total| {
+    let analysed = analyze(&source, &options, staged.path(), &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
-    })?;
+    });
     bar.finish_and_clear();
+    let out = match analysed {
+        Ok(out) => out,
+        // The detections are the expensive part and are complete: they are kept (the folder
+        // committed with tracks.csv) so that another estimator can be tried on them.
+        Err(e @ AnalyzeError::Estimate { .. }) if staged.path().join("tracks.csv").is_file() => {
+            staged.commit()?;
+            let kept = a.out.join("tracks.csv");
+            return Err(anyhow::Error::new(e).context(format!(
+                "the detections are kept in {}: `geneva analyze --tracks {}` tries another \
+                 estimator on them",
+                kept.display(),
+                kept.display()
+            )));
+        }
+        Err(e) => return Err(e.into()),
+    };
     let e = &out.estimate;
     let c = &e.rotation_centre;
     for line in input_summary(&out.input, e.detected) {

@@ -97,7 +97,9 @@ pub enum AnalyzeError {
         gap_end: usize,
         limit: usize,
     },
-    #[error("estimation failed ({frames} frames read, tracks in {tracks})")]
+    // No path in the text: the command may have written the tracks into a staging folder that
+    // is renamed (or removed) afterwards; it names their final place itself.
+    #[error("estimation failed ({frames} frames read)")]
     Estimate {
         source: crate::estimate::EstimateError,
         frames: usize,

@@ -34,7 +34,7 @@ pub fn deserialize(value: Value, file: &Path) -> Result<Scenario, ScenarioError>
 fn attempt(value: Value) -> Result<Scenario, (String, String)> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
-        let text = e.into_inner().to_string();
+        let text = crate::validation::shorten_quoted_numbers(&e.into_inner().to_string());
         let message = text
             .lines()
             .filter(|l| !(l.starts_with("in `") && l.ends_with('`')))
