@@ -74,6 +74,14 @@ fn calibrate_recovers_random_rendered_scenarios() {
                 );
             }
         }
+        assert_eq!(
+            r.compression_found,
+            r.compressed,
+            "case {}: compression found {} on footage that is{} JPEG-compressed",
+            r.index,
+            r.compression_found,
+            if r.compressed { "" } else { " not" }
+        );
         if let Some(q) = r.rerender_ratio {
             assert!(
                 q <= 1.5,

@@ -29,6 +29,7 @@ mod geometry;
 mod imaging;
 mod motion;
 pub mod output;
+pub mod rerender;
 
 #[cfg(test)]
 mod tests;

@@ -40,13 +40,23 @@ pub struct ReRenderCheck {
     pub t_s: f64,
     /// Window compared (x0, y0, width, height), px.
     pub window: (i64, i64, usize, usize),
-    /// RMS of footage − noise-free, uncompressed render over the window, DN.
+    /// RMS of footage − noise-free, uncompressed render over the window, DN, after the render is
+    /// aligned to the footage by [`Self::alignment`] (when accepted).
     pub residual_rms_dn: f64,
+    /// The same RMS before the alignment, DN.
+    pub unaligned_rms_dn: f64,
+    /// The marker's sub-pixel pose correction that best aligns the render to the footage,
+    /// linearised on the render's gradients: shift x and y (px), rotation (deg) and scale
+    /// (relative) about the marker's centre. `None` when the fit was singular or moved the
+    /// marker by more than `MAX_ALIGNMENT_PX` at its corners (then the residual is unaligned).
+    pub alignment: Option<[f64; 4]>,
     /// RMS of footage − render the fitted model predicts over the same pixels, DN: the fitted
     /// noise σ, the render's own rounding to whole DN (1/12 DN²) and, with the fitted
     /// compression, the codec's distortion of the clean render, in quadrature.
     pub expected_noise_dn: f64,
 }
+
+pub use super::rerender::MAX_ALIGNMENT_PX;
 
 impl ReRenderCheck {
     pub fn ratio(&self) -> f64 {
@@ -747,7 +757,7 @@ pub fn calibration_markdown(
              footage − render over the marker window ({}×{} px at {}, {}) is {:.3} DN, against {:.3} DN the fitted \
              model predicts there (its noise σ, the render's rounding to whole DN (1/12 DN²) and, with the fitted \
              compression, the codec's distortion of the clean render, in quadrature): ratio {:.3} (≤ 1.2 means the \
-             scenario reproduces the footage down to its noise).",
+             scenario reproduces the footage down to its noise). {}",
             c.frame,
             c.t_s,
             c.window.2,
@@ -756,7 +766,22 @@ pub fn calibration_markdown(
             c.window.1,
             c.residual_rms_dn,
             c.expected_noise_dn,
-            c.ratio()
+            c.ratio(),
+            match c.alignment {
+                Some([dx, dy, rot, scale]) => format!(
+                    "The render was first aligned to the footage by the marker's sub-pixel pose \
+                     correction that fits best (shift ({dx:.3}, {dy:.3}) px, rotation {rot:.4}°, \
+                     scale {:+.3} %; linearised on the render's gradients): at sub-DN noise an \
+                     edge shifted by a few hundredths of a pixel, within the pose's uncertainty, \
+                     is most of the difference. Before it the RMS was {:.3} DN.",
+                    100.0 * scale,
+                    c.unaligned_rms_dn
+                ),
+                None => format!(
+                    "No pose alignment: the best one would move the marker by more than \
+                     {MAX_ALIGNMENT_PX} px (or was singular), so the residual is the unaligned one."
+                ),
+            }
         );
     }
     if let Some(t) = &cal.timing {

@@ -14,6 +14,7 @@ use crate::calibrate::output::{
     calibration_markdown, dynamics_offset_rad, overrides, scenario_toml, OutputContext, Override,
     ReRenderCheck,
 };
+use crate::calibrate::rerender::{align, PixelResidual};
 use crate::calibrate::{
     calibrate as fit_rig, noise_electrons, CalibrateError, CalibrateOptions, Calibration,
     FootageStats, FrameObservation, TemporalSample,
@@ -1288,7 +1289,12 @@ fn render_check(
         };
         vi + f * (vp - vi)
     };
-    let (mut ss, mut vs, mut count) = (0.0, 0.0, 0usize);
+    // Per pixel: footage − render, and the render's change per unit of each pose correction
+    // (shift x, shift y, rotation in rad and relative scale about the marker's centre), from
+    // its central differences.
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let mut rows: Vec<PixelResidual> = Vec::new();
+    let (mut vs, mut count) = (0.0, 0usize);
     for y in win.y0..win.y1() {
         for x in win.x0..win.x1() {
             let (Some(a), Some(b)) = (
@@ -1297,21 +1303,37 @@ fn render_check(
             ) else {
                 continue;
             };
-            let d = a as f64 - b as f64;
-            ss += d * d;
             vs += var_at(b as f64);
             if let Some(c) = coded.as_ref().and_then(|c| c.get(x, y)) {
                 vs += (c as f64 - b as f64).powi(2);
             }
             count += 1;
+            let at = |x: i64, y: i64| clean.get(x, y).map(f64::from);
+            let grad = match (at(x + 1, y), at(x - 1, y), at(x, y + 1), at(x, y - 1)) {
+                (Some(r), Some(l), Some(d), Some(u)) => Some((0.5 * (r - l), 0.5 * (d - u))),
+                _ => None,
+            };
+            let (gx, gy) = grad.unwrap_or((0.0, 0.0));
+            rows.push(PixelResidual::new(
+                a as f64 - b as f64,
+                gx,
+                gy,
+                x as f64 - cx,
+                y as f64 - cy,
+            ));
         }
     }
+    let aligned = align(&rows, 0.5 * (x1 - x0).hypot(y1 - y0));
+    let (ss, unaligned_ss, alignment) =
+        (aligned.aligned_ss, aligned.unaligned_ss, aligned.correction);
     let count = count.max(1) as f64;
     let check = ReRenderCheck {
         frame,
         t_s,
         window: (win.x0, win.y0, win.width, win.height),
         residual_rms_dn: (ss / count).sqrt(),
+        unaligned_rms_dn: (unaligned_ss / count).sqrt(),
+        alignment: alignment.map(|p| [p[0], p[1], p[2].to_degrees(), p[3]]),
         // The render is rounded to whole DN too: its rounding error (uniform, 1/12 DN², and
         // independent of the footage's noise) is part of footage − render. The fitted σ already
         // holds the footage's own rounding; the codec's distortion is in `vs` when compressed.
