@@ -128,7 +128,11 @@ fn small_self_check_null_withheld_and_out_of_vocabulary() {
             o.name, o.verdict, o.ranked, o.best_shrink
         );
         match &o.expectation {
-            Expectation::Null => assert_eq!(o.verdict, "no_gap", "{o:?}"),
+            Expectation::Null => {
+                assert_eq!(o.verdict, "no_gap", "{o:?}");
+                // Nothing near significance: no seeds are added (escalation costs time).
+                assert_eq!(o.eval_seeds, options.seeds, "{o:?}");
+            }
             Expectation::Withheld { .. } => {
                 assert_eq!(o.verdict, "explained", "{o:?}");
                 assert!(o.top_k(1), "{o:?}");
@@ -142,6 +146,10 @@ fn small_self_check_null_withheld_and_out_of_vocabulary() {
         )
         .unwrap();
         assert_eq!(json["verdict"], o.verdict.as_str());
+        assert_eq!(
+            json["run"]["seeds"].as_array().map(Vec::len),
+            Some(o.eval_seeds)
+        );
     }
 }
 
@@ -170,4 +178,5 @@ fn a_null_case_drawn_by_the_independent_renderer_has_no_gap() {
     let o = run_case(&all[0], tmp.path(), &options).unwrap();
     assert_eq!(o.expectation, Expectation::Null);
     assert_eq!(o.verdict, "no_gap", "{o:?}");
+    assert_eq!(o.eval_seeds, options.seeds, "{o:?}");
 }

@@ -11,8 +11,11 @@
 
 use crate::estimate::linalg::solve;
 
-/// Largest movement of a marker corner the alignment may make, px.
-pub const MAX_ALIGNMENT_PX: f64 = 0.5;
+/// Largest movement of a marker corner the alignment may make, px. Four times the largest
+/// correction the calibration round trip needed (0.05 px): the aligned residual also feeds
+/// calibrate's misfit guard, and a wider allowance would let a pose error of a good part of a
+/// pixel pass it.
+pub const MAX_ALIGNMENT_PX: f64 = 0.2;
 
 /// One pixel of the comparison: footage − render, DN, and the render's change per unit of each
 /// pose correction.

@@ -27,6 +27,10 @@ pub struct DiagnoseArgs {
     /// Simulated seeds per configuration (the nominal's spread, every candidate's judgement).
     #[arg(long, default_value_t = 6)]
     seeds: usize,
+    /// Evaluation seeds to raise `--seeds` to when no cell is significant on `--seeds` but some
+    /// would be with unlimited seeds (0: never).
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS)]
+    escalate_seeds: usize,
     /// Cap on the candidate search, minutes; what was not tried is reported.
     #[arg(long)]
     max_minutes: Option<f64>,
@@ -70,6 +74,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
     )?;
     let options = DiagnoseOptions {
         seeds: a.seeds,
+        escalate_seeds: a.escalate_seeds,
         effects,
         max_minutes: a.max_minutes,
         ..DiagnoseOptions::default()

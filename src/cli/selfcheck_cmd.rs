@@ -47,6 +47,10 @@ pub struct SelfCheckArgs {
     /// Simulated seeds per configuration of each diagnosis.
     #[arg(long, default_value_t = 4)]
     seeds: usize,
+    /// Evaluation seeds to raise `--seeds` to when no cell is significant on `--seeds` but some
+    /// would be with unlimited seeds (0: never).
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS)]
+    escalate_seeds: usize,
     /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
     /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).
     #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
@@ -97,6 +101,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     }
     let options = DiagnoseOptions {
         seeds: a.seeds,
+        escalate_seeds: a.escalate_seeds,
         fit_seeds: 2,
         ..Default::default()
     };

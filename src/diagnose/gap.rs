@@ -246,6 +246,30 @@ fn transform(compare: Compare, floor: f64, v: f64) -> f64 {
     }
 }
 
+/// Cells that miss significance only for lack of simulated seeds: none of `map` is significant
+/// (Student t on N seeds), yet Benjamini–Hochberg at the same rate keeps these when their z is
+/// taken at its limit of unlimited seeds (the normal p-value). More seeds can then change the
+/// verdict; otherwise they cannot (an empty answer). Largest |z| first.
+///
+/// This only decides whether more seeds are worth simulating: the verdict is always taken by
+/// [`compare`] on the seeds actually simulated, so asking cannot raise a false alarm that the
+/// larger comparison alone would not.
+pub fn seed_limited(map: &GapMap) -> Vec<CellGap> {
+    if map.n_significant() > 0 {
+        return Vec::new();
+    }
+    let p: Vec<f64> = map.cells.iter().map(|c| two_sided_p(c.z)).collect();
+    let mut limited: Vec<CellGap> = map
+        .cells
+        .iter()
+        .zip(benjamini_hochberg(&p, map.options.fdr_q))
+        .filter(|(_, keep)| *keep)
+        .map(|(c, _)| *c)
+        .collect();
+    limited.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
+    limited
+}
+
 /// Compares `real` with `sims` cell by cell (cells present in `real` and in at least
 /// `options.min_sims` simulations).
 pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
@@ -352,6 +376,65 @@ mod tests {
             vec![true, false, true, true, false]
         );
         assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
+    }
+
+    /// A map of `m` cells, every z but the first `zs` at 0.5, with the given Student p-values.
+    fn map_of(zs: &[(f64, f64)], m: usize) -> GapMap {
+        let cells: Vec<CellGap> = (0..m)
+            .map(|i| {
+                let (z, p) = zs.get(i).copied().unwrap_or((0.5, two_sided_p(0.5)));
+                CellGap {
+                    key: CellKey {
+                        channel: "theta",
+                        phase: "drive",
+                        band: Some((i % 8) as u8),
+                    },
+                    real: z,
+                    sim_mean: 0.0,
+                    sim_std: 1.0,
+                    sims: 4,
+                    z,
+                    p,
+                    significant: false,
+                }
+            })
+            .collect();
+        let options = GapOptions::default();
+        let p: Vec<f64> = cells.iter().map(|c| c.p).collect();
+        let keep = benjamini_hochberg(&p, options.fdr_q);
+        let cells = cells
+            .into_iter()
+            .zip(keep)
+            .map(|(c, s)| CellGap {
+                significant: s,
+                ..c
+            })
+            .collect();
+        GapMap {
+            cells,
+            total: 0.0,
+            options,
+        }
+    }
+
+    #[test]
+    fn cells_short_of_significance_for_lack_of_seeds_are_named() {
+        // The two missed strong runouts of reports/diagnosis-seeds-independent: z 4.8 in the
+        // angle's low band, Student t on 4 seeds (ν ≈ 3) far from significant among 104 cells,
+        // the normal limit at p ≈ 1.6e-6 well inside BH's 0.01/104.
+        let z = 4.81;
+        let map = map_of(&[(z, two_sided_p_student(z, 3.0)), (3.0, 0.05)], 104);
+        assert_eq!(map.n_significant(), 0);
+        let limited = seed_limited(&map);
+        assert_eq!(limited.len(), 1);
+        assert_eq!(limited[0].z, z);
+        // The largest null z of the stored self-checks (3.85 among 104 cells) is not.
+        let null = map_of(&[(3.85, two_sided_p_student(3.85, 3.0))], 104);
+        assert!(seed_limited(&null).is_empty());
+        // Nothing is asked of a map that already has a significant cell.
+        let sure = map_of(&[(9.0, 1e-9), (z, two_sided_p_student(z, 3.0))], 104);
+        assert!(sure.n_significant() > 0);
+        assert!(seed_limited(&sure).is_empty());
     }
 
     fn key(channel: &'static str) -> CellKey {

@@ -42,6 +42,10 @@ pub struct CaseOutcome {
     /// Relative errors |fitted − true| / |true| of the withheld effect's identifiable
     /// parameters, when the best candidate is that effect.
     pub param_rel_errors: Vec<f64>,
+    /// Evaluation seeds the diagnosis judged on (more than asked when it escalated); 0 when
+    /// it failed. Records of older runs have none.
+    #[serde(default)]
+    pub eval_seeds: usize,
 }
 
 impl CaseOutcome {
@@ -240,6 +244,7 @@ mod tests {
                 .collect(),
             best_shrink: Some(shrink),
             param_rel_errors: vec![0.1],
+            eval_seeds: 4,
         }
     }
 

@@ -1324,16 +1324,16 @@ fn render_check(
         }
     }
     let aligned = align(&rows, 0.5 * (x1 - x0).hypot(y1 - y0));
-    let (ss, unaligned_ss, alignment) =
-        (aligned.aligned_ss, aligned.unaligned_ss, aligned.correction);
     let count = count.max(1) as f64;
     let check = ReRenderCheck {
         frame,
         t_s,
         window: (win.x0, win.y0, win.width, win.height),
-        residual_rms_dn: (ss / count).sqrt(),
-        unaligned_rms_dn: (unaligned_ss / count).sqrt(),
-        alignment: alignment.map(|p| [p[0], p[1], p[2].to_degrees(), p[3]]),
+        residual_rms_dn: (aligned.aligned_ss / count).sqrt(),
+        unaligned_rms_dn: (aligned.unaligned_ss / count).sqrt(),
+        alignment: aligned
+            .correction
+            .map(|p| [p[0], p[1], p[2].to_degrees(), p[3]]),
         // The render is rounded to whole DN too: its rounding error (uniform, 1/12 DN², and
         // independent of the footage's noise) is part of footage − render. The fitted σ already
         // holds the footage's own rounding; the codec's distortion is in `vs` when compressed.

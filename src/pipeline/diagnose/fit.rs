@@ -77,6 +77,8 @@ pub struct Fitter<'a> {
     pub pose_tilt: Option<PoseTilt>,
     /// The aligned nominal (`base`) on the evaluation seeds against the real data.
     pub nominal_gap: GapMap,
+    /// The aligned nominal's cells on each evaluation seed (what `nominal_gap` compares).
+    nominal_sims: Vec<Cells>,
     pub base: Trial,
     pub fit_seeds: Vec<u64>,
     pub eval_seeds: Vec<u64>,
@@ -122,8 +124,8 @@ impl<'a> Fitter<'a> {
         gap_options: GapOptions,
     ) -> Result<Self, DiagnoseError> {
         let simulations = RefCell::new(0);
-        let sims = simulated_cells(&ctx, &base, &eval_seeds, true, &simulations)?;
-        let nominal_gap = compare(real.cells, &sims, gap_options);
+        let nominal_sims = simulated_cells(&ctx, &base, &eval_seeds, true, &simulations)?;
+        let nominal_gap = compare(real.cells, &nominal_sims, gap_options);
         Ok(Self {
             ctx,
             nominal,
@@ -134,12 +136,24 @@ impl<'a> Fitter<'a> {
             runout_form: real.runout_form,
             pose_tilt: real.pose_tilt,
             nominal_gap,
+            nominal_sims,
             base,
             fit_seeds,
             eval_seeds,
             gap_options,
             simulations,
         })
+    }
+
+    /// Adds evaluation seeds: the nominal is simulated on the new ones only and the nominal gap
+    /// recomputed on all of them. Call before any candidate is judged (they all share the
+    /// evaluation seeds).
+    pub fn add_eval_seeds(&mut self, more: &[u64]) -> Result<(), DiagnoseError> {
+        let sims = self.cells(&self.base, more, true)?;
+        self.nominal_sims.extend(sims);
+        self.eval_seeds.extend_from_slice(more);
+        self.nominal_gap = compare(self.real_cells, &self.nominal_sims, self.gap_options);
+        Ok(())
     }
 
     /// The same fitter with its own simulation counter at zero: a candidate fitted on a fork
@@ -155,6 +169,7 @@ impl<'a> Fitter<'a> {
             runout_form: self.runout_form,
             pose_tilt: self.pose_tilt,
             nominal_gap: self.nominal_gap.clone(),
+            nominal_sims: self.nominal_sims.clone(),
             base: self.base.clone(),
             fit_seeds: self.fit_seeds.clone(),
             eval_seeds: self.eval_seeds.clone(),

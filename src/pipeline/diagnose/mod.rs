@@ -30,7 +30,7 @@ pub mod shards;
 pub mod simulate;
 
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
-use crate::diagnose::gap::{GapMap, GapOptions};
+use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
 use crate::diagnose::plan;
 use crate::diagnose::verdict::{self, Outcome, Verdict};
 use crate::io::output_dir::OutputDir;
@@ -183,6 +183,10 @@ pub struct DiagnoseOptions {
     pub seeds: usize,
     /// Seeds per objective evaluation in the fits.
     pub fit_seeds: usize,
+    /// Evaluation seeds to go up to when the nominal comparison on `seeds` finds nothing
+    /// significant but would with unlimited seeds ([`crate::diagnose::gap::seed_limited`]);
+    /// at or below `seeds`, never.
+    pub escalate_seeds: usize,
     /// Candidates (default: the whole vocabulary).
     pub effects: Option<Vec<Effect>>,
     /// Cap on the candidate search; what was not tried is reported.
@@ -197,12 +201,28 @@ impl Default for DiagnoseOptions {
         Self {
             seeds: 6,
             fit_seeds: 3,
+            escalate_seeds: ESCALATE_SEEDS,
             effects: None,
             max_minutes: None,
             gap: GapOptions::default(),
             pairs: true,
         }
     }
+}
+
+/// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
+/// strong axis runout, 4 seeds left the angle's low band at z = 4.3–4.8 short of significance on
+/// 2 of 3 seeds (`reports/diagnosis-seeds-independent/`); 12 seeds found all three, and the 4
+/// null cases stayed without a gap (`reports/diagnosis-runout-12seeds-independent/`).
+pub const ESCALATE_SEEDS: usize = 12;
+
+/// The evaluation seeds were raised because the first comparison was short of seeds.
+#[derive(Debug, Clone)]
+pub struct SeedEscalation {
+    pub from_seeds: usize,
+    pub to_seeds: usize,
+    /// The cells that were significant only in the limit of unlimited seeds, on `from_seeds`.
+    pub cells: Vec<CellGap>,
 }
 
 /// One ranked candidate.
@@ -241,6 +261,11 @@ pub struct Diagnosis {
     /// Candidates that cannot be judged from the input (image effects from a corner track).
     pub not_judged: Vec<Effect>,
     pub pair_tried: bool,
+    /// Set when the evaluation seeds were raised before judging.
+    pub escalation: Option<SeedEscalation>,
+    /// Cells still short of significance only for lack of seeds (on the final seeds): with no
+    /// gap found, the report names them and how many seeds might settle them.
+    pub seed_limited: Vec<CellGap>,
     pub seeds: Vec<u64>,
     pub fit_seeds: Vec<u64>,
     pub simulations: usize,
@@ -421,15 +446,14 @@ pub fn diagnose_with(
         .filter(|(_, th)| th.is_finite())
         .map(|(t, th)| (*t, *th))
         .unzip();
-    let seeds: Vec<u64> = (0..options.seeds as u64)
-        .map(|k| nominal.seed.wrapping_add(1000 + k))
-        .collect();
+    let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
+    let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
         .map(|k| nominal.seed.wrapping_add(2000 + k))
         .collect();
     let base = Fitter::base_trial(&aligned, nominal, &t_all);
     progress("simulating the nominal", 0, seeds.len());
-    let fitter = Fitter::new(
+    let mut fitter = Fitter::new(
         ctx,
         nominal,
         RealSide {
@@ -445,6 +469,35 @@ pub fn diagnose_with(
         seeds.clone(),
         options.gap,
     )?;
+    // A verdict of no gap that more seeds could overturn is not taken on too few: the nominal
+    // is simulated on more (the first ones are kept, so only the new ones cost) and every
+    // candidate is then judged on all of them.
+    let limited = seed_limited(&fitter.nominal_gap);
+    let escalation = if !limited.is_empty() && options.escalate_seeds > options.seeds {
+        progress(
+            &format!(
+                "simulating the nominal on {} more seeds ({} cell(s) short of significance \
+                 only for lack of seeds)",
+                options.escalate_seeds - options.seeds,
+                limited.len()
+            ),
+            0,
+            1,
+        );
+        let more: Vec<u64> = (options.seeds..options.escalate_seeds)
+            .map(eval_seed)
+            .collect();
+        fitter.add_eval_seeds(&more)?;
+        seeds.extend(more);
+        Some(SeedEscalation {
+            from_seeds: options.seeds,
+            to_seeds: options.escalate_seeds,
+            cells: limited,
+        })
+    } else {
+        None
+    };
+    let fitter = fitter;
     let nominal_gap = &fitter.nominal_gap;
     let d0 = nominal_gap.total;
 
@@ -602,6 +655,8 @@ pub fn diagnose_with(
         not_tried,
         not_judged,
         pair_tried,
+        escalation,
+        seed_limited: seed_limited(nominal_gap),
         seeds,
         fit_seeds,
         simulations,

@@ -145,6 +145,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "not_tried": d.not_tried.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "pair_tried": d.pair_tried,
+        "seed_limited": d.seed_limited.iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
         "thresholds": {
             "explained_shrink": crate::diagnose::verdict::EXPLAINED_SHRINK,
             "penalty_per_param": crate::diagnose::verdict::PENALTY_PER_PARAM,
@@ -157,10 +158,28 @@ pub fn to_json(d: &Diagnosis) -> Value {
             "nyquist_hz": d.nyquist_hz,
             "seeds": d.seeds,
             "fit_seeds": d.fit_seeds,
+            "escalation": d.escalation.as_ref().map(|e| json!({
+                "from_seeds": e.from_seeds,
+                "to_seeds": e.to_seeds,
+                "cells_on_from_seeds": e.cells.iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
+            })),
             "simulations": d.simulations,
             "elapsed_s": d.elapsed_s,
         },
     })
+}
+
+/// The first few cells as `label (z = …)`.
+fn cells_text(cells: &[CellGap], nyquist_hz: f64) -> String {
+    let mut t: Vec<String> = cells
+        .iter()
+        .take(3)
+        .map(|c| format!("{} at z = {:.1}", c.key.label(nyquist_hz), c.z))
+        .collect();
+    if cells.len() > 3 {
+        t.push(format!("{} more", cells.len() - 3));
+    }
+    t.join(", ")
 }
 
 fn fmt(v: f64) -> String {
@@ -243,6 +262,16 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             .to_string(),
     };
     s.push_str(&answer);
+    if !d.seed_limited.is_empty() {
+        s.push_str(&format!(
+            " But {} cell(s) fall short of significance only for lack of simulated seeds ({}): \
+             with unlimited seeds they would be significant. Run again with more seeds \
+             (e.g. `--seeds {}`) before trusting this verdict.",
+            d.seed_limited.len(),
+            cells_text(&d.seed_limited, d.nyquist_hz),
+            2 * d.seeds.len()
+        ));
+    }
     s.push_str("\n\n");
     s.push_str(&format!(
         "Compared: {} real frames ({} with the marker{}), against the nominal simulated at the \
@@ -260,6 +289,17 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
         d.elapsed_s,
         d.nyquist_hz
     ));
+    if let Some(e) = &d.escalation {
+        s.push_str(&format!(
+            "On the first {} seeds no cell was significant, but {} would have been with unlimited \
+             seeds ({}); the nominal was therefore simulated on {} seeds, and every candidate \
+             judged on them.\n\n",
+            e.from_seeds,
+            e.cells.len(),
+            cells_text(&e.cells, d.nyquist_hz),
+            e.to_seeds
+        ));
+    }
     let a = &d.aligned;
     s.push_str("## Nuisance fitted first (not effects)\n\n| what | value |\n|---|---|\n");
     s.push_str(&format!(

@@ -536,6 +536,7 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
         ranked,
         best_shrink: best.map(|b| b.shrink),
         param_rel_errors,
+        eval_seeds: d.seeds.len(),
     }
 }
 
@@ -583,6 +584,7 @@ pub fn run_case(
                 ranked: Vec::new(),
                 best_shrink: None,
                 param_rel_errors: Vec::new(),
+                eval_seeds: 0,
             });
         }
     };
@@ -625,7 +627,7 @@ impl SelfCheck {
         }
         inputs.insert(
             "options".into(),
-            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "pairs": options.pairs}),
+            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "escalate_seeds": options.escalate_seeds, "pairs": options.pairs}),
         );
         let manifest = Manifest::new("diagnosis-selfcheck", cases.len(), inputs);
         Self {
@@ -777,9 +779,9 @@ pub fn write_summary(
                 .join(",")
         ));
     }
-    md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors |\n|---|---|---|---|---|\n");
+    md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors | evaluation seeds |\n|---|---|---|---|---|---|\n");
     let mut cases_csv =
-        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors\n");
+        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,eval_seeds\n");
     for o in outcomes {
         let ranking: Vec<String> = o.ranked.iter().take(4).map(|c| c.join("/")).collect();
         let errs: Vec<String> = o
@@ -788,12 +790,13 @@ pub fn write_summary(
             .map(|e| format!("{:.0} %", 100.0 * e))
             .collect();
         md.push_str(&format!(
-            "| {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} |\n",
             o.name,
             o.verdict,
             ranking.join(" > "),
             o.best_shrink.map_or("–".into(), |v| format!("{:.2}", v)),
             errs.join(", "),
+            o.eval_seeds,
         ));
         let kind = match &o.expectation {
             Expectation::Withheld {
@@ -809,7 +812,7 @@ pub fn write_summary(
             Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
         };
         cases_csv.push_str(&format!(
-            "{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{}\n",
             o.name,
             kind,
             o.verdict,
@@ -820,6 +823,7 @@ pub fn write_summary(
                 .map(|e| format!("{e:.4}"))
                 .collect::<Vec<_>>()
                 .join(" "),
+            o.eval_seeds,
         ));
     }
     let rate_json = |r: &Rate| serde_json::json!({"k": r.k, "n": r.n, "value": r.value()});
@@ -890,7 +894,8 @@ impl SuitePlan {
         format!(
             "Plan: {} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s), {} null case(s), {} flicker \
              case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
-             diagnosis with {} evaluation seeds and {} fit seeds{}.",
+             diagnosis with {} evaluation seeds (raised to {} when a cell misses significance only \
+             for lack of seeds) and {} fit seeds{}.",
             self.effects.len(),
             self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
             self.levels.len(),
@@ -921,6 +926,7 @@ impl SuitePlan {
                      by the project's renderer)",
             },
             options.seeds,
+            options.escalate_seeds,
             options.fit_seeds,
             options
                 .effects

@@ -115,6 +115,8 @@ pub fn manifest(
         json!({
             "seeds": options.seeds,
             "fit_seeds": options.fit_seeds,
+            "escalate_seeds": options.escalate_seeds,
+            "eval_seeds": fitter.eval_seeds.len(),
             "effects": options.effects.as_deref().map(names),
             "fdr_q": options.gap.fdr_q,
             "dead_zone_z": options.gap.dead_zone_z,
