@@ -44,6 +44,10 @@ pub struct SelfCheckArgs {
     /// Footage length, s.
     #[arg(long)]
     duration_s: Option<f64>,
+    /// Run only these cases of the plan (names as in `cases.csv`, comma separated): each keeps
+    /// the footage it has in the whole plan, so one case can be re-run alone.
+    #[arg(long, value_delimiter = ',')]
+    only: Option<Vec<String>>,
     /// Simulated seeds per configuration of each diagnosis.
     #[arg(long, default_value_t = 4)]
     seeds: usize,
@@ -106,7 +110,19 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         ..Default::default()
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let all = cases(&base, &plan, &phone_logs(repo)?);
+    let mut all = cases(&base, &plan, &phone_logs(repo)?);
+    if let Some(only) = &a.only {
+        if let Some(unknown) = only.iter().find(|n| !all.iter().any(|c| &c.name == *n)) {
+            anyhow::bail!(
+                "--only {unknown}: no such case in this plan (its cases: {})",
+                all.iter()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        all.retain(|c| only.contains(&c.name));
+    }
     // A lower bound: each case's footage rendered once and its nominal simulated per seed.
     let work = geneva_vision::pipeline::workload::Workload::of(&base, true)
         .times((all.len() * (1 + options.seeds)) as f64);

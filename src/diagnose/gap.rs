@@ -273,6 +273,28 @@ pub fn seed_limited(map: &GapMap) -> Vec<CellGap> {
 /// Compares `real` with `sims` cell by cell (cells present in `real` and in at least
 /// `options.min_sims` simulations).
 pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
+    compare_with(real, sims, options, Tolerance::Test)
+}
+
+/// Compares as [`compare`] for a fit's objective: every cell's tolerance is the same on both
+/// sides. The wider tolerance below the simulations
+/// ([`super::cells::ChannelSpec::tol_rel_below`]) lets the test accept a cleaner renderer; in a
+/// fit it makes overshooting cheap, and the search then settles above the truth (strong camera
+/// vibration fitted 19–77 % high on every seed of `reports/diagnosis-seeds-independent/`).
+pub fn compare_for_fit(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
+    compare_with(real, sims, options, Tolerance::Fit)
+}
+
+/// Which tolerance a comparison uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Tolerance {
+    /// The test's: wider below the simulations for the residual channels.
+    Test,
+    /// Symmetric.
+    Fit,
+}
+
+fn compare_with(real: &Cells, sims: &[Cells], options: GapOptions, tolerance: Tolerance) -> GapMap {
     let mut cells = Vec::new();
     for (key, &x) in real {
         let ys: Vec<f64> = sims.iter().filter_map(|s| s.get(key).copied()).collect();
@@ -291,7 +313,9 @@ pub fn compare(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
         let s2 = t.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (n - 1.0);
         let x_t = transform(spec.compare, spec.tol_abs, x);
         let tol = match spec.compare {
-            Compare::Log if x_t < m => spec.tol_rel_below(key.band).ln_1p(),
+            Compare::Log if x_t < m && tolerance == Tolerance::Test => {
+                spec.tol_rel_below(key.band).ln_1p()
+            }
             Compare::Log => spec.tol_rel.ln_1p(),
             Compare::Linear => spec.tol_abs + spec.tol_rel * raw_mean.abs(),
         };
@@ -435,6 +459,45 @@ mod tests {
         let sure = map_of(&[(9.0, 1e-9), (z, two_sided_p_student(z, 3.0))], 104);
         assert!(sure.n_significant() > 0);
         assert!(seed_limited(&sure).is_empty());
+    }
+
+    /// The parameter on a grid that minimises Σ z² of `compare_fn` for two angle-residual cells
+    /// whose real values are 1.0 and 1.2 × what the simulation gives at parameter 1 (one
+    /// footage's realisation: the cells disagree a little on the parameter).
+    fn argmin_of(compare_fn: fn(&Cells, &[Cells], GapOptions) -> GapMap) -> f64 {
+        let keys = [0u8, 1].map(|band| CellKey {
+            channel: "theta",
+            phase: "drive",
+            band: Some(band),
+        });
+        let mut real = Cells::new();
+        real.insert(keys[0], 1.0e-3);
+        real.insert(keys[1], 1.2e-3);
+        let spread = [0.97, 1.02, 0.99, 1.03];
+        let chi2 = |a: f64| {
+            let sims: Vec<Cells> = spread
+                .iter()
+                .map(|f| keys.iter().map(|k| (*k, a * f * 1.0e-3)).collect())
+                .collect();
+            compare_fn(&real, &sims, GapOptions::default()).chi2()
+        };
+        (0..=1500)
+            .map(|i| 0.5 + 0.001 * i as f64)
+            .min_by(|a, b| chi2(*a).total_cmp(&chi2(*b)))
+            .unwrap()
+    }
+
+    #[test]
+    fn a_fit_does_not_overshoot_where_the_test_tolerates_a_cleaner_footage() {
+        // Symmetric: the geometric mean of the two cells' wishes (√1.2 ≈ 1.095).
+        let fit = argmin_of(compare_for_fit);
+        assert!((fit - 1.2f64.sqrt()).abs() < 0.01, "{fit}");
+        // With the test's tolerance, wide where the simulation lies above, overshooting the
+        // first cell is cheap and the minimum moves up to the larger wish: the bias the fit
+        // comparison removes (strong drive speed fitted −0.209 for −0.15 with it, −0.153
+        // without, on the project's renderer).
+        let test = argmin_of(compare);
+        assert!(test > fit + 0.05, "test {test} vs fit {fit}");
     }
 
     fn key(channel: &'static str) -> CellKey {

@@ -11,7 +11,7 @@ use super::simulate::{trial_cells, SimContext, TimingSource, Trial};
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::cells::Cells;
-use crate::diagnose::gap::{compare, excess, GapMap, GapOptions};
+use crate::diagnose::gap::{compare, compare_for_fit, excess, GapMap, GapOptions};
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::runout::RunoutForm;
@@ -344,7 +344,7 @@ impl<'a> Fitter<'a> {
         });
         let gap = self
             .cells(&trial, &self.fit_seeds, images)
-            .map(|sims| compare(self.real_cells, &sims, self.gap_options));
+            .map(|sims| compare_for_fit(self.real_cells, &sims, self.gap_options));
         match gap {
             Ok(g) => g
                 .cells
