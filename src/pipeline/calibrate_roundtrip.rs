@@ -534,7 +534,12 @@ pub fn criteria(results: &[CaseResult]) -> Vec<(String, String, Option<bool>)> {
     let ratios: Vec<f64> = results.iter().filter_map(|r| r.rerender_ratio).collect();
     let ok = ratios.iter().filter(|q| **q <= 1.2).count();
     out.push((
-        "re-render residual ≤ 1.2 × the RMS the fitted model predicts (noise, the render's rounding, the codec's distortion), after the render is aligned to the footage by a sub-pixel pose correction (at most 0.5 px at the corners)".to_string(),
+        format!(
+            "re-render residual ≤ 1.2 × the RMS the fitted model predicts (noise, the render's \
+             rounding, the codec's distortion), after the render is aligned to the footage by a \
+             sub-pixel pose correction (at most {} px at the corners)",
+            crate::calibrate::rerender::MAX_ALIGNMENT_PX
+        ),
         format!(
             "{ok}/{} (worst {:.3})",
             ratios.len(),
