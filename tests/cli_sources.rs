@@ -99,3 +99,27 @@ fn effects_must_be_names_of_the_vocabulary() {
         &wanted,
     );
 }
+
+#[test]
+fn selfcheck_only_must_name_cases_of_its_plan() {
+    // `--only` re-runs cases on their own footage; a misspelt name must not silently run
+    // nothing (or everything): it is refused before any work, and the plan's cases are listed.
+    let dir = tempfile::tempdir().unwrap();
+    fails_with(
+        dir.path(),
+        &with(
+            &["diagnose-selfcheck"],
+            &[
+                "--quick",
+                "--only",
+                "null-0,withheld-nothing-strong-0",
+                "--yes",
+            ],
+        ),
+        &[
+            "--only withheld-nothing-strong-0: no such case in this plan",
+            "its cases: ",
+            "null-0",
+        ],
+    );
+}

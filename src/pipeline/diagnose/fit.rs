@@ -77,7 +77,8 @@ pub struct Fitter<'a> {
     pub pose_tilt: Option<PoseTilt>,
     /// The aligned nominal (`base`) on the evaluation seeds against the real data.
     pub nominal_gap: GapMap,
-    /// The aligned nominal's cells on each evaluation seed (what `nominal_gap` compares).
+    /// The aligned nominal's cells on each evaluation seed (what `nominal_gap` compares), kept
+    /// for [`Fitter::add_eval_seeds`]; empty in a fork, which never adds seeds.
     nominal_sims: Vec<Cells>,
     pub base: Trial,
     pub fit_seeds: Vec<u64>,
@@ -149,6 +150,11 @@ impl<'a> Fitter<'a> {
     /// recomputed on all of them. Call before any candidate is judged (they all share the
     /// evaluation seeds).
     pub fn add_eval_seeds(&mut self, more: &[u64]) -> Result<(), DiagnoseError> {
+        debug_assert_eq!(
+            self.nominal_sims.len(),
+            self.eval_seeds.len(),
+            "seeds are added on the main fitter, never on a fork"
+        );
         let sims = self.cells(&self.base, more, true)?;
         self.nominal_sims.extend(sims);
         self.eval_seeds.extend_from_slice(more);
@@ -169,7 +175,7 @@ impl<'a> Fitter<'a> {
             runout_form: self.runout_form,
             pose_tilt: self.pose_tilt,
             nominal_gap: self.nominal_gap.clone(),
-            nominal_sims: self.nominal_sims.clone(),
+            nominal_sims: Vec::new(),
             base: self.base.clone(),
             fit_seeds: self.fit_seeds.clone(),
             eval_seeds: self.eval_seeds.clone(),

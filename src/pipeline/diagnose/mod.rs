@@ -263,9 +263,6 @@ pub struct Diagnosis {
     pub pair_tried: bool,
     /// Set when the evaluation seeds were raised before judging.
     pub escalation: Option<SeedEscalation>,
-    /// Cells still short of significance only for lack of seeds (on the final seeds): with no
-    /// gap found, the report names them and how many seeds might settle them.
-    pub seed_limited: Vec<CellGap>,
     pub seeds: Vec<u64>,
     pub fit_seeds: Vec<u64>,
     pub simulations: usize,
@@ -276,6 +273,15 @@ pub struct Diagnosis {
     /// Time shift between the real frames' timestamps and the aligned motion, s.
     pub real_time_shift_s: f64,
     pub elapsed_s: f64,
+}
+
+impl Diagnosis {
+    /// Cells of the nominal gap still short of significance only for lack of seeds (on the
+    /// final seeds): with no gap found, the report names them and how many seeds might settle
+    /// them.
+    pub fn seed_limited(&self) -> Vec<CellGap> {
+        seed_limited(&self.nominal_gap)
+    }
 }
 
 /// What a progress callback hears: the stage and how far it is.
@@ -656,7 +662,6 @@ pub fn diagnose_with(
         not_judged,
         pair_tried,
         escalation,
-        seed_limited: seed_limited(nominal_gap),
         seeds,
         fit_seeds,
         simulations,

@@ -145,7 +145,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "not_tried": d.not_tried.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "pair_tried": d.pair_tried,
-        "seed_limited": d.seed_limited.iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
+        "seed_limited": d.seed_limited().iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
         "thresholds": {
             "explained_shrink": crate::diagnose::verdict::EXPLAINED_SHRINK,
             "penalty_per_param": crate::diagnose::verdict::PENALTY_PER_PARAM,
@@ -169,7 +169,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
     })
 }
 
-/// The first few cells as `label (z = …)`.
+/// The first few cells as `label at z = …`.
 fn cells_text(cells: &[CellGap], nyquist_hz: f64) -> String {
     let mut t: Vec<String> = cells
         .iter()
@@ -262,13 +262,14 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             .to_string(),
     };
     s.push_str(&answer);
-    if !d.seed_limited.is_empty() {
+    let seed_limited = d.seed_limited();
+    if !seed_limited.is_empty() {
         s.push_str(&format!(
             " But {} cell(s) fall short of significance only for lack of simulated seeds ({}): \
              with unlimited seeds they would be significant. Run again with more seeds \
              (e.g. `--seeds {}`) before trusting this verdict.",
-            d.seed_limited.len(),
-            cells_text(&d.seed_limited, d.nyquist_hz),
+            seed_limited.len(),
+            cells_text(&seed_limited, d.nyquist_hz),
             2 * d.seeds.len()
         ));
     }
