@@ -290,11 +290,15 @@ impl<'a> Fitter<'a> {
                 }
             }
         }
-        if applied.iter().any(|(e, _)| *e == Effect::PerspectiveTilt) {
+        if applied
+            .iter()
+            .any(|(e, _)| matches!(e, Effect::PerspectiveTilt | Effect::AxisRunout))
+        {
             // The crank phase and speed, the marker's angle and the measured rotation centre
-            // are nuisance: refit them through this camera (see `camera_warp`). Not for a lens
-            // distortion: its angle warp is most of what identifies k1, and it never biased the
-            // nominal's alignment enough to hide the lens.
+            // are nuisance: refit them through this camera or this wobbling axis (see
+            // `camera_warp`). Not for a lens distortion: its angle warp is most of what
+            // identifies k1, and it never biased the nominal's alignment enough to hide the
+            // lens.
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
             let base = &self.base.scenario;
