@@ -443,6 +443,11 @@ impl ReferenceTable {
         self.interp(&self.theta_rad, t_s) / screen_sign
     }
 
+    /// The aligned nominal's wheel speed (its own convention) at `t_s`, rad/s.
+    pub fn omega2_rad_s_at(&self, t_s: f64, screen_sign: f64) -> f64 {
+        self.interp(&self.omega_rad_s, t_s) / screen_sign
+    }
+
     fn interp(&self, v: &[f64], t_s: f64) -> f64 {
         let x = ((t_s - self.t0_s) / self.step_s).clamp(0.0, (v.len() - 1) as f64);
         let i = (x.floor() as usize).min(v.len().saturating_sub(2));
@@ -577,7 +582,11 @@ pub fn runout_samples(
         }
         let measured = crate::estimate::marker_centre::corner_mean(&c);
         out.push(crate::diagnose::runout::RunoutSample {
+            t_s: f.t_s,
             theta2_rad,
+            omega2_rad_s: aligned
+                .reference
+                .omega2_rad_s_at(f.t_s + shift_s, aligned.screen_sign),
             residual_px: [measured[0] - m.x, measured[1] - m.y],
             jacobian_px_per_m: [
                 [(mx.x - m.x) / STEP_M, (mx.y - m.y) / STEP_M],
