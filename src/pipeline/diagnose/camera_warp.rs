@@ -32,6 +32,7 @@ use crate::diagnose::align::{align_motion, apply_motion, MotionAlignment};
 use crate::estimate::{estimate, Corners, Differentiator, ReferenceCompensation, Timebase};
 use crate::mechanism::effects::axis_runout_offset_m;
 use crate::mechanism::Mechanism;
+use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::scene::{Scene, WheelPose};
 
@@ -60,8 +61,7 @@ pub fn camera_bends_angle(s: &Scenario) -> bool {
 
 /// Whether `s` states a runout a camera can see (see `AxisRunoutConfig::is_visible`).
 pub fn runout_bends_angle(s: &Scenario) -> bool {
-    let r = &s.dynamics.axis_runout;
-    r.enabled && r.amplitude_m != 0.0 && r.is_visible()
+    Effect::AxisRunout.is_on(s) && s.dynamics.axis_runout.is_visible()
 }
 
 /// Whether the angle `s`'s estimator measures departs from σ·θ2 + c on exact corners: through
