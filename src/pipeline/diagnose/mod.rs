@@ -421,15 +421,13 @@ pub fn diagnose_with(
         ctx.height_px,
     ));
     real_cells.extend(timing_cells(&t_all));
-    let theta_peak_hz = {
-        let theta = &real.estimate.primary_series().theta_rad;
-        let residual: Vec<f64> = theta
-            .iter()
-            .zip(&reference.theta_rad)
-            .map(|(m, r)| m - r)
-            .collect();
-        crate::diagnose::cells::residual_peak(&t_all, &residual, nyquist_hz).map(|p| p.frequency_hz)
-    };
+    let real_theta_residual = simulate::theta_residual(
+        &real.estimate.primary_series().theta_rad,
+        &reference.theta_rad,
+    );
+    let theta_peak_hz =
+        crate::diagnose::cells::residual_peak(&t_all, &real_theta_residual, nyquist_hz)
+            .map(|p| p.frequency_hz);
 
     // What the runout and tilt candidates start from, read off the real track: only when they
     // are candidates (each costs a fit over every detected frame).
@@ -466,6 +464,7 @@ pub fn diagnose_with(
             cells: &real_cells,
             t_s: &t_all,
             theta_det: (&t_det, &th_det),
+            theta_residual: &real_theta_residual,
             theta_peak_hz,
             runout_form,
             pose_tilt,

@@ -155,6 +155,26 @@ pub fn jitter_placement(s: &mut Scenario, seed: u64, marker_radius_px: f64) {
     }
 }
 
+/// The record of `trial` on `seed`, and the scenario it was simulated with (the seed and the
+/// placement jitter applied; frames re-stamped at a constant rate when the trial says so).
+fn trial_record(
+    ctx: &SimContext<'_>,
+    trial: &Trial,
+    seed: u64,
+    images: bool,
+) -> Result<(Scenario, Record), DiagnoseError> {
+    let mut s = trial.scenario.clone();
+    s.seed = seed;
+    jitter_placement(&mut s, seed, ctx.aligned.geometry.marker_radius_px);
+    let mut record = simulate_record(&s, ctx.layout, ctx.with_images && images)?;
+    if let Some(fps) = trial.stamped_fps {
+        for (k, f) in record.frames.iter_mut().enumerate() {
+            f.t_s = k as f64 / fps;
+        }
+    }
+    Ok((s, record))
+}
+
 /// Cells of `trial` for each of `seeds` (simulated one after the other; frames in parallel).
 /// `images: false` skips the image statistics (when nothing that uses them is compared).
 pub fn trial_cells(
@@ -165,15 +185,7 @@ pub fn trial_cells(
 ) -> Result<Vec<Cells>, DiagnoseError> {
     let mut out = Vec::with_capacity(seeds.len());
     for &seed in seeds {
-        let mut s = trial.scenario.clone();
-        s.seed = seed;
-        jitter_placement(&mut s, seed, ctx.aligned.geometry.marker_radius_px);
-        let mut record = simulate_record(&s, ctx.layout, ctx.with_images && images)?;
-        if let Some(fps) = trial.stamped_fps {
-            for (k, f) in record.frames.iter_mut().enumerate() {
-                f.t_s = k as f64 / fps;
-            }
-        }
+        let (s, record) = trial_record(ctx, trial, seed, images)?;
         let mut cells = measurement_cells(ctx, &s, &record)?;
         if let Some(t) = trial.timing.times(seed) {
             cells.extend(timing_cells(&t));
@@ -181,4 +193,36 @@ pub fn trial_cells(
         out.push(cells);
     }
     Ok(out)
+}
+
+/// A series sampled at frame times: (times in s, values; NaN where the marker was not found).
+pub type FrameSeries = (Vec<f64>, Vec<f64>);
+
+/// The angle residual after the aligned nominal motion, rad, of `trial` on each of `seeds`: the
+/// series the `theta` cells are computed from, measured exactly as the real footage's.
+pub fn trial_theta_residuals(
+    ctx: &SimContext<'_>,
+    trial: &Trial,
+    seeds: &[u64],
+) -> Result<Vec<FrameSeries>, DiagnoseError> {
+    let mut out = Vec::with_capacity(seeds.len());
+    for &seed in seeds {
+        let (s, record) = trial_record(ctx, trial, seed, false)?;
+        let est = estimate_record(&s, &record)?;
+        let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
+        out.push((
+            record.t_s(),
+            theta_residual(&est.primary_series().theta_rad, &reference.theta_rad),
+        ));
+    }
+    Ok(out)
+}
+
+/// Measured angle minus the reference, frame by frame.
+pub fn theta_residual(measured_rad: &[f64], reference_rad: &[f64]) -> Vec<f64> {
+    measured_rad
+        .iter()
+        .zip(reference_rad)
+        .map(|(m, r)| m - r)
+        .collect()
 }
