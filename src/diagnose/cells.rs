@@ -381,6 +381,12 @@ fn put(cells: &mut Cells, name: &'static str, value: Option<f64>) {
     }
 }
 
+/// Measured minus reference, frame by frame (the residual series the `theta`, `omega` and
+/// `alpha` cells are computed from).
+pub fn residual(measured: &[f64], reference: &[f64]) -> Vec<f64> {
+    measured.iter().zip(reference).map(|(m, r)| m - r).collect()
+}
+
 /// Track cells of `record` measured by `est` against the aligned nominal motion `reference`
 /// (screen convention, one entry per frame of the record). `height_px` converts the
 /// rolling-shutter slope into a readout time.
@@ -393,10 +399,7 @@ pub fn track_cells(
 ) -> Cells {
     let mut cells = Cells::new();
     let t = record.t_s();
-    let n = t.len();
     let primary = est.primary_series();
-    let residual =
-        |m: &[f64], r: &[f64]| -> Vec<f64> { (0..n).map(|k| m[k] - r[k]).collect::<Vec<f64>>() };
     let theta_residual = residual(&primary.theta_rad, &reference.theta_rad);
     banded_cells(
         &mut cells,

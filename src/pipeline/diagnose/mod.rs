@@ -421,7 +421,7 @@ pub fn diagnose_with(
         ctx.height_px,
     ));
     real_cells.extend(timing_cells(&t_all));
-    let real_theta_residual = simulate::theta_residual(
+    let real_theta_residual = crate::diagnose::cells::residual(
         &real.estimate.primary_series().theta_rad,
         &reference.theta_rad,
     );

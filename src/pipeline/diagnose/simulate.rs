@@ -6,7 +6,7 @@
 use super::image::{frame_image, measures_image};
 use super::nominal::{motion_reference, Aligned};
 use super::DiagnoseError;
-use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
+use crate::diagnose::cells::{image_cells, residual, timing_cells, track_cells, Cells};
 use crate::diagnose::record::{FrameRecord, Record};
 use crate::estimate::{estimate, Estimate};
 use crate::imagestats::MarkerLayout;
@@ -212,17 +212,8 @@ pub fn trial_theta_residuals(
         let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
         out.push((
             record.t_s(),
-            theta_residual(&est.primary_series().theta_rad, &reference.theta_rad),
+            residual(&est.primary_series().theta_rad, &reference.theta_rad),
         ));
     }
     Ok(out)
-}
-
-/// Measured angle minus the reference, frame by frame.
-pub fn theta_residual(measured_rad: &[f64], reference_rad: &[f64]) -> Vec<f64> {
-    measured_rad
-        .iter()
-        .zip(reference_rad)
-        .map(|(m, r)| m - r)
-        .collect()
 }
