@@ -4,6 +4,7 @@
 
 use super::cells::CellKey;
 use super::gap::{excess, GapMap};
+use crate::imagestats::{normal_cdf, normal_pdf};
 use crate::scenario::effects::Effect;
 
 /// Channels an effect changes and its fit aims at (Σ z² over them is the fit objective).
@@ -191,10 +192,67 @@ pub fn guess_exposure_s(extra_variance_px2: f64, speed_px_s: f64, nominal_s: f64
         .sqrt()
 }
 
+/// Variance (normalised units², 1 = the tone curve's span) of what the tone curve passes at a
+/// level `mu` (0 = black, 1 = white) when the sensor adds Gaussian noise of σ `sigma`: the
+/// signal is clamped to [0, 1] before the tone curve, so a white paper at the clip keeps only
+/// 0.34 σ² of its noise variance (a censored normal's variance).
+pub fn clipped_variance(mu: f64, sigma: f64) -> f64 {
+    if sigma.is_nan() || sigma <= 0.0 {
+        return 0.0;
+    }
+    let (a, b) = (-mu / sigma, (1.0 - mu) / sigma);
+    let (pa, pb) = (normal_cdf(a), normal_cdf(b));
+    let (fa, fb) = (normal_pdf(a), normal_pdf(b));
+    // W = clamp(Z, a, b): its mass at a and b plus the normal between them.
+    let tail = |z: f64, p: f64| if p > 0.0 { z * p } else { 0.0 };
+    let m1 = tail(a, pa) + (fa - fb) + tail(b, 1.0 - pb);
+    let m2 = tail(a * a, pa) + (pb - pa + a * fa - b * fb) + tail(b * b, 1.0 - pb);
+    sigma * sigma * (m2 - m1 * m1).max(0.0)
+}
+
+/// The sensor's noise variance (normalised units², before the clip) at level `mu` whose
+/// [`clipped_variance`] is `clipped`: bisection on σ, along which the clipped variance rises.
+/// `None` when no σ up to the whole span gives it, or the input is not finite.
+pub fn unclipped_variance(mu: f64, clipped: f64) -> Option<f64> {
+    if !(clipped.is_finite() && mu.is_finite()) {
+        return None;
+    }
+    if clipped <= 0.0 {
+        return Some(0.0);
+    }
+    let (mut lo, mut hi) = (0.0f64, 2.0f64);
+    if clipped_variance(mu, hi) < clipped {
+        return None;
+    }
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if clipped_variance(mu, mid) < clipped {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let sigma = 0.5 * (lo + hi);
+    Some(sigma * sigma)
+}
+
+/// The sensor's noise variance (normalised units², before the clip) at radiance `s` from the
+/// noise σ measured in DN behind a linear tone curve spanning `span_dn` DN: the 8-bit
+/// quantisation (1/12 DN²) taken off, then the clip at black and white undone.
+pub fn sensor_variance(sigma_dn: f64, s: f64, span_dn: f64) -> Option<f64> {
+    let measured = (sigma_dn * sigma_dn - 1.0 / 12.0).max(0.0) / (span_dn * span_dn);
+    unclipped_variance(s, measured)
+}
+
 /// Full well and read noise (e⁻) from the noise σ (DN) measured on two radiances `s_ink` and
-/// `s_paper` of a linear tone curve spanning `span_dn` DN from radiance 0 to 1:
-/// var = span²·(s/FW + RN²/FW²) + 1/12 (8-bit quantisation). `None` when the two levels do
-/// not separate shot from read noise (paper noise not above ink noise).
+/// `s_paper` of a linear tone curve spanning `span_dn` DN from radiance 0 to 1: the sensor's
+/// variance ([`sensor_variance`]: quantisation off, clip undone) is s/FW + RN²/FW². `None`
+/// when the two levels do not separate shot from read noise (the paper's sensor noise not
+/// above the ink's).
+///
+/// The clip matters: a paper at radiance 1 is at the white clip, where the tone curve passes a
+/// third of the noise variance. Read as unclipped, such footage shows less noise on the paper
+/// than on the ink, the opposite of shot noise, and no noise model fitted it.
 pub fn guess_noise(
     sigma_ink_dn: f64,
     sigma_paper_dn: f64,
@@ -202,9 +260,8 @@ pub fn guess_noise(
     s_paper: f64,
     span_dn: f64,
 ) -> Option<(f64, f64)> {
-    let q = 1.0 / 12.0;
-    let vi = (sigma_ink_dn * sigma_ink_dn - q).max(0.0) / (span_dn * span_dn);
-    let vp = (sigma_paper_dn * sigma_paper_dn - q).max(0.0) / (span_dn * span_dn);
+    let vi = sensor_variance(sigma_ink_dn, s_ink, span_dn)?;
+    let vp = sensor_variance(sigma_paper_dn, s_paper, span_dn)?;
     if !(vp > vi && s_paper > s_ink) {
         return None;
     }
@@ -302,10 +359,45 @@ mod tests {
     #[test]
     fn noise_guess_inverts_the_noise_model() {
         let (fw, rn, span) = (20000.0, 185.0, 155.0);
-        let sigma = |s: f64| (span * span * (s / fw + rn * rn / (fw * fw)) + 1.0 / 12.0).sqrt();
+        // Measured behind the clip at black and white: the white paper keeps a third of its
+        // noise variance, and shows less noise than the ink (1.02 DN against 1.47 DN).
+        let sigma = |s: f64| {
+            let sensor = (s / fw + rn * rn / (fw * fw)).sqrt();
+            (span * span * clipped_variance(s, sensor) + 1.0 / 12.0).sqrt()
+        };
+        assert!(sigma(1.0) < sigma(0.04));
         let (g_fw, g_rn) = guess_noise(sigma(0.04), sigma(1.0), 0.04, 1.0, span).unwrap();
-        assert!((g_fw / fw - 1.0).abs() < 1e-9 && (g_rn / rn - 1.0).abs() < 1e-9);
+        assert!((g_fw / fw - 1.0).abs() < 1e-6 && (g_rn / rn - 1.0).abs() < 1e-6);
         assert!(guess_noise(2.0, 1.0, 0.04, 1.0, span).is_none());
+        // Far from the clip nothing is undone.
+        let v = sensor_variance(1.5, 0.5, span).unwrap();
+        assert!((v * span * span - (1.5f64.powi(2) - 1.0 / 12.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_normal_clamped_at_its_mean_keeps_a_third_of_its_variance() {
+        // Var(min(Z, 0)) = 1/2 − 1/(2π).
+        let expected = 0.5 - 0.5 / std::f64::consts::PI;
+        assert!((clipped_variance(1.0, 0.01) / 1e-4 - expected).abs() < 1e-6);
+        assert!((clipped_variance(0.0, 0.01) / 1e-4 - expected).abs() < 1e-6);
+        assert_eq!(clipped_variance(0.5, 0.0), 0.0);
+        assert_eq!(unclipped_variance(0.5, f64::NAN), None);
+        // More than a two-point 0/1 distribution can hold is out of reach.
+        assert_eq!(unclipped_variance(0.5, 0.3), None);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_clip_is_undone_at_any_level_and_noise(mu in 0.0f64..=1.0, sigma in 1e-4f64..0.5) {
+            let clipped = clipped_variance(mu, sigma);
+            proptest::prop_assert!(clipped <= sigma * sigma * (1.0 + 1e-9));
+            // Far from the clip (|μ − clip| > 3σ) hardly anything is lost.
+            if mu > 3.0 * sigma && 1.0 - mu > 3.0 * sigma {
+                proptest::prop_assert!(clipped > 0.97 * sigma * sigma);
+            }
+            let back = unclipped_variance(mu, clipped).unwrap();
+            proptest::prop_assert!((back.sqrt() / sigma - 1.0).abs() < 1e-6, "{} for {}", back.sqrt(), sigma);
+        }
     }
 
     #[test]

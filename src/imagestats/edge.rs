@@ -143,8 +143,9 @@ fn erfc(x: f64) -> f64 {
     }
 }
 
+/// Standard normal density φ.
 #[inline]
-fn normal_pdf(z: f64) -> f64 {
+pub fn normal_pdf(z: f64) -> f64 {
     (-0.5 * z * z).exp() * 0.398_942_280_401_432_7
 }
 

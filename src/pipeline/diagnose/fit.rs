@@ -706,7 +706,21 @@ impl<'a> Fitter<'a> {
                 let pose_start = (e == Effect::PerspectiveTilt)
                     .then_some(self.pose_tilt)
                     .flatten();
-                for &i in &searched {
+                // Every objective value by its parameters: a later search starts where an earlier
+                // one ended, and the objective is deterministic (fixed seeds), so it is looked up.
+                let evaluated: std::cell::RefCell<Vec<(Vec<f64>, f64)>> = Default::default();
+                let mut moved = vec![f64::INFINITY; specs.len()];
+                let mut searches_run = 0usize;
+                for (k, &i) in searched.iter().enumerate() {
+                    // A second round refits a coordinate at the others' new values: pointless when
+                    // the one searched last did not move beyond its own uncertainty (a bound or a
+                    // flat objective, infinite uncertainty, counts as moved).
+                    if k >= specs.len() {
+                        let last = searched[k - 1];
+                        if stds[last].is_finite() && moved[last] <= stds[last] {
+                            break;
+                        }
+                    }
                     let spec = specs[i];
                     let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
                     o.max_evaluations = 9;
@@ -721,16 +735,24 @@ impl<'a> Fitter<'a> {
                         |x| {
                             let mut v = base.clone();
                             v[i] = x;
+                            if let Some(&(_, f)) = evaluated.borrow().iter().find(|(w, _)| *w == v)
+                            {
+                                return f;
+                            }
                             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                            applied.push((e, v));
+                            applied.push((e, v.clone()));
                             let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                            self.objective(&effects, &applied)
+                            let f = self.objective(&effects, &applied);
+                            evaluated.borrow_mut().push((v, f));
+                            f
                         },
                         values[i],
                         &o,
                     );
+                    moved[i] = (r.value - values[i]).abs();
                     values[i] = r.value;
                     stds[i] = r.std;
+                    searches_run += 1;
                 }
                 method = format!(
                     "simulated method of moments: Σ z² over the {} signature cells, {} fit seeds",
@@ -740,8 +762,16 @@ impl<'a> Fitter<'a> {
                 if let Some(p) = pose_start {
                     method.push_str(&format!(
                         "; started at the tilt the marker corners show through the nominal \
-                         camera (pose fit: {:.2}° ± {:.2}°, {:.2}° ± {:.2}°), two rounds",
-                        p.tilt_x_deg, p.u95_x_deg, p.tilt_y_deg, p.u95_y_deg
+                         camera (pose fit: {:.2}° ± {:.2}°, {:.2}° ± {:.2}°), {}",
+                        p.tilt_x_deg,
+                        p.u95_x_deg,
+                        p.tilt_y_deg,
+                        p.u95_y_deg,
+                        if searches_run > specs.len() {
+                            "two rounds"
+                        } else {
+                            "one round (the second angle did not move beyond its uncertainty)"
+                        }
                     ));
                     // The simulated moments carry the simulation's own rendering: a tilt read
                     // through another renderer's edges lands off by more than the curvature
@@ -821,10 +851,12 @@ impl<'a> Fitter<'a> {
             )
         };
         if e == Effect::PixelNoise {
-            // Noise variance at radiance s in DN²: span²·(a·s + b) (+ quantisation, constant),
-            // linear in (a, b) = (1/FW, RN²/FW²): Newton steps with the model's Jacobian on the
-            // variances at the ink and paper levels. Clipping, blur and compression bend the
-            // real map; the simulations in the loop absorb that.
+            // The sensor's noise variance at radiance s is a·s + b, linear in (a, b) = (1/FW,
+            // RN²/FW²); the footage shows it behind the tone curve (span² in DN²), the clip at
+            // black and white and the 8-bit quantisation, which [`plan::sensor_variance`] undoes.
+            // Newton steps with the model's Jacobian on the sensor variances at the ink and
+            // paper levels; blur, uneven light and compression bend the real map further, and
+            // the simulations in the loop absorb that.
             let s = &aligned_of(self).scenario;
             let span = if s.effects.lighting.enabled {
                 s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
@@ -832,13 +864,13 @@ impl<'a> Fitter<'a> {
                 255.0
             };
             let (si, sp) = (s.scene.ink_radiance, s.scene.paper_radiance);
-            let det = span * span * (si - sp);
-            if det.abs() < 1e-12 {
+            let det = si - sp;
+            if det.abs() < 1e-12 || span <= 0.0 {
                 return Ok(None);
             }
-            // Only where the footage follows the model's shape (more noise on the paper than on
-            // the ink): clipping, denoising or compression can invert that, and Newton steps on
-            // a map of the wrong shape run to the bounds; the Σ z² search handles those.
+            // Only where the footage follows the model's shape (more sensor noise on the paper
+            // than on the ink): denoising or compression can invert that, and Newton steps on a
+            // map of the wrong shape run to the bounds; the Σ z² search handles those.
             let model_shaped = self
                 .channel_pair("noise_ink", &[])
                 .zip(self.channel_pair("noise_paper", &[]))
@@ -848,6 +880,15 @@ impl<'a> Fitter<'a> {
             if !model_shaped {
                 return Ok(None);
             }
+            let sensor = |sigma_dn: f64, level: f64| plan::sensor_variance(sigma_dn, level, span);
+            // d(sensor variance)/d(DN variance) at a measured σ: 1/span² away from the clip.
+            let slope = |sigma_dn: f64, level: f64| {
+                let v = sigma_dn * sigma_dn - 1.0 / 12.0;
+                match sensor(sigma_dn, level) {
+                    Some(u) if v > 0.0 && u > 0.0 => u / v,
+                    _ => 1.0 / (span * span),
+                }
+            };
             let (mut a, mut b) = moments::noise_to_linear(start[0], start[1]);
             for k in 0..SIMULATIONS {
                 let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
@@ -860,11 +901,18 @@ impl<'a> Fitter<'a> {
                 ) else {
                     return Ok(None);
                 };
-                let dvi = ink.real * ink.real - ink.sim * ink.sim;
-                let dvp = paper.real * paper.real - paper.sim * paper.sim;
-                // [si 1; sp 1]·span²·(da, db) = (dvi, dvp).
-                let da = (dvi - dvp) / det;
-                let db = (si * dvp - sp * dvi) / det;
+                let (Some(ui_real), Some(ui_sim), Some(up_real), Some(up_sim)) = (
+                    sensor(ink.real, si),
+                    sensor(ink.sim, si),
+                    sensor(paper.real, sp),
+                    sensor(paper.sim, sp),
+                ) else {
+                    return Ok(None);
+                };
+                let (dui, dup) = (ui_real - ui_sim, up_real - up_sim);
+                // [si 1; sp 1]·(da, db) = (dui, dup).
+                let da = (dui - dup) / det;
+                let db = (si * dup - sp * dui) / det;
                 let (a1, b1) = ((a + da).max(1e-9), (b + db).max(0.0));
                 let converged = (da / a).abs() < 0.005 && db.abs() <= 0.005 * b.max(1e-12);
                 (a, b) = (a1, b1);
@@ -872,10 +920,10 @@ impl<'a> Fitter<'a> {
                     let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
                         return Ok(None);
                     };
-                    // The real variances' sampling error through the same linear map.
+                    // The real variances' sampling error through the same maps.
                     let (svi, svp) = (
-                        2.0 * ink.real * ink.real_std * sims_factor,
-                        2.0 * paper.real * paper.real_std * sims_factor,
+                        2.0 * ink.real * ink.real_std * sims_factor * slope(ink.real, si),
+                        2.0 * paper.real * paper.real_std * sims_factor * slope(paper.real, sp),
                     );
                     let sa = ((svi * svi + svp * svp).sqrt() / det).abs();
                     let sb = ((si * svp).powi(2) + (sp * svi).powi(2)).sqrt() / det.abs();
