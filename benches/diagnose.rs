@@ -53,7 +53,7 @@ fn main() {
     report("the same from its tracks.csv", &from_tracks, 120.0);
     // The costliest candidate to fit: every trial of a runout realigns the crank motion through
     // its own wobble (estimator passes on exact corners) besides simulating the footage.
-    let runout_values = level_values(Effect::AxisRunout, Level::Strong);
+    let runout_values = level_values(Effect::AxisRunout, Level::Strong, nominal.frame_timing.fps);
     let runout = withheld(&nominal, Effect::AxisRunout, &runout_values, tmp.path());
     let runout = timed(&nominal, &runout, &tmp.path().join("runout"));
     report(

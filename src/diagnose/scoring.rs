@@ -55,13 +55,16 @@ impl CaseOutcome {
             .position(|cand| cand.iter().any(|n| names.contains(n)))
     }
 
-    /// The top-ranked candidate names the withheld effect (a gap must have been found).
+    /// One of the k best candidates names the withheld effect, and the diagnosis explains the
+    /// gap. An `unexplained` verdict names no cause, whatever heads its list of partial
+    /// candidates: a weak lens whose candidate was fitted at k1 = 0 with shrink 0.00 headed
+    /// such a list and had counted as identified.
     pub fn top_k(&self, k: usize) -> bool {
         match &self.expectation {
             Expectation::Withheld { effect, also, .. } => {
                 let mut names = also.clone();
                 names.push(effect.clone());
-                self.verdict != "no_gap" && self.rank_of(&names).is_some_and(|r| r < k)
+                self.verdict == "explained" && self.rank_of(&names).is_some_and(|r| r < k)
             }
             _ => false,
         }
@@ -280,6 +283,13 @@ mod tests {
         assert!(bl.top_k(1), "a shared switch is the same answer");
         let missed = case(withheld("lighting", true), "no_gap", &[&["lighting"]], 0.9);
         assert!(!missed.top_k(3), "no gap found is no identification");
+        let partial = case(
+            withheld("lens_distortion", false),
+            "unexplained",
+            &[&["lens_distortion"]],
+            0.0,
+        );
+        assert!(!partial.top_k(3), "an unexplained gap names no cause");
     }
 
     #[test]

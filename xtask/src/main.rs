@@ -263,8 +263,9 @@ fn reports(extra: &[String]) -> Result<(), String> {
     )
 }
 
-/// The weak level ("near the detection limit": 0.3 of the way from the search's lower end to the
-/// strong probe, log-spaced where the parameter is) of every withheld effect × 1 seed on 6 s of
+/// The weak level ("near the detection limit": 0.3 of the way from the value at which each
+/// parameter does nothing to the strong probe, log-spaced where the parameter is;
+/// `selfcheck::level_values`) of every withheld effect × 1 seed on 6 s of
 /// footage drawn by the independent renderer, in `reports/diagnosis-weak-independent/` (about
 /// 20 minutes on this 2-core machine).
 const DIAGNOSIS_WEAK_PLAN: &[&str] = &[

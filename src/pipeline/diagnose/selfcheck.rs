@@ -77,35 +77,70 @@ pub struct Case {
     pub renderer: Renderer,
 }
 
-/// Parameter values of a withheld effect at `level`.
+/// Parameter values of a withheld effect at `level` on a rig filmed at `fps_hz`: the strong
+/// probe, or, near the limit, 0.3 of the way from the value at which the parameter does nothing
+/// ([`neutral_value`]) to the probe, log-spaced where the parameter is.
 ///
 /// The timebase's parameter is the rate the footage is stamped at, the nominal's own at both
 /// levels: its strength is how far the schedule the frames were taken on strays from that rate
 /// ([`timebase_schedule`]). (A weak level on the stamp rate itself, 30^0.3 ≈ 2.8 fps for frames
 /// taken at 30, is no camera's clock and no detection limit.)
-pub fn level_values(effect: Effect, level: Level) -> Vec<f64> {
+pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
     effect
         .params()
         .iter()
-        .map(|p| match level {
+        .enumerate()
+        .map(|(i, p)| match level {
             Level::Strong | Level::OtherForm => p.probe,
             Level::Weak if effect == Effect::Timebase => p.probe,
             Level::Weak => {
-                let (lo, hi) = (p.search.0, p.probe);
-                if p.log_scale && lo > 0.0 && hi > 0.0 {
-                    lo * (hi / lo).powf(0.3)
+                let Some(from) = neutral_value(effect, i, fps_hz) else {
+                    return p.probe;
+                };
+                let to = p.probe;
+                if p.log_scale && from > 0.0 && to > 0.0 {
+                    from * (to / from).powf(0.3)
                 } else {
-                    lo + 0.3 * (hi - lo)
+                    from + 0.3 * (to - from)
                 }
             }
         })
         .collect()
 }
 
+/// The value at which parameter `index` of `effect` does nothing, on a rig filmed at `fps_hz`:
+/// the weak level is measured from it. The search's lower end for strengths that grow from
+/// there (amplitudes, clearances, blur widths, exposure and readout times, jitter, drops); zero
+/// for signed strengths (a speed variation, a clock's rate error, a lens's k1, a tilt); a frame
+/// interval for the first interval; the other end for a full well and a JPEG quality, whose
+/// effect grows downwards; the identity tone curve for the lighting. `None` for a parameter
+/// that sets a form, not a strength (a vibration's frequency): near the limit it keeps the
+/// probe's.
+///
+/// Measured from the search's lower end instead, 7 of the 15 "near the limit" cases were as
+/// strong as the strong ones or stronger: a full well of 151 e⁻ (the strong probe's is 2000), a
+/// k1 of −0.51 (−0.3), a tilt of (−22°, −28°) (20°, 0°), a JPEG quality of 12 (30), a speed
+/// variation of −0.255 (−0.15), a clock 15 350 ppm off (4 500), a white level of 72 DN and a
+/// gamma of 0.43 (170 DN, 1.0); and those were the cases the near-limit figure counted as found.
+pub fn neutral_value(effect: Effect, index: usize, fps_hz: f64) -> Option<f64> {
+    let p = effect.params().get(index)?;
+    match p.name {
+        "frequency_hz" => None,
+        "variation_frac" | "rate_error_ppm" | "k1" | "tilt_x_deg" | "tilt_y_deg" => Some(0.0),
+        "first_interval_s" => (fps_hz > 0.0).then(|| 1.0 / fps_hz),
+        "full_well_e" | "quality" => Some(p.search.1),
+        "black_level_dn" => Some(0.0),
+        "white_level_dn" => Some(255.0),
+        "gamma" => Some(1.0),
+        _ => Some(p.search.0),
+    }
+}
+
 /// The schedule the frames of a withheld-timebase case are taken on: the seed's phone (the VFR
 /// model's defaults: −4500 ppm, a 55 ms first interval) when strong; when weak, 0.3 of its
 /// departure from a constant `fps` (−1350 ppm, the first interval 6.6 ms longer than a frame),
-/// as the other weak levels sit 0.3 of the way from the search's lower end to the probe.
+/// as the other weak levels sit 0.3 of the way from the value at which they do nothing to the
+/// probe ([`level_values`]).
 pub fn timebase_schedule(level: Level, fps: f64) -> crate::timing::VfrModel {
     let phone = crate::timing::VfrModel::default();
     match level {
@@ -300,7 +335,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             }
             for k in 0..plan.seeds_per_case {
                 let seed = next_seed();
-                let values = level_values(e, level);
+                let values = level_values(e, level, base.frame_timing.fps);
                 let mut nominal = base.clone();
                 e.switch_off(&mut nominal);
                 for other in e.shares_switch_with() {
@@ -414,7 +449,10 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
         e.switch_off(&mut nominal);
         let mut data = nominal.clone();
         perturb_rendering(&mut data, seed);
-        e.apply(&mut data, &level_values(e, Level::Strong));
+        e.apply(
+            &mut data,
+            &level_values(e, Level::Strong, base.frame_timing.fps),
+        );
         data.seed = seed;
         perturb_nuisance(&mut data, seed);
         let candidates: Vec<Effect> = Effect::ALL
@@ -940,6 +978,56 @@ impl SuitePlan {
 mod tests {
     use super::*;
 
+    /// "Near the limit" is weaker than strong: every strength parameter of every withheld effect
+    /// sits between the value at which it does nothing and the strong probe, on the nothing side.
+    #[test]
+    fn the_weak_level_lies_between_no_effect_and_the_strong_probe() {
+        let fps = 30.0;
+        for e in withheld_effects() {
+            let strong = level_values(e, Level::Strong, fps);
+            let weak = level_values(e, Level::Weak, fps);
+            for (i, p) in e.params().iter().enumerate() {
+                let Some(neutral) = neutral_value(e, i, fps) else {
+                    assert_eq!(
+                        weak[i],
+                        strong[i],
+                        "{}.{}: a form keeps the probe",
+                        e.name(),
+                        p.name
+                    );
+                    continue;
+                };
+                if e == Effect::Timebase {
+                    continue; // its strength is the schedule (`timebase_schedule`)
+                }
+                let (to_weak, to_strong) = (weak[i] - neutral, strong[i] - neutral);
+                assert!(
+                    to_weak * to_strong >= 0.0 && to_weak.abs() <= to_strong.abs(),
+                    "{}.{}: weak {} is not between {} (no effect) and {} (strong)",
+                    e.name(),
+                    p.name,
+                    weak[i],
+                    neutral,
+                    strong[i]
+                );
+                assert!(
+                    p.search.0 <= weak[i] && weak[i] <= p.search.1,
+                    "{}.{}: weak {} outside the search",
+                    e.name(),
+                    p.name,
+                    weak[i]
+                );
+            }
+        }
+        // The cases the old rule (from the search's lower end) made stronger than strong.
+        let fw = level_values(Effect::PixelNoise, Level::Weak, fps)[0];
+        assert!(fw > 2000.0, "full well {fw}");
+        let q = level_values(Effect::Compression, Level::Weak, fps)[0];
+        assert!(q > 30.0, "quality {q}");
+        let first = level_values(Effect::FrameTiming, Level::Weak, fps)[1];
+        assert!((first - (1.0 / fps + 0.3 * (0.055 - 1.0 / fps))).abs() < 1e-12);
+    }
+
     /// Every other-form case holds its effect at the strong level in a form the candidate at the
     /// same values does not have, and claims no parameter truth.
     #[test]
@@ -980,7 +1068,10 @@ mod tests {
             assert!(c.truth.is_none(), "{}", c.name);
             assert!(!e.is_on(&c.nominal) && e.is_on(&c.data), "{}", c.name);
             let mut candidate = c.nominal.clone();
-            e.apply(&mut candidate, &level_values(e, Level::Strong));
+            e.apply(
+                &mut candidate,
+                &level_values(e, Level::Strong, base.frame_timing.fps),
+            );
             let mut with_data_form = candidate.clone();
             e.copy_section(&c.data, &mut with_data_form);
             assert_ne!(
