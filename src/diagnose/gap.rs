@@ -102,32 +102,9 @@ pub fn excess(z: f64, z0: f64) -> f64 {
     e * e
 }
 
-/// erfc(x) for x ≥ 0 with fractional error < 1.2·10⁻⁷ (Chebyshev fit, Numerical Recipes
-/// `erfcc`); accurate in the far tail, where p-values of large z live.
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
 /// Two-sided standard-normal p-value of `z`.
 pub fn two_sided_p(z: f64) -> f64 {
-    erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0)
+    crate::imagestats::erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0)
 }
 
 /// ln Γ(x), x > 0 (Lanczos, g = 7, 9 terms; relative error ~1e-15).

@@ -45,7 +45,7 @@ mod tests;
 
 pub(crate) use edge::step_response;
 pub use edge::{
-    fit_grid_edge, inner_edge_profiles, normal_cdf, normal_pdf, outer_edge_profiles,
+    erfc, fit_grid_edge, inner_edge_profiles, normal_cdf, normal_pdf, outer_edge_profiles,
     refined_corners, EdgeOptions, EdgeProfile, GridEdge,
 };
 pub use grid::{Homography, MarkerLayout, Material};

@@ -67,6 +67,42 @@ pub struct ParamSpec {
     pub log_scale: bool,
     /// A clearly visible value, used to probe the effect's signature.
     pub probe: f64,
+    /// The value at which this parameter does nothing (the self-check's weak level is measured
+    /// from it).
+    pub neutral: Neutral,
+}
+
+/// Where a parameter does nothing. Not always the search's lower end: a full well or a JPEG
+/// quality does nothing at its upper end, a signed strength at zero, a tone curve at identity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Neutral {
+    /// The search's lower end (amplitudes, clearances, blur widths, times, jitter, drops).
+    SearchLow,
+    /// The search's upper end (an effect that grows downwards).
+    SearchHigh,
+    /// A fixed value (zero for signed strengths; the identity tone curve).
+    Value(f64),
+    /// One frame interval of the footage's own rate.
+    FrameInterval,
+    /// The footage's own frame rate.
+    FrameRate,
+    /// No value: the parameter sets a form (a frequency), not a strength.
+    Form,
+}
+
+impl Neutral {
+    /// The neutral value of `spec` on a rig filmed at `fps_hz`; `None` for a form, or for a
+    /// frame-based neutral when the rate is not positive.
+    pub fn value(self, spec: &ParamSpec, fps_hz: f64) -> Option<f64> {
+        match self {
+            Neutral::SearchLow => Some(spec.search.0),
+            Neutral::SearchHigh => Some(spec.search.1),
+            Neutral::Value(v) => Some(v),
+            Neutral::FrameInterval => (fps_hz > 0.0).then(|| 1.0 / fps_hz),
+            Neutral::FrameRate => (fps_hz > 0.0).then_some(fps_hz),
+            Neutral::Form => None,
+        }
+    }
 }
 
 const fn param(
@@ -86,6 +122,14 @@ const fn param(
         search,
         log_scale,
         probe,
+        neutral: Neutral::SearchLow,
+    }
+}
+
+impl ParamSpec {
+    /// The same parameter, doing nothing at `neutral` instead of the search's lower end.
+    const fn neutral_at(self, neutral: Neutral) -> ParamSpec {
+        ParamSpec { neutral, ..self }
     }
 }
 
@@ -97,7 +141,8 @@ const DRIVE_SPEED: &[ParamSpec] = &[param(
     (-0.3, 0.3),
     false,
     -0.15,
-)];
+)
+.neutral_at(Neutral::Value(0.0))];
 const BACKLASH: &[ParamSpec] = &[param(
     "clearance_mm",
     "mechanism.pin_diameter_mm",
@@ -134,7 +179,8 @@ const DISC_VIBRATION: &[ParamSpec] = &[
         (0.2, 200.0),
         true,
         7.0,
-    ),
+    )
+    .neutral_at(Neutral::Form),
 ];
 // The probe is 2 mm: the wobble a camera sees is what the circle fit through the marker's
 // path does not absorb, and over the part of a wheel turn that a few seconds of footage cover
@@ -182,7 +228,8 @@ const FRAME_TIMING: &[ParamSpec] = &[
         (0.0, 0.2),
         false,
         0.055,
-    ),
+    )
+    .neutral_at(Neutral::FrameInterval),
     param(
         "rate_error_ppm",
         "frame_timing.model.rate_error_ppm",
@@ -191,7 +238,8 @@ const FRAME_TIMING: &[ParamSpec] = &[
         (-20_000.0, 20_000.0),
         false,
         -4500.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(0.0)),
     param(
         "drop_probability",
         "frame_timing.model.drop_probability",
@@ -219,7 +267,8 @@ const TIMEBASE: &[ParamSpec] = &[param(
     (1.0, 1000.0),
     true,
     30.0,
-)];
+)
+.neutral_at(Neutral::FrameRate)];
 const PIXEL_NOISE: &[ParamSpec] = &[
     param(
         "full_well_e",
@@ -229,7 +278,8 @@ const PIXEL_NOISE: &[ParamSpec] = &[
         (50.0, 1e6),
         true,
         2000.0,
-    ),
+    )
+    .neutral_at(Neutral::SearchHigh),
     param(
         "read_noise_e",
         "effects.pixel_noise.read_noise_e",
@@ -275,7 +325,8 @@ const LENS_DISTORTION: &[ParamSpec] = &[param(
     (-0.6, 0.6),
     false,
     -0.3,
-)];
+)
+.neutral_at(Neutral::Value(0.0))];
 const PERSPECTIVE_TILT: &[ParamSpec] = &[
     param(
         "tilt_x_deg",
@@ -285,7 +336,8 @@ const PERSPECTIVE_TILT: &[ParamSpec] = &[
         (-40.0, 40.0),
         false,
         20.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(0.0)),
     param(
         "tilt_y_deg",
         "camera.perspective_tilt.tilt_y_deg",
@@ -294,7 +346,8 @@ const PERSPECTIVE_TILT: &[ParamSpec] = &[
         (-40.0, 40.0),
         false,
         0.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(0.0)),
 ];
 const COMPRESSION: &[ParamSpec] = &[param(
     "quality",
@@ -304,7 +357,8 @@ const COMPRESSION: &[ParamSpec] = &[param(
     (5.0, 98.0),
     false,
     30.0,
-)];
+)
+.neutral_at(Neutral::SearchHigh)];
 const LIGHTING: &[ParamSpec] = &[
     param(
         "black_level_dn",
@@ -314,7 +368,8 @@ const LIGHTING: &[ParamSpec] = &[
         (0.0, 200.0),
         false,
         90.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(0.0)),
     param(
         "white_level_dn",
         "effects.lighting.white_level_dn",
@@ -323,7 +378,8 @@ const LIGHTING: &[ParamSpec] = &[
         (30.0, 255.0),
         false,
         170.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(255.0)),
     param(
         "gamma",
         "effects.lighting.gamma",
@@ -332,7 +388,8 @@ const LIGHTING: &[ParamSpec] = &[
         (0.3, 3.0),
         true,
         1.0,
-    ),
+    )
+    .neutral_at(Neutral::Value(1.0)),
 ];
 
 impl Effect {
@@ -945,6 +1002,38 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Each strength's no-effect value is one a fit can reach (the weak level lies between it and
+    /// the probe); only frequencies set a form and have none.
+    #[test]
+    fn neutral_values_lie_in_the_search_range_and_only_frequencies_have_none() {
+        let fps_hz = 30.0;
+        for e in Effect::ALL {
+            for p in e.params() {
+                match p.neutral.value(p, fps_hz) {
+                    Some(v) => assert!(
+                        p.search.0 <= v && v <= p.search.1,
+                        "{}.{}: neutral {v} outside {:?}",
+                        e.name(),
+                        p.name,
+                        p.search
+                    ),
+                    None => assert_eq!(p.unit, "Hz", "{}.{} has no neutral", e.name(), p.name),
+                }
+            }
+        }
+        let full_well = &Effect::PixelNoise.params()[0];
+        assert_eq!(
+            full_well.neutral.value(full_well, fps_hz),
+            Some(full_well.search.1)
+        );
+        let first = &Effect::FrameTiming.params()[1];
+        assert_eq!(
+            first.neutral.value(first, 0.0),
+            None,
+            "no rate, no frame interval"
+        );
     }
 
     #[test]

@@ -142,3 +142,19 @@ proptest! {
         check_recovery(fps, &v, seed)?;
     }
 }
+
+/// A run of 4 drops in a schedule whose intervals alternate by ±9 % (a span of 5 intervals less
+/// the alternation) is 5 slots, not 4: the slot unit is the interval without its alternation.
+/// Found by `fit_recovers_known_parameters` (with the median single interval as the unit, the
+/// fitted interval was 0.05013 s for 0.05).
+#[test]
+fn a_long_run_of_drops_under_a_pair_alternation_keeps_its_slots() {
+    let v = VfrModel {
+        jitter_s: 0.0,
+        pair_alternation_s: 0.09241080387287948 / 20.0,
+        first_interval_s: 0.0,
+        drop_probability: 0.09307909483372419,
+        rate_error_ppm: 0.0,
+    };
+    check_recovery(20.0, &v, 4633079331913310281).unwrap();
+}

@@ -767,11 +767,7 @@ impl<'a> Fitter<'a> {
                         p.u95_x_deg,
                         p.tilt_y_deg,
                         p.u95_y_deg,
-                        if searches_run > specs.len() {
-                            "two rounds"
-                        } else {
-                            "one round (the second angle did not move beyond its uncertainty)"
-                        }
+                        tilt_rounds_phrase(searches_run, specs.len())
                     ));
                     // The simulated moments carry the simulation's own rendering: a tilt read
                     // through another renderer's edges lands off by more than the curvature
@@ -1221,9 +1217,37 @@ pub fn pose_reported(
     ))
 }
 
+/// How many rounds a coordinate-wise search of `coordinates` parameters ran, in the method's
+/// words: the second round stops as soon as the coordinate searched last did not move beyond its
+/// uncertainty, so it may have refitted only some of them.
+fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
+    let second = searches_run.saturating_sub(coordinates);
+    if coordinates == 0 || second == 0 {
+        "one round (the second angle did not move beyond its uncertainty)".to_string()
+    } else if second >= coordinates {
+        "two rounds".to_string()
+    } else {
+        format!(
+            "a second round on {second} of the {coordinates} angles (then the one refitted last \
+             did not move beyond its uncertainty)"
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_method_says_how_far_the_second_round_went() {
+        assert!(tilt_rounds_phrase(2, 2).starts_with("one round"));
+        assert_eq!(tilt_rounds_phrase(4, 2), "two rounds");
+        assert!(
+            tilt_rounds_phrase(3, 2).starts_with("a second round on 1 of the 2 angles"),
+            "{}",
+            tilt_rounds_phrase(3, 2)
+        );
+    }
 
     fn pose() -> PoseTilt {
         PoseTilt {

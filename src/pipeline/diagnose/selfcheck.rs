@@ -108,8 +108,9 @@ pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
         .collect()
 }
 
-/// The value at which parameter `index` of `effect` does nothing, on a rig filmed at `fps_hz`:
-/// the weak level is measured from it. The search's lower end for strengths that grow from
+/// The value at which parameter `index` of `effect` does nothing, on a rig filmed at `fps_hz`
+/// (the registry's [`ParamSpec::neutral`](crate::scenario::effects::ParamSpec::neutral)): the
+/// weak level is measured from it. The search's lower end for strengths that grow from
 /// there (amplitudes, clearances, blur widths, exposure and readout times, jitter, drops); zero
 /// for signed strengths (a speed variation, a clock's rate error, a lens's k1, a tilt); a frame
 /// interval for the first interval; the other end for a full well and a JPEG quality, whose
@@ -124,16 +125,7 @@ pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
 /// gamma of 0.43 (170 DN, 1.0); and those were the cases the near-limit figure counted as found.
 pub fn neutral_value(effect: Effect, index: usize, fps_hz: f64) -> Option<f64> {
     let p = effect.params().get(index)?;
-    match p.name {
-        "frequency_hz" => None,
-        "variation_frac" | "rate_error_ppm" | "k1" | "tilt_x_deg" | "tilt_y_deg" => Some(0.0),
-        "first_interval_s" => (fps_hz > 0.0).then(|| 1.0 / fps_hz),
-        "full_well_e" | "quality" => Some(p.search.1),
-        "black_level_dn" => Some(0.0),
-        "white_level_dn" => Some(255.0),
-        "gamma" => Some(1.0),
-        _ => Some(p.search.0),
-    }
+    p.neutral.value(p, fps_hz)
 }
 
 /// The schedule the frames of a withheld-timebase case are taken on: the seed's phone (the VFR
