@@ -141,6 +141,11 @@ pub fn screening_only(e: Effect) -> &'static [&'static str] {
     }
 }
 
+/// Whether `channel` is one of the angle's (θ, ω̂ and α̂ residuals, the angle's spectral peak).
+pub fn is_angle_channel(channel: &str) -> bool {
+    matches!(channel, "theta" | "omega" | "alpha" | "theta_peak")
+}
+
 /// Whether `key` belongs to `e`'s signature (the cells its fit aims at).
 pub fn in_signature(e: Effect, key: &CellKey) -> bool {
     let sig = signature(e);

@@ -10,7 +10,7 @@ use super::pose_tilt::PoseTilt;
 use super::simulate::{trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial};
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
-use crate::diagnose::cells::Cells;
+use crate::diagnose::cells::{CellKey, Cells};
 use crate::diagnose::gap::{compare, compare_for_fit, excess, GapMap, GapOptions};
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
@@ -21,7 +21,7 @@ use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 /// One effect with fitted parameters.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,6 +92,43 @@ pub struct Fitter<'a> {
     pub gap_options: GapOptions,
     /// Simulations run so far, the nominal's included (for the report).
     pub simulations: RefCell<usize>,
+    /// Whether the angle cells enter a lens's fit objective: off during the first stage of a
+    /// lens fit ([`LENS_ANGLE_BEND_MIN_SHARE`]).
+    lens_angle_cells: Cell<bool>,
+}
+
+/// Share of the aligned angle residual's RMS that a lens's bend of the measured angle (exact
+/// corners) must reach before the angle cells (θ, ω̂, α̂, the angle's peak) enter its fit.
+///
+/// A radial lens keeps a circle about its centre a circle: a wheel whose axis is imaged near
+/// the lens centre keeps its measured angle, and only the marker's shape shows the lens. The
+/// angle cells then hold detection noise, and on 2 fit seeds that noise moved Σ z² by ±15 between
+/// neighbouring k1: on the project's own renderer, the axis 0.02 px from the centre, a k1 = −0.09
+/// lens was fitted at −0.174 ± 0.003 (the search stopped in a dip of the noise), and at −0.109
+/// on the shape cells alone. A lens fit therefore starts on its shape cells; the angle cells join
+/// in a second search when the lens, at the fitted k1 plus two standard deviations, bends the
+/// angle by this share of the residual. The angle residual's slowest band (0–1.5 Hz of 15) holds
+/// about 0.3 of its RMS, and a bend moves such a cell (30 % relative tolerance) by one z only
+/// beyond about 0.8 of the band's own RMS: 0.3 × 0.8 ≈ 0.25. Off the centre (the bend grows by
+/// 3·10⁻⁴ rad per pixel of offset at k1 = 0.6 on the self-check's rig) the angle cells join and
+/// carry most of what identifies k1.
+pub const LENS_ANGLE_BEND_MIN_SHARE: f64 = 0.25;
+
+/// Whether a lens that bends the measured angle by `bend_rad` RMS moves the angle cells of
+/// footage whose aligned angle residual is `residual_rad` RMS (see
+/// [`LENS_ANGLE_BEND_MIN_SHARE`]); true when either is unknown.
+pub fn lens_bend_informs(bend_rad: f64, residual_rad: f64) -> bool {
+    let known = residual_rad.is_finite() && residual_rad > 0.0 && bend_rad.is_finite();
+    !known || bend_rad >= LENS_ANGLE_BEND_MIN_SHARE * residual_rad
+}
+
+/// Puts the angle cells back into the lens objective when a lens fit ends, whichever way.
+struct AngleCellsBack<'c>(&'c Cell<bool>);
+
+impl Drop for AngleCellsBack<'_> {
+    fn drop(&mut self) {
+        self.0.set(true);
+    }
 }
 
 /// Share of the marker-centre residual a runout form must take before the runout candidate takes
@@ -150,7 +187,17 @@ impl<'a> Fitter<'a> {
             eval_seeds,
             gap_options,
             simulations,
+            lens_angle_cells: Cell::new(true),
         })
+    }
+
+    /// Whether cell `key` enters the fit objective of `e`: its signature, less the angle cells
+    /// during the first stage of a lens fit ([`LENS_ANGLE_BEND_MIN_SHARE`]).
+    fn in_fit_objective(&self, e: Effect, key: &CellKey) -> bool {
+        in_signature(e, key)
+            && !(e == Effect::LensDistortion
+                && !self.lens_angle_cells.get()
+                && plan::is_angle_channel(key.channel))
     }
 
     /// Adds evaluation seeds: the nominal is simulated on the new ones only and the nominal gap
@@ -189,6 +236,7 @@ impl<'a> Fitter<'a> {
             eval_seeds: self.eval_seeds.clone(),
             gap_options: self.gap_options,
             simulations: RefCell::new(0),
+            lens_angle_cells: Cell::new(true),
         }
     }
 
@@ -378,7 +426,7 @@ impl<'a> Fitter<'a> {
             Ok(g) => g
                 .cells
                 .iter()
-                .filter(|c| effects.iter().any(|e| in_signature(*e, &c.key)))
+                .filter(|c| effects.iter().any(|e| self.in_fit_objective(*e, &c.key)))
                 .map(|c| c.z * c.z)
                 .sum(),
             Err(_) => f64::INFINITY,
@@ -553,6 +601,76 @@ impl<'a> Fitter<'a> {
         v
     }
 
+    /// The second stage of a lens fit, after its first on the shape cells alone: the angle cells
+    /// join and k1 is searched again from the first stage's value when the lens, at that k1
+    /// plus two standard deviations (the search's far end when the first stage set no
+    /// uncertainty), bends the measured angle by [`LENS_ANGLE_BEND_MIN_SHARE`] of the aligned
+    /// angle residual. Updates `values` and `stds`; returns the method's words for it.
+    fn lens_second_stage(
+        &self,
+        prior: &[(Effect, Vec<f64>)],
+        values: &mut [f64],
+        stds: &mut [f64],
+    ) -> String {
+        let e = Effect::LensDistortion;
+        let spec = &e.params()[0];
+        let (k1, sd) = (values[0], stds[0]);
+        let reach = if sd.is_finite() {
+            k1.abs() + 2.0 * sd
+        } else {
+            spec.search.0.abs().max(spec.search.1.abs())
+        };
+        let probe = if k1 > 0.0 {
+            reach.min(spec.search.1)
+        } else {
+            -reach.min(-spec.search.0)
+        };
+        let (td, _) = self.real_theta_det;
+        let bend_rad = camera_warp::angle_bend_rms(
+            &self.base.scenario,
+            e,
+            &[probe],
+            td,
+            aligned_of(self).screen_sign,
+        )
+        .unwrap_or(f64::INFINITY);
+        let residual_rad = aligned_of(self).motion.rms_residual_rad;
+        let bend = format!(
+            "a lens at k1 = {probe:.3} bends the measured angle by {bend_rad:.2e} rad RMS on this \
+             rig ({:.1} % of the aligned angle residual, {residual_rad:.2e} rad)",
+            100.0 * bend_rad / residual_rad
+        );
+        if !lens_bend_informs(bend_rad, residual_rad) {
+            return format!(
+                "; on the shape cells: the angle cells left out, as {bend}, below {:.0} %",
+                100.0 * LENS_ANGLE_BEND_MIN_SHARE
+            );
+        }
+        self.lens_angle_cells.set(true);
+        // The search's own first step (a sixth of its range), not one scaled by the first
+        // stage's uncertainty: the shape cells' k1 can be off by a quarter with another
+        // renderer's edges, and a step of 4σ (0.01) left a k1 = −0.3 lens at the first stage's
+        // −0.212 on the project's renderer, where the full step reached −0.242.
+        let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
+        o.max_evaluations = 9;
+        let r = minimise(
+            |x| {
+                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+                applied.push((e, vec![x]));
+                let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+                self.objective(&effects, &applied)
+            },
+            k1,
+            &o,
+        );
+        values[0] = r.value;
+        stds[0] = r.std;
+        format!(
+            "; first on the shape cells (k1 = {k1:.4} ± {sd:.4}), then with the angle cells, as \
+             {bend}"
+        )
+    }
+
     /// Fits `e` on top of `prior` (already fitted effects, kept fixed).
     pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, DiagnoseError> {
         let before = *self.simulations.borrow();
@@ -709,6 +827,10 @@ impl<'a> Fitter<'a> {
                 // Every objective value by its parameters: a later search starts where an earlier
                 // one ended, and the objective is deterministic (fixed seeds), so it is looked up.
                 let evaluated: std::cell::RefCell<Vec<(Vec<f64>, f64)>> = Default::default();
+                let _angle_cells_back = (e == Effect::LensDistortion).then(|| {
+                    self.lens_angle_cells.set(false);
+                    AngleCellsBack(&self.lens_angle_cells)
+                });
                 let mut moved = vec![f64::INFINITY; specs.len()];
                 let mut searches_run = 0usize;
                 for (k, &i) in searched.iter().enumerate() {
@@ -759,6 +881,9 @@ impl<'a> Fitter<'a> {
                     e.name(),
                     self.fit_seeds.len()
                 );
+                if e == Effect::LensDistortion {
+                    method.push_str(&self.lens_second_stage(prior, &mut values, &mut stds));
+                }
                 if let Some(p) = pose_start {
                     method.push_str(&format!(
                         "; started at the tilt the marker corners show through the nominal \
@@ -1237,6 +1362,22 @@ fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {
+        // The self-check's rig, axis 0.02 px from the lens centre: a k1 of 0.6 bends the angle
+        // by 7 µrad against 484 µrad of residual.
+        assert!(!lens_bend_informs(6.8e-6, 4.84e-4));
+        assert!(!lens_bend_informs(0.2 * 4.84e-4, 4.84e-4));
+        assert!(lens_bend_informs(0.25 * 4.84e-4, 4.84e-4));
+        assert!(lens_bend_informs(1e-2, 4.84e-4));
+        // Unknown: kept.
+        assert!(lens_bend_informs(f64::INFINITY, 4.84e-4));
+        assert!(lens_bend_informs(f64::NAN, 4.84e-4));
+        assert!(lens_bend_informs(1e-9, 0.0));
+        assert!(lens_bend_informs(1e-9, f64::NAN));
+        assert!(plan::is_angle_channel("theta_peak") && !plan::is_angle_channel("side"));
+    }
 
     #[test]
     fn the_method_says_how_far_the_second_round_went() {
