@@ -21,7 +21,7 @@ use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
-use std::cell::{Cell, RefCell};
+use std::cell::RefCell;
 
 /// One effect with fitted parameters.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,9 +92,23 @@ pub struct Fitter<'a> {
     pub gap_options: GapOptions,
     /// Simulations run so far, the nominal's included (for the report).
     pub simulations: RefCell<usize>,
-    /// Whether the angle cells enter a lens's fit objective: off during the first stage of a
-    /// lens fit ([`LENS_ANGLE_BEND_MIN_SHARE`]).
-    lens_angle_cells: Cell<bool>,
+}
+
+/// Which of the lens's signature cells a fit objective counts: all of them, or its shape cells
+/// alone (the first stage of a lens fit, [`LENS_ANGLE_BEND_MIN_SHARE`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LensCells {
+    All,
+    ShapeOnly,
+}
+
+/// Whether cell `key` enters the fit objective of `e`: its signature, less the angle cells of a
+/// lens fitted on its shape cells.
+fn in_fit_objective(e: Effect, key: &CellKey, lens: LensCells) -> bool {
+    in_signature(e, key)
+        && !(e == Effect::LensDistortion
+            && lens == LensCells::ShapeOnly
+            && plan::is_angle_channel(key.channel))
 }
 
 /// Share of the aligned angle residual's RMS that a lens's bend of the measured angle (exact
@@ -122,12 +136,25 @@ pub fn lens_bend_informs(bend_rad: f64, residual_rad: f64) -> bool {
     !known || bend_rad >= LENS_ANGLE_BEND_MIN_SHARE * residual_rad
 }
 
-/// Puts the angle cells back into the lens objective when a lens fit ends, whichever way.
-struct AngleCellsBack<'c>(&'c Cell<bool>);
-
-impl Drop for AngleCellsBack<'_> {
-    fn drop(&mut self) {
-        self.0.set(true);
+/// How a lens at k1 = `probe` bends the measured angle, in the lens fit's method string: the
+/// bend beside the aligned angle residual, or why that comparison cannot be made (the bend not
+/// computable on this rig, or no residual to compare with), in which case the angle cells join.
+fn lens_bend_phrase(probe: f64, bend_rad: Option<f64>, residual_rad: f64) -> String {
+    let residual_known = residual_rad.is_finite() && residual_rad > 0.0;
+    match bend_rad.filter(|b| b.is_finite()) {
+        None => format!(
+            "the bend of the measured angle by a lens at k1 = {probe:.3} could not be computed \
+             on this rig"
+        ),
+        Some(b) if residual_known => format!(
+            "a lens at k1 = {probe:.3} bends the measured angle by {b:.2e} rad RMS on this rig \
+             ({:.1} % of the aligned angle residual, {residual_rad:.2e} rad)",
+            100.0 * b / residual_rad
+        ),
+        Some(b) => format!(
+            "a lens at k1 = {probe:.3} bends the measured angle by {b:.2e} rad RMS on this rig, \
+             and the aligned angle residual is zero or unknown"
+        ),
     }
 }
 
@@ -187,17 +214,7 @@ impl<'a> Fitter<'a> {
             eval_seeds,
             gap_options,
             simulations,
-            lens_angle_cells: Cell::new(true),
         })
-    }
-
-    /// Whether cell `key` enters the fit objective of `e`: its signature, less the angle cells
-    /// during the first stage of a lens fit ([`LENS_ANGLE_BEND_MIN_SHARE`]).
-    fn in_fit_objective(&self, e: Effect, key: &CellKey) -> bool {
-        in_signature(e, key)
-            && !(e == Effect::LensDistortion
-                && !self.lens_angle_cells.get()
-                && plan::is_angle_channel(key.channel))
     }
 
     /// Adds evaluation seeds: the nominal is simulated on the new ones only and the nominal gap
@@ -236,7 +253,6 @@ impl<'a> Fitter<'a> {
             eval_seeds: self.eval_seeds.clone(),
             gap_options: self.gap_options,
             simulations: RefCell::new(0),
-            lens_angle_cells: Cell::new(true),
         }
     }
 
@@ -395,18 +411,25 @@ impl<'a> Fitter<'a> {
         ))
     }
 
-    /// The fit objective: Σ z² over the signature cells of `effects`, every cell's tolerance
-    /// symmetric ([`compare_for_fit`]).
-    fn objective(&self, effects: &[Effect], applied: &[(Effect, Vec<f64>)]) -> f64 {
-        self.objective_by(effects, applied, compare_for_fit)
+    /// The fit objective: Σ z² over the signature cells of `effects` (the lens's as `lens` says),
+    /// every cell's tolerance symmetric ([`compare_for_fit`]).
+    fn objective(
+        &self,
+        effects: &[Effect],
+        applied: &[(Effect, Vec<f64>)],
+        lens: LensCells,
+    ) -> f64 {
+        self.objective_by(effects, applied, compare_for_fit, lens)
     }
 
-    /// Σ z² over the signature cells of `effects`, the cells compared by `comparison`.
+    /// Σ z² over the signature cells of `effects` (the lens's as `lens` says), the cells
+    /// compared by `comparison`.
     fn objective_by(
         &self,
         effects: &[Effect],
         applied: &[(Effect, Vec<f64>)],
         comparison: fn(&Cells, &[Cells], GapOptions) -> GapMap,
+        lens: LensCells,
     ) -> f64 {
         let Ok(trial) = self.trial_with(applied) else {
             return f64::INFINITY;
@@ -426,7 +449,7 @@ impl<'a> Fitter<'a> {
             Ok(g) => g
                 .cells
                 .iter()
-                .filter(|c| effects.iter().any(|e| self.in_fit_objective(*e, &c.key)))
+                .filter(|c| effects.iter().any(|e| in_fit_objective(*e, &c.key, lens)))
                 .map(|c| c.z * c.z)
                 .sum(),
             Err(_) => f64::INFINITY,
@@ -633,20 +656,15 @@ impl<'a> Fitter<'a> {
             td,
             aligned_of(self).screen_sign,
         )
-        .unwrap_or(f64::INFINITY);
+        .ok();
         let residual_rad = aligned_of(self).motion.rms_residual_rad;
-        let bend = format!(
-            "a lens at k1 = {probe:.3} bends the measured angle by {bend_rad:.2e} rad RMS on this \
-             rig ({:.1} % of the aligned angle residual, {residual_rad:.2e} rad)",
-            100.0 * bend_rad / residual_rad
-        );
-        if !lens_bend_informs(bend_rad, residual_rad) {
+        let bend = lens_bend_phrase(probe, bend_rad, residual_rad);
+        if !lens_bend_informs(bend_rad.unwrap_or(f64::INFINITY), residual_rad) {
             return format!(
                 "; on the shape cells: the angle cells left out, as {bend}, below {:.0} %",
                 100.0 * LENS_ANGLE_BEND_MIN_SHARE
             );
         }
-        self.lens_angle_cells.set(true);
         // The search's own first step (a sixth of its range), not one scaled by the first
         // stage's uncertainty: the shape cells' k1 can be off by a quarter with another
         // renderer's edges, and a step of 4σ (0.01) left a k1 = −0.3 lens at the first stage's
@@ -658,7 +676,7 @@ impl<'a> Fitter<'a> {
                 let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                 applied.push((e, vec![x]));
                 let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                self.objective(&effects, &applied)
+                self.objective(&effects, &applied, LensCells::All)
             },
             k1,
             &o,
@@ -827,10 +845,11 @@ impl<'a> Fitter<'a> {
                 // Every objective value by its parameters: a later search starts where an earlier
                 // one ended, and the objective is deterministic (fixed seeds), so it is looked up.
                 let evaluated: std::cell::RefCell<Vec<(Vec<f64>, f64)>> = Default::default();
-                let _angle_cells_back = (e == Effect::LensDistortion).then(|| {
-                    self.lens_angle_cells.set(false);
-                    AngleCellsBack(&self.lens_angle_cells)
-                });
+                let lens_cells = if e == Effect::LensDistortion {
+                    LensCells::ShapeOnly
+                } else {
+                    LensCells::All
+                };
                 let mut moved = vec![f64::INFINITY; specs.len()];
                 let mut searches_run = 0usize;
                 for (k, &i) in searched.iter().enumerate() {
@@ -864,7 +883,7 @@ impl<'a> Fitter<'a> {
                             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                             applied.push((e, v.clone()));
                             let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                            let f = self.objective(&effects, &applied);
+                            let f = self.objective(&effects, &applied, lens_cells);
                             evaluated.borrow_mut().push((v, f));
                             f
                         },
@@ -908,7 +927,7 @@ impl<'a> Fitter<'a> {
                         let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                         applied.push((e, v.to_vec()));
                         let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                        self.objective_by(&effects, &applied, compare)
+                        self.objective_by(&effects, &applied, compare, LensCells::All)
                     };
                     let at_pose = with(&[p.tilt_x_deg, p.tilt_y_deg]);
                     let at_minimum = with(&values);
@@ -1377,6 +1396,25 @@ mod tests {
         assert!(lens_bend_informs(1e-9, 0.0));
         assert!(lens_bend_informs(1e-9, f64::NAN));
         assert!(plan::is_angle_channel("theta_peak") && !plan::is_angle_channel("side"));
+    }
+
+    #[test]
+    fn the_lens_bend_phrase_never_prints_an_infinite_share() {
+        let known = lens_bend_phrase(-0.3, Some(1.2e-4), 4.8e-4);
+        assert!(known.contains("25.0 %"), "{known}");
+        for phrase in [
+            lens_bend_phrase(-0.3, None, 4.8e-4),
+            lens_bend_phrase(-0.3, Some(f64::INFINITY), 4.8e-4),
+            lens_bend_phrase(-0.3, Some(1.2e-4), 0.0),
+            lens_bend_phrase(-0.3, Some(1.2e-4), f64::NAN),
+        ] {
+            assert!(
+                !phrase.contains("inf") && !phrase.contains("NaN"),
+                "{phrase}"
+            );
+        }
+        assert!(lens_bend_phrase(-0.3, None, 4.8e-4).contains("could not be computed"));
+        assert!(lens_bend_phrase(-0.3, Some(1e-4), 0.0).contains("zero or unknown"));
     }
 
     #[test]
