@@ -158,6 +158,26 @@ fn lens_bend_phrase(probe: f64, bend_rad: Option<f64>, residual_rad: f64) -> Str
     }
 }
 
+/// Largest standard deviation of a full well fitted by moment matching on the noise at the ink
+/// and paper levels, relative to the full well, for that fit to stand; beyond it the Σ z² search
+/// fits the noise.
+///
+/// The two variances are a·s + b at the two radiances (a = 1/FW, b = RN²/FW²), and sd(FW)/FW =
+/// sd(a)/a: at 1 the shot-noise part a is not told from zero at one standard deviation. Where
+/// read noise dominates both levels, a is the small difference of two large variances, and the
+/// noise channels' renderer tolerance (15 % in σ, taken into the standard deviation) leaves it
+/// undetermined: on the strong probe (2000 e⁻, 185 e⁻) drawn by the independent renderer, one
+/// seed of three was matched at 496 e⁻ and 42.6 e⁻ with a sampling-only uncertainty of ±24 e⁻
+/// (the other two, whose levels the model's shape rejects, were searched: 2031 and 2006 e⁻).
+/// Near the limit (124 000 e⁻, shot noise dominating) the ratio is 0.50 on the same renderer.
+pub const NOISE_SPLIT_MAX_REL_SD: f64 = 1.0;
+
+/// Whether a moment-matched full well `fw_e` with standard deviation `sd_fw_e` stands
+/// ([`NOISE_SPLIT_MAX_REL_SD`]).
+pub fn noise_split_determined(fw_e: f64, sd_fw_e: f64) -> bool {
+    fw_e > 0.0 && sd_fw_e.is_finite() && sd_fw_e <= NOISE_SPLIT_MAX_REL_SD * fw_e
+}
+
 /// Share of the marker-centre residual a runout form must take before the runout candidate takes
 /// it (order, phase, and its amplitude as the search's start). Below it the residual is mostly
 /// other motion and noise, and the candidate keeps its own form: on the independent renderer's
@@ -1060,10 +1080,17 @@ impl<'a> Fitter<'a> {
                     let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
                         return Ok(None);
                     };
-                    // The real variances' sampling error through the same maps.
+                    // The real variances' uncertainty through the same maps: the sampling error
+                    // and the channel's renderer tolerance, the relative 1-sd term the verdict's
+                    // z gives two honest renderers' noise at one grey level.
+                    let sd_sigma = |m: &moments::ChannelMeans, channel: &str| {
+                        let tol = crate::diagnose::cells::channel(channel)
+                            .map_or(0.0, |c| c.tol_rel.ln_1p());
+                        ((m.real_std * sims_factor).powi(2) + (tol * m.real).powi(2)).sqrt()
+                    };
                     let (svi, svp) = (
-                        2.0 * ink.real * ink.real_std * sims_factor * slope(ink.real, si),
-                        2.0 * paper.real * paper.real_std * sims_factor * slope(paper.real, sp),
+                        2.0 * ink.real * sd_sigma(&ink, "noise_ink") * slope(ink.real, si),
+                        2.0 * paper.real * sd_sigma(&paper, "noise_paper") * slope(paper.real, sp),
                     );
                     let sa = ((svi * svi + svp * svp).sqrt() / det).abs();
                     let sb = ((si * svp).powi(2) + (sp * svi).powi(2)).sqrt() / det.abs();
@@ -1079,6 +1106,12 @@ impl<'a> Fitter<'a> {
                     let inside = |v: f64, r: (f64, f64)| v > r.0 && v < r.1;
                     if !(inside(fw, specs[0].search) && inside(rn, specs[1].search)) {
                         // Ran to a bound: the map is not the model's; search instead.
+                        return Ok(None);
+                    }
+                    if !noise_split_determined(fw, sd_fw) {
+                        // Read noise dominates at both levels: the two variances leave the shot
+                        // part (1/FW) to the renderers' difference; search Σ z², whose cells
+                        // (the corners' jitter among them) see the split.
                         return Ok(None);
                     }
                     let v = vec![fw, rn];
@@ -1396,6 +1429,15 @@ mod tests {
         assert!(lens_bend_informs(1e-9, 0.0));
         assert!(lens_bend_informs(1e-9, f64::NAN));
         assert!(plan::is_angle_channel("theta_peak") && !plan::is_angle_channel("side"));
+    }
+
+    #[test]
+    fn a_noise_split_the_two_levels_cannot_determine_goes_to_the_search() {
+        assert!(noise_split_determined(124_000.0, 61_700.0));
+        assert!(!noise_split_determined(496.0, 2_000.0));
+        assert!(!noise_split_determined(496.0, f64::INFINITY));
+        assert!(!noise_split_determined(496.0, f64::NAN));
+        assert!(!noise_split_determined(0.0, 0.0));
     }
 
     #[test]
