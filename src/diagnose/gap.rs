@@ -272,11 +272,34 @@ enum Tolerance {
 }
 
 fn compare_with(real: &Cells, sims: &[Cells], options: GapOptions, tolerance: Tolerance) -> GapMap {
-    let mut cells = Vec::new();
-    for (key, &x) in real {
+    let mut cells: Vec<CellGap> = compared_cells(real, sims, options, tolerance)
+        .map(|(c, _)| c)
+        .collect();
+    let p: Vec<f64> = cells.iter().map(|c| c.p).collect();
+    for (c, s) in cells.iter_mut().zip(benjamini_hochberg(&p, options.fdr_q)) {
+        c.significant = s;
+    }
+    let total = cells.iter().map(|c| excess(c.z, options.dead_zone_z)).sum();
+    GapMap {
+        cells,
+        total,
+        options,
+    }
+}
+
+/// Every cell present in `real` and in at least `options.min_sims` simulations, compared with
+/// `tolerance` (not yet judged significant), with the share of its z's variance that is the
+/// channel's tolerance: τ² / (s_y²(1 + 1/N) + τ²).
+fn compared_cells<'a>(
+    real: &'a Cells,
+    sims: &'a [Cells],
+    options: GapOptions,
+    tolerance: Tolerance,
+) -> impl Iterator<Item = (CellGap, f64)> + 'a {
+    real.iter().filter_map(move |(key, &x)| {
         let ys: Vec<f64> = sims.iter().filter_map(|s| s.get(key).copied()).collect();
         if ys.len() < options.min_sims.max(2) || !x.is_finite() {
-            continue;
+            return None;
         }
         let spec = key.spec();
         let n = ys.len() as f64;
@@ -305,7 +328,12 @@ fn compare_with(real: &Cells, sims: &[Cells], options: GapOptions, tolerance: To
         } else {
             f64::INFINITY
         };
-        cells.push(CellGap {
+        let tol_share = if v_sim + tol * tol > 0.0 {
+            tol * tol / (v_sim + tol * tol)
+        } else {
+            0.0
+        };
+        let cell = CellGap {
             key: *key,
             real: x,
             sim_mean: raw_mean,
@@ -314,18 +342,68 @@ fn compare_with(real: &Cells, sims: &[Cells], options: GapOptions, tolerance: To
             z,
             p: two_sided_p_student(z, dof),
             significant: false,
-        });
+        };
+        Some((cell, tol_share))
+    })
+}
+
+/// The fit objective's χ² with each channel's tolerance shared by its cells: Σ over groups g
+/// (the cells of one channel and band, across phases, that `keep` admits) of
+/// Σ_g z² / (1 + (k_g − 1)·ρ̄_g), with z as in [`compare_for_fit`], k_g the group's cells and
+/// ρ̄_g their mean tolerance share τ² / (s_y²(1 + 1/N) + τ²).
+///
+/// The tolerance τ is how far another renderer may sit from this one on the whole channel: one
+/// offset shared by the phases, not an independent one per cell. Σ z² counts a shift common to
+/// the k cells k times, where the covariance s²(1 + 1/N)·I + τ²·11ᵀ counts it
+/// k / (1 + (k − 1)ρ) times; dividing each group by that design effect (Kish's) gives the
+/// correlated χ² exactly for a common shift, and less than it for a shift that differs between
+/// phases (conservative). Its curvature is the uncertainty of a fitted parameter; Σ z²'s
+/// curvature, k-fold where the tolerance dominates, gave ±37 e⁻ on a full well fitted 47 % low.
+pub fn shared_tolerance_chi2(
+    real: &Cells,
+    sims: &[Cells],
+    options: GapOptions,
+    keep: impl Fn(&CellKey) -> bool,
+) -> f64 {
+    /// One (channel, band) group's sums.
+    struct Group {
+        channel: &'static str,
+        band: Option<u8>,
+        sum_z2: f64,
+        sum_share: f64,
+        cells: usize,
     }
-    let p: Vec<f64> = cells.iter().map(|c| c.p).collect();
-    for (c, s) in cells.iter_mut().zip(benjamini_hochberg(&p, options.fdr_q)) {
-        c.significant = s;
+    let mut groups: Vec<Group> = Vec::new();
+    for (c, share) in compared_cells(real, sims, options, Tolerance::Fit) {
+        if !keep(&c.key) {
+            continue;
+        }
+        let (channel, band) = (c.key.channel, c.key.band);
+        match groups
+            .iter_mut()
+            .find(|g| g.channel == channel && g.band == band)
+        {
+            Some(g) => {
+                g.sum_z2 += c.z * c.z;
+                g.sum_share += share;
+                g.cells += 1;
+            }
+            None => groups.push(Group {
+                channel,
+                band,
+                sum_z2: c.z * c.z,
+                sum_share: share,
+                cells: 1,
+            }),
+        }
     }
-    let total = cells.iter().map(|c| excess(c.z, options.dead_zone_z)).sum();
-    GapMap {
-        cells,
-        total,
-        options,
-    }
+    groups
+        .iter()
+        .map(|g| {
+            let k = g.cells as f64;
+            g.sum_z2 / (1.0 + (k - 1.0) * g.sum_share / k)
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -596,5 +674,103 @@ mod tests {
             }
         }
         assert!(alarms <= 8, "{alarms} of 200 null replicates alarmed");
+    }
+
+    /// Real and simulated cells of channel `channel` in the four phases: the simulations at
+    /// `level` with a relative scatter `scatter` across 4 seeds, the real data at `real`.
+    fn four_phases(
+        channel: &'static str,
+        real: f64,
+        level: f64,
+        scatter: f64,
+    ) -> (Cells, Vec<Cells>) {
+        let phases = ["dwell", "entry", "drive", "exit"];
+        let k = |phase| CellKey {
+            channel,
+            phase,
+            band: None,
+        };
+        let real_cells = phases.iter().map(|&p| (k(p), real)).collect();
+        let sims = [-1.5, -0.5, 0.5, 1.5]
+            .iter()
+            .map(|d| {
+                phases
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &p)| (k(p), level * (1.0 + scatter * (d + 0.1 * j as f64))))
+                    .collect()
+            })
+            .collect();
+        (real_cells, sims)
+    }
+
+    fn sum_z2(real: &Cells, sims: &[Cells]) -> f64 {
+        compare_for_fit(real, sims, GapOptions::default())
+            .cells
+            .iter()
+            .map(|c| c.z * c.z)
+            .sum()
+    }
+
+    #[test]
+    fn a_shift_common_to_the_phases_counts_once_where_the_tolerance_dominates() {
+        // Noise 30 % above the simulations in all four phases, the seeds within 0.01 %: the
+        // channel's 15 % tolerance is all of z's variance, and the four phases are one offset.
+        let (real, sims) = four_phases("noise_ink", 13.0, 10.0, 1e-4);
+        let independent = sum_z2(&real, &sims);
+        let shared = shared_tolerance_chi2(&real, &sims, GapOptions::default(), |_| true);
+        assert!(independent > 4.0, "{independent}");
+        assert!(
+            (shared / (independent / 4.0) - 1.0).abs() < 1e-3,
+            "{shared} vs {independent}"
+        );
+        // Where the seeds' scatter dominates, the phases are independent draws: Σ z² stands.
+        let (real, sims) = four_phases("noise_ink", 13.0, 10.0, 0.5);
+        let independent = sum_z2(&real, &sims);
+        let shared = shared_tolerance_chi2(&real, &sims, GapOptions::default(), |_| true);
+        assert!(
+            shared < independent && shared > 0.7 * independent,
+            "{shared} vs {independent}"
+        );
+    }
+
+    #[test]
+    fn channels_share_their_own_tolerance_only_and_kept_cells_alone_count() {
+        let (mut real, mut sims) = four_phases("noise_ink", 13.0, 10.0, 1e-4);
+        let (real_p, sims_p) = four_phases("noise_paper", 9.0, 10.0, 1e-4);
+        real.extend(real_p.clone());
+        for (s, p) in sims.iter_mut().zip(sims_p.clone()) {
+            s.extend(p);
+        }
+        let options = GapOptions::default();
+        let ink = |k: &CellKey| k.channel == "noise_ink";
+        let paper = |k: &CellKey| k.channel == "noise_paper";
+        let both = shared_tolerance_chi2(&real, &sims, options, |_| true);
+        let parts = shared_tolerance_chi2(&real, &sims, options, ink)
+            + shared_tolerance_chi2(&real, &sims, options, paper);
+        assert!((both - parts).abs() <= 1e-12 * both, "{both} vs {parts}");
+        let paper_alone = shared_tolerance_chi2(&real_p, &sims_p, options, |_| true);
+        assert_eq!(
+            shared_tolerance_chi2(&real, &sims, options, paper),
+            paper_alone
+        );
+        assert_eq!(shared_tolerance_chi2(&real, &sims, options, |_| false), 0.0);
+    }
+
+    proptest::proptest! {
+        /// The shared χ² lies between Σ z² over the phases divided by their number (a shift
+        /// all share) and Σ z² itself (independent phases).
+        #[test]
+        fn the_shared_chi2_lies_between_sum_z2_and_its_share_per_phase(
+            real in 0.1f64..100.0,
+            level in 0.1f64..100.0,
+            scatter in 1e-5f64..0.3,
+        ) {
+            let (real, sims) = four_phases("noise_ink", real, level, scatter);
+            let independent = sum_z2(&real, &sims);
+            let shared = shared_tolerance_chi2(&real, &sims, GapOptions::default(), |_| true);
+            proptest::prop_assert!(shared <= independent * (1.0 + 1e-12));
+            proptest::prop_assert!(shared >= independent / 4.0 * (1.0 - 1e-12));
+        }
     }
 }

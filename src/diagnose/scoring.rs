@@ -42,6 +42,10 @@ pub struct CaseOutcome {
     /// Relative errors |fitted − true| / |true| of the withheld effect's identifiable
     /// parameters, when the best candidate is that effect.
     pub param_rel_errors: Vec<f64>,
+    /// The same parameters' errors in their stated standard uncertainties, |fitted − true| / σ
+    /// (an honest σ puts about 95 % of them within 2). Records of older runs have none.
+    #[serde(default)]
+    pub param_errors_in_sd: Vec<f64>,
     /// Evaluation seeds the diagnosis judged on (more than asked when it escalated); 0 when
     /// it failed. Records of older runs have none.
     #[serde(default)]
@@ -126,6 +130,9 @@ pub struct Scores {
     pub unexplained_recall: Rate,
     pub median_shrink_strong: Option<f64>,
     pub median_param_rel_error_strong: Option<f64>,
+    /// Identifiable fitted parameters within 2 standard uncertainties of the truth (strong,
+    /// top-1 cases): whether the stated uncertainties can be believed.
+    pub params_within_2sd_strong: Rate,
     /// Withheld effect → (answer → count).
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
 }
@@ -223,6 +230,17 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
                 .flat_map(|o| o.param_rel_errors.iter().copied())
                 .collect(),
         ),
+        params_within_2sd_strong: {
+            let z: Vec<f64> = outcomes
+                .iter()
+                .filter(|o| strong(o) && o.top_k(1))
+                .flat_map(|o| o.param_errors_in_sd.iter().copied())
+                .collect();
+            Rate {
+                k: z.iter().filter(|z| **z <= 2.0).count(),
+                n: z.len(),
+            }
+        },
         confusion,
     }
 }
@@ -247,6 +265,7 @@ mod tests {
                 .collect(),
             best_shrink: Some(shrink),
             param_rel_errors: vec![0.1],
+            param_errors_in_sd: vec![1.5, 2.5],
             eval_seeds: 4,
         }
     }
@@ -325,6 +344,8 @@ mod tests {
         assert_eq!(s.unexplained_recall, Rate { k: 1, n: 1 });
         assert_eq!(s.median_shrink_strong, Some(0.7));
         assert_eq!(s.median_param_rel_error_strong, Some(0.1));
+        // The one top-1 strong case's two parameters: 1.5 σ and 2.5 σ off.
+        assert_eq!(s.params_within_2sd_strong, Rate { k: 1, n: 2 });
         assert_eq!(s.confusion["pixel_noise (strong)"]["optical_blur"], 1);
         assert_eq!(s.confusion["null"]["unexplained (lighting)"], 1);
         assert_eq!(s.top1_form, Rate { k: 0, n: 0 });

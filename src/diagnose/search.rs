@@ -166,39 +166,68 @@ pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) ->
             (a, fa) = (x, fx);
         }
     }
-    // Curvature from a parabola through the best point and its nearest evaluated neighbours.
+    // The best point in order of u (the first of equal objectives), as its curvature is taken.
     let mut sorted = evals.clone();
     sorted.sort_by(|p, q| p.0.total_cmp(&q.0));
-    let best_i = sorted
+    let (best, fbest) = sorted
         .iter()
-        .enumerate()
-        .min_by(|p, q| p.1 .1.total_cmp(&q.1 .1))
-        .map_or(0, |(i, _)| i);
-    let (ub, fbest) = sorted[best_i];
-    let mut std_u = f64::INFINITY;
-    if best_i > 0 && best_i + 1 < sorted.len() {
-        let (x0, y0) = sorted[best_i - 1];
-        let (x2, y2) = sorted[best_i + 1];
-        // Second derivative of the parabola through three points.
-        let d = 2.0 * ((y2 - fbest) / (x2 - ub) - (fbest - y0) / (ub - x0)) / (x2 - x0);
-        if d > 0.0 {
-            // f ≈ f_min + (d/2)(u − u*)²; Δf = 1 at σ.
-            std_u = (2.0 / d).sqrt();
-        }
-    }
-    let value = o.value_of_u(ub);
-    let std = if !std_u.is_finite() {
-        f64::INFINITY
-    } else if o.log_scale {
-        value * std::f64::consts::LN_10 * std_u
-    } else {
-        std_u
-    };
+        .copied()
+        .min_by(|p, q| p.1.total_cmp(&q.1))
+        .unwrap_or((u0, f0));
+    let value = o.value_of_u(best);
+    let std = std_from_curvature(&evals, best, o);
     SearchResult {
         value,
         objective: fbest,
         std,
         evaluations: evals.iter().map(|&(u, v)| (o.value_of_u(u), v)).collect(),
+    }
+}
+
+/// The 1-σ uncertainty of the parameter at `at_value` from the curvature of another objective
+/// evaluated at the same points (`points`: (value, objective) pairs, e.g. a correlated χ² beside
+/// the Σ z² that [`minimise`] searched): the parabola through `at_value` and its nearest
+/// evaluated neighbours, Δ = 1 at σ. Infinite when `at_value` has no neighbour on either side
+/// or the parabola does not open upwards.
+pub fn curvature_std_about(points: &[(f64, f64)], at_value: f64, o: &SearchOptions) -> f64 {
+    let evals: Vec<(f64, f64)> = points
+        .iter()
+        .map(|&(v, f)| {
+            (
+                o.search_u_of(v),
+                if f.is_finite() { f } else { f64::INFINITY },
+            )
+        })
+        .collect();
+    std_from_curvature(&evals, o.search_u_of(at_value), o)
+}
+
+/// σ in parameter units from the parabola through (u_at, f there) and the nearest evaluated
+/// neighbours of u_at in `evals` ((u, f) pairs).
+fn std_from_curvature(evals: &[(f64, f64)], u_at: f64, o: &SearchOptions) -> f64 {
+    let mut sorted = evals.to_vec();
+    sorted.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let Some(i) = sorted.iter().position(|&(u, _)| (u - u_at).abs() < 1e-12) else {
+        return f64::INFINITY;
+    };
+    let (ub, fb) = sorted[i];
+    let mut std_u = f64::INFINITY;
+    if i > 0 && i + 1 < sorted.len() {
+        let (x0, y0) = sorted[i - 1];
+        let (x2, y2) = sorted[i + 1];
+        // Second derivative of the parabola through three points.
+        let d = 2.0 * ((y2 - fb) / (x2 - ub) - (fb - y0) / (ub - x0)) / (x2 - x0);
+        if d > 0.0 {
+            // f ≈ f_min + (d/2)(u − u*)²; Δf = 1 at σ.
+            std_u = (2.0 / d).sqrt();
+        }
+    }
+    if !std_u.is_finite() {
+        f64::INFINITY
+    } else if o.log_scale {
+        o.value_of_u(ub) * std::f64::consts::LN_10 * std_u
+    } else {
+        std_u
     }
 }
 
@@ -276,5 +305,33 @@ mod tests {
         o.max_evaluations = 12;
         let r = minimise(f, 1.0, &o);
         assert!((r.value - 1.5).abs() < 0.15, "{r:?}");
+    }
+
+    #[test]
+    fn another_objective_at_the_same_points_gives_its_own_curvature() {
+        // A χ² and the same χ² at a quarter of its weight: twice the uncertainty, about the
+        // minimum the first search found.
+        let f = |v: f64| ((v.log10() - 0.8f64.log10()) / 0.05).powi(2) + 3.0;
+        let mut o = SearchOptions::new(0.01, 10.0, true);
+        o.max_evaluations = 14;
+        let r = minimise(f, 0.3, &o);
+        let same: Vec<(f64, f64)> = r.evaluations.iter().map(|&(v, _)| (v, f(v))).collect();
+        let s = curvature_std_about(&same, r.value, &o);
+        assert!((s / r.std - 1.0).abs() < 1e-9, "{s} vs {}", r.std);
+        let quarter: Vec<(f64, f64)> = r
+            .evaluations
+            .iter()
+            .map(|&(v, _)| (v, f(v) / 4.0))
+            .collect();
+        let s = curvature_std_about(&quarter, r.value, &o);
+        assert!((s / (2.0 * r.std) - 1.0).abs() < 1e-9, "{s} vs {}", r.std);
+        // No neighbour on one side, or a flat objective: no curvature.
+        let flat: Vec<(f64, f64)> = r.evaluations.iter().map(|&(v, _)| (v, 1.0)).collect();
+        assert_eq!(curvature_std_about(&flat, r.value, &o), f64::INFINITY);
+        assert_eq!(
+            curvature_std_about(&same[..1], same[0].0, &o),
+            f64::INFINITY
+        );
+        assert_eq!(curvature_std_about(&same, 123.0, &o), f64::INFINITY);
     }
 }

@@ -11,11 +11,13 @@ use super::simulate::{trial_cells, trial_theta_residuals, SimContext, TimingSour
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::cells::{CellKey, Cells};
-use crate::diagnose::gap::{compare, compare_for_fit, excess, GapMap, GapOptions};
+use crate::diagnose::gap::{
+    compare, compare_for_fit, excess, shared_tolerance_chi2, GapMap, GapOptions,
+};
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::runout::RunoutForm;
-use crate::diagnose::search::{minimise, SearchOptions};
+use crate::diagnose::search::{curvature_std_about, minimise, SearchOptions, SearchResult};
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
@@ -94,6 +96,53 @@ pub struct Fitter<'a> {
     pub simulations: RefCell<usize>,
 }
 
+/// One trial's two objectives, from the same simulations. The searches minimise `sum_z2`, Σ z²
+/// over the signature cells; the uncertainty they report is the curvature of `shared_chi2`
+/// ([`shared_tolerance_chi2`]), which counts a channel's tolerance once for all its phases
+/// instead of once per phase (Σ z²'s curvature claimed ±37 e⁻ on a full well fitted 47 % low).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Objectives {
+    sum_z2: f64,
+    shared_chi2: f64,
+}
+
+/// The uncertainty of a search's result `r` over coordinate `i` of `base` from the curvature of
+/// the shared-tolerance χ² at the evaluated points (looked up in `evaluated`), never below
+/// the search's own; the search's own when the shared χ² has no curvature there.
+fn shared_std(
+    evaluated: &[(Vec<f64>, Objectives)],
+    base: &[f64],
+    i: usize,
+    r: &SearchResult,
+    o: &SearchOptions,
+) -> f64 {
+    let points: Vec<(f64, f64)> = r
+        .evaluations
+        .iter()
+        .filter_map(|&(x, _)| {
+            let mut v = base.to_vec();
+            v[i] = x;
+            evaluated
+                .iter()
+                .find(|(w, _)| *w == v)
+                .map(|(_, f)| (x, f.shared_chi2))
+        })
+        .collect();
+    let shared = curvature_std_about(&points, r.value, o);
+    if shared.is_finite() {
+        r.std.max(shared)
+    } else {
+        r.std
+    }
+}
+
+/// What a moment match gives: the fit (values, stds, method, as in [`Fitted`]), or a search of
+/// Σ z² instead, with the reason when the match ran and was set aside (for the method's words).
+enum MomentFit {
+    Fitted((Vec<f64>, Vec<f64>, String)),
+    Search(Option<String>),
+}
+
 /// Which of the lens's signature cells a fit objective counts: all of them, or its shape cells
 /// alone (the first stage of a lens fit, [`LENS_ANGLE_BEND_MIN_SHARE`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,10 +179,15 @@ pub const LENS_ANGLE_BEND_MIN_SHARE: f64 = 0.25;
 
 /// Whether a lens that bends the measured angle by `bend_rad` RMS moves the angle cells of
 /// footage whose aligned angle residual is `residual_rad` RMS (see
-/// [`LENS_ANGLE_BEND_MIN_SHARE`]); true when either is unknown.
-pub fn lens_bend_informs(bend_rad: f64, residual_rad: f64) -> bool {
-    let known = residual_rad.is_finite() && residual_rad > 0.0 && bend_rad.is_finite();
-    !known || bend_rad >= LENS_ANGLE_BEND_MIN_SHARE * residual_rad
+/// [`LENS_ANGLE_BEND_MIN_SHARE`]); true when either is unknown (`None` or not finite), as
+/// [`lens_bend_phrase`] says.
+pub fn lens_bend_informs(bend_rad: Option<f64>, residual_rad: f64) -> bool {
+    match bend_rad.filter(|b| b.is_finite()) {
+        Some(b) if residual_rad.is_finite() && residual_rad > 0.0 => {
+            b >= LENS_ANGLE_BEND_MIN_SHARE * residual_rad
+        }
+        _ => true,
+    }
 }
 
 /// How a lens at k1 = `probe` bends the measured angle, in the lens fit's method string: the
@@ -431,15 +485,16 @@ impl<'a> Fitter<'a> {
         ))
     }
 
-    /// The fit objective: Σ z² over the signature cells of `effects` (the lens's as `lens` says),
-    /// every cell's tolerance symmetric ([`compare_for_fit`]).
-    fn objective(
+    /// The fit objective (Σ z² over the signature cells of `effects`, the lens's as `lens` says,
+    /// every cell's tolerance symmetric: [`compare_for_fit`]) and, from the same simulations, the
+    /// χ² whose curvature is the fitted parameter's uncertainty ([`Objectives`]).
+    fn objectives(
         &self,
         effects: &[Effect],
         applied: &[(Effect, Vec<f64>)],
         lens: LensCells,
-    ) -> f64 {
-        self.objective_by(effects, applied, compare_for_fit, lens)
+    ) -> Objectives {
+        self.objectives_by(effects, applied, compare_for_fit, lens)
     }
 
     /// Σ z² over the signature cells of `effects` (the lens's as `lens` says), the cells
@@ -451,8 +506,25 @@ impl<'a> Fitter<'a> {
         comparison: fn(&Cells, &[Cells], GapOptions) -> GapMap,
         lens: LensCells,
     ) -> f64 {
+        self.objectives_by(effects, applied, comparison, lens)
+            .sum_z2
+    }
+
+    /// [`Objectives`] over the signature cells of `effects` (the lens's as `lens` says), Σ z²
+    /// with the cells compared by `comparison`.
+    fn objectives_by(
+        &self,
+        effects: &[Effect],
+        applied: &[(Effect, Vec<f64>)],
+        comparison: fn(&Cells, &[Cells], GapOptions) -> GapMap,
+        lens: LensCells,
+    ) -> Objectives {
+        let failed = Objectives {
+            sum_z2: f64::INFINITY,
+            shared_chi2: f64::INFINITY,
+        };
         let Ok(trial) = self.trial_with(applied) else {
-            return f64::INFINITY;
+            return failed;
         };
         // Image statistics cost most of a simulated measurement; skip them when no signature
         // channel uses them (the objective compares signature cells only).
@@ -462,17 +534,19 @@ impl<'a> Fitter<'a> {
                     .is_some_and(|s| s.source == crate::diagnose::cells::Source::Image)
             })
         });
-        let gap = self
-            .cells(&trial, &self.fit_seeds, images)
-            .map(|sims| comparison(self.real_cells, &sims, self.gap_options));
-        match gap {
-            Ok(g) => g
-                .cells
-                .iter()
-                .filter(|c| effects.iter().any(|e| in_fit_objective(*e, &c.key, lens)))
-                .map(|c| c.z * c.z)
-                .sum(),
-            Err(_) => f64::INFINITY,
+        let Ok(sims) = self.cells(&trial, &self.fit_seeds, images) else {
+            return failed;
+        };
+        let counted = |key: &CellKey| effects.iter().any(|e| in_fit_objective(*e, key, lens));
+        let sum_z2 = comparison(self.real_cells, &sims, self.gap_options)
+            .cells
+            .iter()
+            .filter(|c| counted(&c.key))
+            .map(|c| c.z * c.z)
+            .sum();
+        Objectives {
+            sum_z2,
+            shared_chi2: shared_tolerance_chi2(self.real_cells, &sims, self.gap_options, counted),
         }
     }
 
@@ -654,6 +728,7 @@ impl<'a> Fitter<'a> {
         prior: &[(Effect, Vec<f64>)],
         values: &mut [f64],
         stds: &mut [f64],
+        reported: &mut [Option<f64>],
     ) -> String {
         let e = Effect::LensDistortion;
         let spec = &e.params()[0];
@@ -679,7 +754,7 @@ impl<'a> Fitter<'a> {
         .ok();
         let residual_rad = aligned_of(self).motion.rms_residual_rad;
         let bend = lens_bend_phrase(probe, bend_rad, residual_rad);
-        if !lens_bend_informs(bend_rad.unwrap_or(f64::INFINITY), residual_rad) {
+        if !lens_bend_informs(bend_rad, residual_rad) {
             return format!(
                 "; on the shape cells: the angle cells left out, as {bend}, below {:.0} %",
                 100.0 * LENS_ANGLE_BEND_MIN_SHARE
@@ -691,18 +766,22 @@ impl<'a> Fitter<'a> {
         // −0.212 on the project's renderer, where the full step reached −0.242.
         let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
         o.max_evaluations = 9;
+        let evaluated: RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
         let r = minimise(
             |x| {
                 let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                 applied.push((e, vec![x]));
                 let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                self.objective(&effects, &applied, LensCells::All)
+                let f = self.objectives(&effects, &applied, LensCells::All);
+                evaluated.borrow_mut().push((vec![x], f));
+                f.sum_z2
             },
             k1,
             &o,
         );
         values[0] = r.value;
         stds[0] = r.std;
+        reported[0] = Some(shared_std(&evaluated.borrow(), &[k1], 0, &r, &o));
         format!(
             "; first on the shape cells (k1 = {k1:.4} ± {sd:.4}), then with the angle cells, as \
              {bend}"
@@ -722,9 +801,10 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
         };
-        if let Some(direct) = self.fit_by_moments(e, prior, &values)? {
-            return Ok(fitted(direct));
-        }
+        let why_searched = match self.fit_by_moments(e, prior, &values)? {
+            MomentFit::Fitted(direct) => return Ok(fitted(direct)),
+            MomentFit::Search(why) => why,
+        };
         let mut method: String;
         match e {
             Effect::FrameTiming => {
@@ -864,13 +944,16 @@ impl<'a> Fitter<'a> {
                     .flatten();
                 // Every objective value by its parameters: a later search starts where an earlier
                 // one ended, and the objective is deterministic (fixed seeds), so it is looked up.
-                let evaluated: std::cell::RefCell<Vec<(Vec<f64>, f64)>> = Default::default();
+                let evaluated: std::cell::RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
                 let lens_cells = if e == Effect::LensDistortion {
                     LensCells::ShapeOnly
                 } else {
                     LensCells::All
                 };
                 let mut moved = vec![f64::INFINITY; specs.len()];
+                // The uncertainties reported, from the shared-tolerance χ² ([`Objectives`]);
+                // `stds` (Σ z²'s) steer the search's own decisions, as they always have.
+                let mut reported: Vec<Option<f64>> = vec![None; specs.len()];
                 let mut searches_run = 0usize;
                 for (k, &i) in searched.iter().enumerate() {
                     // A second round refits a coordinate at the others' new values: pointless when
@@ -898,14 +981,14 @@ impl<'a> Fitter<'a> {
                             v[i] = x;
                             if let Some(&(_, f)) = evaluated.borrow().iter().find(|(w, _)| *w == v)
                             {
-                                return f;
+                                return f.sum_z2;
                             }
                             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                             applied.push((e, v.clone()));
                             let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                            let f = self.objective(&effects, &applied, lens_cells);
+                            let f = self.objectives(&effects, &applied, lens_cells);
                             evaluated.borrow_mut().push((v, f));
-                            f
+                            f.sum_z2
                         },
                         values[i],
                         &o,
@@ -913,6 +996,7 @@ impl<'a> Fitter<'a> {
                     moved[i] = (r.value - values[i]).abs();
                     values[i] = r.value;
                     stds[i] = r.std;
+                    reported[i] = Some(shared_std(&evaluated.borrow(), &base, i, &r, &o));
                     searches_run += 1;
                 }
                 method = format!(
@@ -920,8 +1004,16 @@ impl<'a> Fitter<'a> {
                     e.name(),
                     self.fit_seeds.len()
                 );
+                if let Some(why) = &why_searched {
+                    method.push_str(why);
+                }
                 if e == Effect::LensDistortion {
-                    method.push_str(&self.lens_second_stage(prior, &mut values, &mut stds));
+                    method.push_str(&self.lens_second_stage(
+                        prior,
+                        &mut values,
+                        &mut stds,
+                        &mut reported,
+                    ));
                 }
                 if let Some(p) = pose_start {
                     method.push_str(&format!(
@@ -959,6 +1051,12 @@ impl<'a> Fitter<'a> {
                             values[0], values[1]
                         ));
                         (values, stds) = v;
+                        reported.fill(None);
+                    }
+                }
+                for (s, r) in stds.iter_mut().zip(&reported) {
+                    if let Some(r) = r {
+                        *s = *r;
                     }
                 }
                 if let (Effect::AxisRunout, Some(f)) = (e, self.fitted_runout_form()) {
@@ -985,15 +1083,14 @@ impl<'a> Fitter<'a> {
     /// parameter: optical blur (edge width along the motion, on σ²), motion blur (extra edge
     /// variance across the motion during the drive, on T²), rolling shutter (the readout implied
     /// by stretch against velocity) and pixel noise (noise at the ink and paper levels, on the
-    /// coordinates where the variance is linear). `None` for other effects, or when the data do
-    /// not give the statistic (the caller then searches Σ z²).
-    #[allow(clippy::type_complexity)] // (values, stds, method), as in `Fitted`
+    /// coordinates where the variance is linear). [`MomentFit::Search`] for other effects, or
+    /// when the data do not give the statistic (the caller then searches Σ z²).
     fn fit_by_moments(
         &self,
         e: Effect,
         prior: &[(Effect, Vec<f64>)],
         start: &[f64],
-    ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, DiagnoseError> {
+    ) -> Result<MomentFit, DiagnoseError> {
         const SIMULATIONS: usize = 3;
         let motion = ["dwell", "entry", "drive", "exit"];
         let sims_factor = (1.0 + 1.0 / self.fit_seeds.len() as f64).sqrt();
@@ -1026,7 +1123,7 @@ impl<'a> Fitter<'a> {
             let (si, sp) = (s.scene.ink_radiance, s.scene.paper_radiance);
             let det = si - sp;
             if det.abs() < 1e-12 || span <= 0.0 {
-                return Ok(None);
+                return Ok(MomentFit::Search(None));
             }
             // Only where the footage follows the model's shape (more sensor noise on the paper
             // than on the ink): denoising or compression can invert that, and Newton steps on a
@@ -1038,7 +1135,7 @@ impl<'a> Fitter<'a> {
                     plan::guess_noise(ni, np, si, sp, span).is_some()
                 });
             if !model_shaped {
-                return Ok(None);
+                return Ok(MomentFit::Search(None));
             }
             let sensor = |sigma_dn: f64, level: f64| plan::sensor_variance(sigma_dn, level, span);
             // d(sensor variance)/d(DN variance) at a measured σ: 1/span² away from the clip.
@@ -1052,14 +1149,14 @@ impl<'a> Fitter<'a> {
             let (mut a, mut b) = moments::noise_to_linear(start[0], start[1]);
             for k in 0..SIMULATIONS {
                 let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
-                    return Ok(None);
+                    return Ok(MomentFit::Search(None));
                 };
                 let g = gap_at(&[fw, rn])?;
                 let (Some(ink), Some(paper)) = (
                     moments::channel_means(&g, "noise_ink", &[]),
                     moments::channel_means(&g, "noise_paper", &[]),
                 ) else {
-                    return Ok(None);
+                    return Ok(MomentFit::Search(None));
                 };
                 let (Some(ui_real), Some(ui_sim), Some(up_real), Some(up_sim)) = (
                     sensor(ink.real, si),
@@ -1067,7 +1164,7 @@ impl<'a> Fitter<'a> {
                     sensor(paper.real, sp),
                     sensor(paper.sim, sp),
                 ) else {
-                    return Ok(None);
+                    return Ok(MomentFit::Search(None));
                 };
                 let (dui, dup) = (ui_real - ui_sim, up_real - up_sim);
                 // [si 1; sp 1]·(da, db) = (dui, dup).
@@ -1078,7 +1175,7 @@ impl<'a> Fitter<'a> {
                 (a, b) = (a1, b1);
                 if converged || k + 1 == SIMULATIONS {
                     let Some((fw, rn)) = moments::noise_from_linear(a, b) else {
-                        return Ok(None);
+                        return Ok(MomentFit::Search(None));
                     };
                     // The real variances' uncertainty through the same maps: the sampling error
                     // and the channel's renderer tolerance, the relative 1-sd term the verdict's
@@ -1106,24 +1203,29 @@ impl<'a> Fitter<'a> {
                     let inside = |v: f64, r: (f64, f64)| v > r.0 && v < r.1;
                     if !(inside(fw, specs[0].search) && inside(rn, specs[1].search)) {
                         // Ran to a bound: the map is not the model's; search instead.
-                        return Ok(None);
+                        return Ok(MomentFit::Search(None));
                     }
                     if !noise_split_determined(fw, sd_fw) {
                         // Read noise dominates at both levels: the two variances leave the shot
                         // part (1/FW) to the renderers' difference. Σ z² over all the signature
                         // cells came nearer on the one case measured (1054 e⁻ for 2000, the
-                        // match 496), though its curvature uncertainty is still too small there.
-                        return Ok(None);
+                        // match 496).
+                        return Ok(MomentFit::Search(Some(format!(
+                            "; searched, not matched: the noise at the ink and paper levels gave \
+                             a full well of {fw:.0} ± {sd_fw:.0} e⁻ (read noise {rn:.1} e⁻), \
+                             beyond {NOISE_SPLIT_MAX_REL_SD} of itself: read noise dominates \
+                             both levels and the shot part is not resolved"
+                        ))));
                     }
                     let v = vec![fw, rn];
-                    return Ok(Some((
+                    return Ok(MomentFit::Fitted((
                         v,
                         vec![sd_fw, sd_rn],
                         method("noise variance at the ink and paper levels", k + 1),
                     )));
                 }
             }
-            return Ok(None);
+            return Ok(MomentFit::Search(None));
         }
         // One-parameter effects: coordinate x = T(v), moment m(gap) → (real target, simulated,
         // the target's standard error), model slope dm/dx.
@@ -1136,7 +1238,7 @@ impl<'a> Fitter<'a> {
                 "extra edge variance across the motion during the drive",
             ),
             Effect::RollingShutter => (false, 1.0, "rolling-shutter readout implied by stretch"),
-            _ => return Ok(None),
+            _ => return Ok(MomentFit::Search(None)),
         };
         let moment = |g: &GapMap| -> Option<(f64, f64, f64)> {
             match e {
@@ -1176,11 +1278,11 @@ impl<'a> Fitter<'a> {
         for k in 0..SIMULATIONS {
             let x = to_x(v[0]);
             let Some((target, m, m_std)) = moment(&gap_at(&v)?) else {
-                return Ok(None);
+                return Ok(MomentFit::Search(None));
             };
             history.push((x, m));
             let Some((x1, slope)) = moments::secant_step(&history, target, slope0) else {
-                return Ok(None);
+                return Ok(MomentFit::Search(None));
             };
             let x1 = x1.clamp(x_lo, x_hi);
             let done = (m - target).abs() < 0.25 * m_std || k + 1 == SIMULATIONS;
@@ -1198,10 +1300,10 @@ impl<'a> Fitter<'a> {
                 } else {
                     f64::INFINITY
                 };
-                return Ok(Some((v, sd, method(what, k + 1))));
+                return Ok(MomentFit::Fitted((v, sd, method(what, k + 1))));
             }
         }
-        Ok(None)
+        Ok(MomentFit::Search(None))
     }
 
     /// The disc vibration from the sinusoid at its frequency in the angle residual
@@ -1420,16 +1522,51 @@ mod tests {
     fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {
         // The self-check's rig, axis 0.02 px from the lens centre: a k1 of 0.6 bends the angle
         // by 7 µrad against 484 µrad of residual.
-        assert!(!lens_bend_informs(6.8e-6, 4.84e-4));
-        assert!(!lens_bend_informs(0.2 * 4.84e-4, 4.84e-4));
-        assert!(lens_bend_informs(0.25 * 4.84e-4, 4.84e-4));
-        assert!(lens_bend_informs(1e-2, 4.84e-4));
+        assert!(!lens_bend_informs(Some(6.8e-6), 4.84e-4));
+        assert!(!lens_bend_informs(Some(0.2 * 4.84e-4), 4.84e-4));
+        assert!(lens_bend_informs(Some(0.25 * 4.84e-4), 4.84e-4));
+        assert!(lens_bend_informs(Some(1e-2), 4.84e-4));
         // Unknown: kept.
-        assert!(lens_bend_informs(f64::INFINITY, 4.84e-4));
-        assert!(lens_bend_informs(f64::NAN, 4.84e-4));
-        assert!(lens_bend_informs(1e-9, 0.0));
-        assert!(lens_bend_informs(1e-9, f64::NAN));
+        assert!(lens_bend_informs(None, 4.84e-4));
+        assert!(lens_bend_informs(Some(f64::INFINITY), 4.84e-4));
+        assert!(lens_bend_informs(Some(f64::NAN), 4.84e-4));
+        assert!(lens_bend_informs(Some(1e-9), 0.0));
+        assert!(lens_bend_informs(Some(1e-9), f64::NAN));
         assert!(plan::is_angle_channel("theta_peak") && !plan::is_angle_channel("side"));
+    }
+
+    #[test]
+    fn the_reported_uncertainty_is_the_shared_chi2s_and_never_below_the_searchs() {
+        // Σ z² of four phase cells that share one offset, and its shared χ² (a quarter):
+        // the uncertainty doubles, about the minimum Σ z² found.
+        let sum_z2 = |x: f64| ((x - 2.0) / 0.1).powi(2) + 5.0;
+        let o = SearchOptions::new(0.0, 5.0, false);
+        let evaluated: RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
+        let record = |shared: fn(f64) -> f64| {
+            evaluated.borrow_mut().clear();
+            let r = minimise(
+                |x| {
+                    let f = Objectives {
+                        sum_z2: sum_z2(x),
+                        shared_chi2: shared(x),
+                    };
+                    evaluated.borrow_mut().push((vec![1.0, x], f));
+                    f.sum_z2
+                },
+                1.0,
+                &o,
+            );
+            let s = shared_std(&evaluated.borrow(), &[1.0, 0.0], 1, &r, &o);
+            (r, s)
+        };
+        let (r, s) = record(|x| (((x - 2.0) / 0.1).powi(2) + 5.0) / 4.0);
+        assert!((r.value - 2.0).abs() < 0.05, "{r:?}");
+        assert!((s / (2.0 * r.std) - 1.0).abs() < 1e-9, "{s} vs {}", r.std);
+        // A shared χ² steeper than Σ z² (it cannot be, but rounding) or flat: the search's own.
+        let (r, s) = record(|x| ((x - 2.0) / 0.01).powi(2));
+        assert_eq!(s, r.std);
+        let (r, s) = record(|_| 1.0);
+        assert_eq!(s, r.std);
     }
 
     #[test]

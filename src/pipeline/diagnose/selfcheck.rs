@@ -549,12 +549,19 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
         .collect();
     let best = d.best.map(|b| &d.ranking[b]);
     let mut param_rel_errors = Vec::new();
+    let mut param_errors_in_sd = Vec::new();
     if let (Some((effect, truth)), Some(best)) = (&case.truth, best) {
         if let Some(f) = best.evaluated.effects.iter().find(|f| f.effect == *effect) {
             for ((v, s), t) in f.values.iter().zip(&f.stds).zip(truth) {
                 // Only parameters the data determine (a finite uncertainty) and that are not zero.
                 if s.is_finite() && t.abs() > 0.0 {
                     param_rel_errors.push(((v - t) / t).abs());
+                    // A zero uncertainty claims the exact value: any error is beyond it.
+                    param_errors_in_sd.push(if *s > 0.0 {
+                        (v - t).abs() / s
+                    } else {
+                        f64::INFINITY
+                    });
                 }
             }
         }
@@ -566,6 +573,7 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
         ranked,
         best_shrink: best.map(|b| b.shrink),
         param_rel_errors,
+        param_errors_in_sd,
         eval_seeds: d.seeds.len(),
     }
 }
@@ -614,6 +622,7 @@ pub fn run_case(
                 ranked: Vec::new(),
                 best_shrink: None,
                 param_rel_errors: Vec::new(),
+                param_errors_in_sd: Vec::new(),
                 eval_seeds: 0,
             });
         }
@@ -765,6 +774,11 @@ pub fn write_summary(
             opt(s.median_param_rel_error_strong, " %", 100.0),
             "≤ 15 %",
         ),
+        (
+            "those parameters within 2 stated standard uncertainties of the truth",
+            pct(&s.params_within_2sd_strong),
+            "≈ 95 % (honest uncertainties)",
+        ),
     ];
     let mut md = String::from(
         "# Diagnosis self-check\n\nFootage with a known cause rendered by the renderer the plan names, diagnosed by \
@@ -809,9 +823,9 @@ pub fn write_summary(
                 .join(",")
         ));
     }
-    md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors | evaluation seeds |\n|---|---|---|---|---|---|\n");
+    md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors | in σ | evaluation seeds |\n|---|---|---|---|---|---|---|\n");
     let mut cases_csv =
-        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,eval_seeds\n");
+        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,eval_seeds,param_errors_in_sd\n");
     for o in outcomes {
         let ranking: Vec<String> = o.ranked.iter().take(4).map(|c| c.join("/")).collect();
         let errs: Vec<String> = o
@@ -819,13 +833,19 @@ pub fn write_summary(
             .iter()
             .map(|e| format!("{:.0} %", 100.0 * e))
             .collect();
+        let in_sd: Vec<String> = o
+            .param_errors_in_sd
+            .iter()
+            .map(|z| format!("{z:.1}"))
+            .collect();
         md.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} |\n",
             o.name,
             o.verdict,
             ranking.join(" > "),
             o.best_shrink.map_or("–".into(), |v| format!("{:.2}", v)),
             errs.join(", "),
+            in_sd.join(", "),
             o.eval_seeds,
         ));
         let kind = match &o.expectation {
@@ -842,7 +862,7 @@ pub fn write_summary(
             Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
         };
         cases_csv.push_str(&format!(
-            "{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{}\n",
             o.name,
             kind,
             o.verdict,
@@ -854,6 +874,11 @@ pub fn write_summary(
                 .collect::<Vec<_>>()
                 .join(" "),
             o.eval_seeds,
+            o.param_errors_in_sd
+                .iter()
+                .map(|z| format!("{z:.3}"))
+                .collect::<Vec<_>>()
+                .join(" "),
         ));
     }
     let rate_json = |r: &Rate| serde_json::json!({"k": r.k, "n": r.n, "value": r.value()});
@@ -871,6 +896,7 @@ pub fn write_summary(
         "unexplained_recall": rate_json(&s.unexplained_recall),
         "median_shrink_strong": s.median_shrink_strong,
         "median_param_rel_error_strong": s.median_param_rel_error_strong,
+        "params_within_2sd_strong": rate_json(&s.params_within_2sd_strong),
     });
     w("README.md", md)?;
     w("confusion.csv", csv)?;
