@@ -19,6 +19,18 @@ pub struct SearchResult {
     pub std: f64,
     /// Every (value, objective) evaluated, in order.
     pub evaluations: Vec<(f64, f64)>,
+    /// The bracket the search ended with (low, high value): the minimum lies in it. Narrower
+    /// than the tolerance when the search converged; wider when the evaluations ran out first.
+    pub bracket: (f64, f64),
+}
+
+impl SearchResult {
+    /// The standard deviation of a minimum known only to lie somewhere in [`Self::bracket`]
+    /// (uniform): what a search that ran out of evaluations adds to the curvature's
+    /// uncertainty, which is taken at the best point found and not at the minimum.
+    pub fn bracket_std(&self) -> f64 {
+        (self.bracket.1 - self.bracket.0).abs() / 12f64.sqrt()
+    }
 }
 
 /// Search settings.
@@ -176,10 +188,12 @@ pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) ->
         .unwrap_or((u0, f0));
     let value = o.value_of_u(best);
     let std = std_from_curvature(&evals, best, o);
+    let (lo, hi) = (o.value_of_u(a.min(c)), o.value_of_u(a.max(c)));
     SearchResult {
         value,
         objective: fbest,
         std,
+        bracket: (lo, hi),
         evaluations: evals.iter().map(|&(u, v)| (o.value_of_u(u), v)).collect(),
     }
 }
@@ -333,5 +347,22 @@ mod tests {
             f64::INFINITY
         );
         assert_eq!(curvature_std_about(&same, 123.0, &o), f64::INFINITY);
+    }
+
+    #[test]
+    fn a_search_out_of_evaluations_says_so_in_its_bracket() {
+        // A minimum at 2.0 in [0, 5], a narrow χ² (σ = 0.01): three evaluations cannot close the
+        // bracket; fifteen can.
+        let f = |x: f64| ((x - 2.0) / 0.01).powi(2);
+        let mut o = SearchOptions::new(0.0, 5.0, false);
+        o.max_evaluations = 15;
+        let r = minimise(f, 1.0, &o);
+        assert!(r.bracket.0 <= 2.0 && 2.0 <= r.bracket.1, "{r:?}");
+        assert!(r.bracket.1 - r.bracket.0 <= o.tol_u + 1e-12, "{r:?}");
+        o.max_evaluations = 5;
+        let r = minimise(f, 1.0, &o);
+        assert!(r.bracket.0 <= 2.0 && 2.0 <= r.bracket.1, "{r:?}");
+        assert!(r.bracket_std() > (r.value - 2.0).abs() / 4.0, "{r:?}");
+        assert!(r.bracket.1 - r.bracket.0 > o.tol_u, "{r:?}");
     }
 }

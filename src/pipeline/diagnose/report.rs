@@ -358,7 +358,12 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
         s.push_str(&format!(
             "\nshrink = 1 − D_k / D₀ on fresh seeds (the fit used other seeds); the score \
              subtracts {} per fitted parameter from D_k first. `explained` needs a score ≥ {} \
-             and no significant cell left.\n\n",
+             and no significant cell left. ± is one standard uncertainty of the fit on this \
+             footage: the footage's and the seeds' scatter (for a searched parameter also each \
+             channel's renderer tolerance, counted once per channel, and for the noise the \
+             noise channels'); it does not hold how differently the footage's camera draws \
+             edges from the simulation's renderer, which the self-check measures \
+             (`reports/diagnosis-independent/`: parameters within 2 ± of the truth).\n\n",
             crate::diagnose::verdict::PENALTY_PER_PARAM,
             crate::diagnose::verdict::EXPLAINED_SHRINK
         ));
