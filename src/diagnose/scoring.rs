@@ -43,13 +43,20 @@ pub struct CaseOutcome {
     /// parameters, when the best candidate is that effect.
     pub param_rel_errors: Vec<f64>,
     /// The same parameters' errors in their stated standard uncertainties, |fitted − true| / σ
-    /// (an honest σ puts about 95 % of them within 2). Records of older runs have none.
-    #[serde(default)]
+    /// (an honest σ puts about 95 % of them within 2); infinite where a zero σ claimed the exact
+    /// value and missed it (JSON null). Records of older runs have none.
+    #[serde(default, deserialize_with = "infinite_if_null")]
     pub param_errors_in_sd: Vec<f64>,
     /// Evaluation seeds the diagnosis judged on (more than asked when it escalated); 0 when
     /// it failed. Records of older runs have none.
     #[serde(default)]
     pub eval_seeds: usize,
+}
+
+/// A list of f64 whose infinite members JSON wrote as null.
+fn infinite_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let v: Vec<Option<f64>> = Vec::deserialize(d)?;
+    Ok(v.into_iter().map(|x| x.unwrap_or(f64::INFINITY)).collect())
 }
 
 impl CaseOutcome {
@@ -389,5 +396,24 @@ mod tests {
         assert!(a.0 < 0.9 && 0.9 < a.1 && b.0 < 0.9 && 0.9 < b.1);
         assert!(b.1 - b.0 < a.1 - a.0);
         assert_eq!(Rate { k: 0, n: 0 }.wilson95(), None);
+    }
+
+    #[test]
+    fn a_record_with_an_infinite_error_in_sd_reads_back() {
+        let mut o = case(
+            withheld("timebase", true),
+            "explained",
+            &[&["timebase"]],
+            1.0,
+        );
+        o.param_errors_in_sd = vec![0.5, f64::INFINITY];
+        let json = serde_json::to_string(&o).unwrap();
+        let back: CaseOutcome = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, o);
+        // Records written before the field existed.
+        let old = json.replace(",\"param_errors_in_sd\":[0.5,null]", "");
+        assert_ne!(old, json);
+        let back: CaseOutcome = serde_json::from_str(&old).unwrap();
+        assert!(back.param_errors_in_sd.is_empty());
     }
 }

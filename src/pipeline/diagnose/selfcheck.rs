@@ -559,6 +559,8 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
                     // A zero uncertainty claims the exact value: any error is beyond it.
                     param_errors_in_sd.push(if *s > 0.0 {
                         (v - t).abs() / s
+                    } else if v == t {
+                        0.0
                     } else {
                         f64::INFINITY
                     });
