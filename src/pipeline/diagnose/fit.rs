@@ -245,6 +245,23 @@ pub fn noise_split_determined(fw_e: f64, sd_fw_e: f64) -> bool {
 /// shrink.
 const RUNOUT_FORM_MIN_SHARE: f64 = 0.6;
 
+/// Standard deviation of the median frame interval of timestamps `t_s`: the median's large-sample
+/// sd from the intervals' MAD (1.2533 × 1.4826 × MAD / √n), never below 1 ns, the finest stamp a
+/// clock gives (a constant-rate footage's intervals differ only by rounding; a zero sd claimed
+/// a rate 10⁻¹³ fps off to be exact).
+fn median_interval_sd_s(t_s: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return f64::INFINITY;
+    }
+    d.sort_by(f64::total_cmp);
+    let median = d[d.len() / 2];
+    let mut dev: Vec<f64> = d.iter().map(|x| (x - median).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let mad = dev[dev.len() / 2];
+    (1.2533 * 1.4826 * mad / (d.len() as f64).sqrt()).max(1e-9)
+}
+
 fn aligned_of<'a>(f: &'a Fitter<'a>) -> &'a Aligned {
     f.ctx.aligned
 }
@@ -837,7 +854,7 @@ impl<'a> Fitter<'a> {
             Effect::Timebase => {
                 let fps = 1.0 / self.median_interval_s();
                 values = vec![fps];
-                stds = vec![0.0];
+                stds = vec![fps * fps * median_interval_sd_s(self.real_t_s)];
                 method = "rate of the footage's timestamps; frames taken on the nominal's schedule"
                     .into();
             }
@@ -1579,6 +1596,23 @@ mod tests {
         assert_eq!(s, with_bracket(r.std));
         let (r, s) = record(|_| 1.0);
         assert_eq!(s, with_bracket(r.std));
+    }
+
+    #[test]
+    fn the_median_intervals_sd_follows_the_jitter_and_never_claims_exactness() {
+        let even: Vec<f64> = (0..181).map(|i| i as f64 / 30.0).collect();
+        assert_eq!(median_interval_sd_s(&even), 1e-9);
+        // 180 intervals of 1/30 s − 0.5 ms, 1/30 s and 1/30 s + 0.5 ms in turn: MAD 0.5 ms.
+        let jittered: Vec<f64> = std::iter::once(0.0)
+            .chain((0..180).scan(0.0, |t, i| {
+                *t += 1.0 / 30.0 + [-5e-4, 0.0, 5e-4][i % 3];
+                Some(*t)
+            }))
+            .collect();
+        let sd = median_interval_sd_s(&jittered);
+        let expected = 1.2533 * 1.4826 * 5e-4 / 180f64.sqrt();
+        assert!((sd / expected - 1.0).abs() < 1e-6, "{sd} vs {expected}");
+        assert_eq!(median_interval_sd_s(&[1.0]), f64::INFINITY);
     }
 
     #[test]
