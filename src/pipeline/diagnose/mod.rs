@@ -502,8 +502,8 @@ pub fn diagnose_with(
     } else {
         None
     };
-    let fitter = fitter;
-    let nominal_gap = &fitter.nominal_gap;
+    let nominal_gap = fitter.nominal_gap.clone();
+    let nominal_gap = &nominal_gap;
     let d0 = nominal_gap.total;
 
     let candidates: Vec<Effect> = options
@@ -525,6 +525,13 @@ pub fn diagnose_with(
         .map(|(e, _)| *e)
         .filter(|&e| nominal_gap.n_significant() > 0 && plan::signature_significant(e, nominal_gap))
         .collect();
+    // The runout form's phase is refined once, before any fit, so that every fit, pair and
+    // shard takes the same form.
+    if units.contains(&Effect::AxisRunout) {
+        progress("refining the runout form's phase", 0, 1);
+        fitter.refine_runout_phase();
+    }
+    let fitter = fitter;
     let stored = match mode {
         Mode::Whole => None,
         Mode::Shard { shard, restart } => {
