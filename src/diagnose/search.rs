@@ -269,12 +269,16 @@ fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64
 /// `f_diagonal` the objective with both stepped by their own σ (in the search coordinate u),
 /// f_diagonal − f_at = 2 + 2c, where c = H₀₁σ₀σ₁/2. The two estimates' correlation is −c, and each
 /// one's uncertainty with the other free is its own over √(1 − c²) ([`marginal_inflation`]).
-/// Clamped to [−1, 1]; `None` when either value is not finite.
+/// At most −1 (the diagonal at or below the minimum: the two trade along a ridge) is −1. `None`
+/// when either value is not finite, or when c > 1: no quadratic rises that steeply, so the
+/// objective is not quadratic over one σ and says nothing of how the two trade (read as a
+/// ridge, it would have claimed neither determined).
 pub fn coupling_from_diagonal(f_at: f64, f_diagonal: f64) -> Option<f64> {
     if !(f_at.is_finite() && f_diagonal.is_finite()) {
         return None;
     }
-    Some(((f_diagonal - f_at - 2.0) / 2.0).clamp(-1.0, 1.0))
+    let c = (f_diagonal - f_at - 2.0) / 2.0;
+    (c <= 1.0).then_some(c.max(-1.0))
 }
 
 /// The factor from a coordinate's uncertainty with the other held to its uncertainty with the
@@ -416,6 +420,10 @@ mod tests {
         let c = coupling_from_diagonal(ridge(0.0, 0.0), ridge(1.0, 1.0)).unwrap();
         assert_eq!(c, -1.0);
         assert_eq!(marginal_inflation(c), f64::INFINITY);
+        // Steeper than any quadratic: not measured, not a ridge.
+        assert_eq!(coupling_from_diagonal(0.0, 4.0), Some(1.0));
+        assert_eq!(coupling_from_diagonal(0.0, 4.5), None);
+        assert_eq!(coupling_from_diagonal(0.0, -1.0), Some(-1.0));
         assert_eq!(coupling_from_diagonal(f64::INFINITY, 1.0), None);
         assert_eq!(coupling_from_diagonal(0.0, f64::NAN), None);
     }
