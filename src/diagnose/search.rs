@@ -263,33 +263,17 @@ fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64
     x.is_finite().then_some(x)
 }
 
-/// How two coordinates of a χ²-like objective trade against each other, from one evaluation off
-/// the axes: with the objective quadratic about its minimum, Δ = 1 at each coordinate's own σ
-/// along its axis (a coordinate search's [`SearchResult::std`], the other held), and
-/// `f_diagonal` the objective with both stepped by their own σ (in the search coordinate u),
-/// f_diagonal − f_at = 2 + 2c, where c = H₀₁σ₀σ₁/2. The two estimates' correlation is −c, and each
-/// one's uncertainty with the other free is its own over √(1 − c²) ([`marginal_inflation`]).
-/// At most −1 (the diagonal at or below the minimum: the two trade along a ridge) is −1. `None`
-/// when either value is not finite, or when c > 1: no quadratic rises that steeply, so the
-/// objective is not quadratic over one σ and says nothing of how the two trade (read as a
-/// ridge, it would have claimed neither determined).
-pub fn coupling_from_diagonal(f_at: f64, f_diagonal: f64) -> Option<f64> {
-    if !(f_at.is_finite() && f_diagonal.is_finite()) {
-        return None;
-    }
-    let c = (f_diagonal - f_at - 2.0) / 2.0;
-    (c <= 1.0).then_some(c.max(-1.0))
-}
-
-/// The factor from a coordinate's uncertainty with the other held to its uncertainty with the
-/// other free, for the coupling `c` of [`coupling_from_diagonal`]: 1/√(1 − c²), infinite on a
-/// ridge (|c| = 1: the objective fixes a combination of the two, not each).
-pub fn marginal_inflation(c: f64) -> f64 {
-    let q = 1.0 - c * c;
-    if q <= 1e-12 {
-        f64::INFINITY
+/// The standard uncertainty, in ln λ, of a scale λ applied to a fit's parameters together (a
+/// direction no coordinate search follows) from the objective (a χ²: Δ = 1 at σ) at λ = 1
+/// (`f_at`) and at λ = e^(∓h) (`f_minus`, `f_plus`): the parabola's curvature. Infinite when
+/// the parabola does not open upwards (a ridge: the objective does not fix the scale) or a
+/// value is not finite.
+pub fn std_along_scale(f_at: f64, f_minus: f64, f_plus: f64, h: f64) -> f64 {
+    let d = (f_plus + f_minus - 2.0 * f_at) / (h * h);
+    if d.is_finite() && d > 0.0 && h > 0.0 {
+        (2.0 / d).sqrt()
     } else {
-        1.0 / q.sqrt()
+        f64::INFINITY
     }
 }
 
@@ -397,50 +381,25 @@ mod tests {
         assert!(r.bracket.1 - r.bracket.0 > o.tol_u, "{r:?}");
     }
 
-    /// f = a·x² + b·y² + 2h·x·y: each coordinate's own σ is 1/√a, 1/√b; with the other free
-    /// (the profile, Δ = 1) σ_x² = b/(ab − h²).
-    fn quadratic(a: f64, b: f64, h: f64) -> impl Fn(f64, f64) -> f64 {
-        move |x, y| a * x * x + b * y * y + 2.0 * h * x * y
-    }
-
     #[test]
-    fn the_coupling_of_a_quadratic_gives_its_profile_uncertainty() {
-        let (a, b, h) = (4.0, 9.0, 3.0);
-        let f = quadratic(a, b, h);
-        let (sx, sy) = (1.0 / a.sqrt(), 1.0 / b.sqrt());
-        let c = coupling_from_diagonal(f(0.0, 0.0), f(sx, sy)).unwrap();
-        assert!((c - 0.5).abs() < 1e-12, "{c}");
-        let profile_sx = (b / (a * b - h * h)).sqrt();
-        assert!((sx * marginal_inflation(c) - profile_sx).abs() < 1e-12);
-        // Independent coordinates: no inflation; a ridge: no determination of either.
-        let g = quadratic(a, b, 0.0);
-        assert_eq!(coupling_from_diagonal(g(0.0, 0.0), g(sx, sy)), Some(0.0));
-        assert_eq!(marginal_inflation(0.0), 1.0);
-        let ridge = quadratic(1.0, 1.0, -1.0);
-        let c = coupling_from_diagonal(ridge(0.0, 0.0), ridge(1.0, 1.0)).unwrap();
-        assert_eq!(c, -1.0);
-        assert_eq!(marginal_inflation(c), f64::INFINITY);
-        // Steeper than any quadratic: not measured, not a ridge.
-        assert_eq!(coupling_from_diagonal(0.0, 4.0), Some(1.0));
-        assert_eq!(coupling_from_diagonal(0.0, 4.5), None);
-        assert_eq!(coupling_from_diagonal(0.0, -1.0), Some(-1.0));
-        assert_eq!(coupling_from_diagonal(f64::INFINITY, 1.0), None);
-        assert_eq!(coupling_from_diagonal(0.0, f64::NAN), None);
+    fn the_scales_uncertainty_is_the_parabolas() {
+        // f = 4·(ln λ)²: Δ = 1 at ln λ = ½.
+        let f = |l: f64| 4.0 * l * l;
+        let h = std::f64::consts::LN_2;
+        let sd = std_along_scale(f(0.0), f(-h), f(h), h);
+        assert!((sd - 0.5).abs() < 1e-12, "{sd}");
+        // A ridge (flat, or falling away) fixes no scale.
+        assert_eq!(std_along_scale(3.0, 3.0, 3.0, h), f64::INFINITY);
+        assert_eq!(std_along_scale(3.0, 2.0, 2.5, h), f64::INFINITY);
+        assert_eq!(std_along_scale(3.0, f64::INFINITY, 4.0, h), f64::INFINITY);
     }
 
     proptest! {
         #[test]
-        fn the_inflated_uncertainty_is_the_profile_one(
-            a in 0.01f64..100.0,
-            b in 0.01f64..100.0,
-            r in -0.99f64..0.99,
-        ) {
-            let h = r * (a * b).sqrt();
-            let f = quadratic(a, b, h);
-            let (sx, sy) = (1.0 / a.sqrt(), 1.0 / b.sqrt());
-            let c = coupling_from_diagonal(f(0.0, 0.0), f(sx, sy)).unwrap();
-            let profile_sy = (a / (a * b - h * h)).sqrt();
-            prop_assert!((sy * marginal_inflation(c) - profile_sy).abs() <= 1e-9 * profile_sy);
+        fn a_quadratic_in_ln_scale_gives_its_sd(k in 0.01f64..1e4, h in 0.05f64..2.0, f0 in 0.0f64..100.0) {
+            let f = |l: f64| f0 + k * l * l;
+            let sd = std_along_scale(f(0.0), f(-h), f(h), h);
+            prop_assert!((sd - (1.0 / k).sqrt()).abs() <= 1e-9 * sd);
         }
     }
 }

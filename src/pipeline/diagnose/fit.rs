@@ -18,8 +18,7 @@ use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::runout::RunoutForm;
 use crate::diagnose::search::{
-    coupling_from_diagonal, curvature_std_about, marginal_inflation, minimise, SearchOptions,
-    SearchResult,
+    curvature_std_about, minimise, std_along_scale, SearchOptions, SearchResult,
 };
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
@@ -917,15 +916,20 @@ impl<'a> Fitter<'a> {
         )
     }
 
-    /// The full well and read noise of a searched pixel-noise fit with each other free: the two
-    /// coordinate searches each held the other, and where read noise dominates the footage fixes
-    /// the noise (read noise / full well), not the two apart; held at the search's start, read
-    /// noise then took a tight ± that was only the start's. One more evaluation, both stepped
-    /// by their own σ, measures how they trade ([`coupling_from_diagonal`]); the reported σ
-    /// become the marginal ones ([`marginal_inflation`]), and infinite (not resolved) when the
-    /// full well's is beyond [`NOISE_SPLIT_MAX_REL_SD`] of itself, as for a moment match.
-    /// Returns the method's words for it (empty when it could not be measured).
-    fn noise_split_by_coupling(
+    /// The full well and read noise of a searched pixel-noise fit with each other free. The two
+    /// coordinate searches each held the other, but the noise model has a direction the
+    /// footage barely fixes: scaling both by λ keeps the read noise's variance RN²/FW² and
+    /// changes only the shot part s/FW, small where read noise dominates. Two more evaluations,
+    /// at λ = 2 and ½, measure the objective's curvature along it ([`std_along_scale`]); that
+    /// scale's uncertainty adds to each parameter's, and neither has a ± when the full well's
+    /// then exceeds [`NOISE_SPLIT_MAX_REL_SD`] of itself. Returns the method's words (empty when
+    /// it could not be measured).
+    ///
+    /// Why: held at the search's start, the read noise kept it: the independent renderer's
+    /// 2000 e⁻ / 185 e⁻ footage, searched from 60 e⁻, was fitted at 609 ± 193 e⁻ and 60 ± 30 e⁻
+    /// (one evaluation off the axes, both stepped by their own σ, inflated them only 2.5×:
+    /// that step does not follow the ridge).
+    fn noise_split_along_scale(
         &self,
         prior: &[(Effect, Vec<f64>)],
         values: &[f64],
@@ -934,9 +938,6 @@ impl<'a> Fitter<'a> {
         evaluated: &[(Vec<f64>, Objectives)],
     ) -> String {
         let e = Effect::PixelNoise;
-        if !stds.iter().all(|s| s.is_finite() && *s > 0.0) {
-            return String::new();
-        }
         let Some(f_at) = evaluated
             .iter()
             .find(|(w, _)| w.as_slice() == values)
@@ -944,42 +945,33 @@ impl<'a> Fitter<'a> {
         else {
             return String::new();
         };
-        // One σ in the search's coordinate: × e^(σ/v) on a log scale.
-        let diagonal: Vec<f64> = values
-            .iter()
-            .zip(stds)
-            .zip(e.params())
-            .map(|((v, s), spec)| {
-                if spec.log_scale {
-                    v * (s / v).exp()
-                } else {
-                    v + s
-                }
-            })
-            .collect();
-        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-        applied.push((e, diagonal));
-        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-        let f_diagonal = self.objectives(&effects, &applied, LensCells::All).sum_z2;
-        let Some(c) = coupling_from_diagonal(f_at, f_diagonal) else {
-            return String::new();
+        let at_scale = |lambda: f64| {
+            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+            applied.push((e, values.iter().map(|v| lambda * v).collect()));
+            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+            self.objectives(&effects, &applied, LensCells::All).sum_z2
         };
-        let inflation = marginal_inflation(c);
-        for (r, s) in reported.iter_mut().zip(stds) {
-            *r = Some(r.unwrap_or(*s) * inflation);
+        let (f_half, f_double) = (at_scale(0.5), at_scale(2.0));
+        if !(f_half.is_finite() && f_double.is_finite()) {
+            return String::new();
+        }
+        let sd_ln_scale = std_along_scale(f_at, f_half, f_double, std::f64::consts::LN_2);
+        for ((r, s), v) in reported.iter_mut().zip(stds).zip(values) {
+            *r = Some(r.unwrap_or(*s).hypot(v * sd_ln_scale));
         }
         let sd_fw = reported[0].unwrap_or(f64::INFINITY);
         if noise_split_determined(values[0], sd_fw) {
             return format!(
-                "; σ with the other parameter free (full well and read noise coupled at \
-                 {c:.2}: × {inflation:.2})"
+                "; σ with both scaled together free (Σ z² {f_half:.1}, {f_at:.1}, {f_double:.1} \
+                 at ½, 1, 2 times both: the scale ± {sd_ln_scale:.2} in ln)"
             );
         }
         reported.fill(Some(f64::INFINITY));
         format!(
-            "; full well and read noise not resolved apart: they trade along the noise the \
-             footage shows (coupled at {c:.2}), read noise / full well = {:.4}; the values \
-             are one pair on that ridge, from the search's start",
+            "; full well and read noise not resolved apart: scaled together by ½ or 2 they move \
+             Σ z² from {f_at:.1} to {f_half:.1} and {f_double:.1} (the read noise / full well \
+             = {:.4} the footage shows kept); the values are one pair on that ridge, from the \
+             search's start",
             values[1] / values[0]
         )
     }
@@ -1252,7 +1244,7 @@ impl<'a> Fitter<'a> {
                     }
                 }
                 if e == Effect::PixelNoise {
-                    method.push_str(&self.noise_split_by_coupling(
+                    method.push_str(&self.noise_split_along_scale(
                         prior,
                         &values,
                         &stds,
