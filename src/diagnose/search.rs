@@ -263,24 +263,9 @@ fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64
     x.is_finite().then_some(x)
 }
 
-/// The standard uncertainty, in ln λ, of a scale λ applied to a fit's parameters together (a
-/// direction no coordinate search follows) from the objective (a χ²: Δ = 1 at σ) at λ = 1
-/// (`f_at`) and at λ = e^(∓h) (`f_minus`, `f_plus`): the parabola's curvature. Infinite when
-/// the parabola does not open upwards (a ridge: the objective does not fix the scale) or a
-/// value is not finite.
-pub fn std_along_scale(f_at: f64, f_minus: f64, f_plus: f64, h: f64) -> f64 {
-    let d = (f_plus + f_minus - 2.0 * f_at) / (h * h);
-    if d.is_finite() && d > 0.0 && h > 0.0 {
-        (2.0 / d).sqrt()
-    } else {
-        f64::INFINITY
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::prelude::*;
 
     #[test]
     fn finds_the_minimum_of_a_log_parabola_from_far_away() {
@@ -379,27 +364,5 @@ mod tests {
         assert!(r.bracket.0 <= 2.0 && 2.0 <= r.bracket.1, "{r:?}");
         assert!(r.bracket_std() > (r.value - 2.0).abs() / 4.0, "{r:?}");
         assert!(r.bracket.1 - r.bracket.0 > o.tol_u, "{r:?}");
-    }
-
-    #[test]
-    fn the_scales_uncertainty_is_the_parabolas() {
-        // f = 4·(ln λ)²: Δ = 1 at ln λ = ½.
-        let f = |l: f64| 4.0 * l * l;
-        let h = std::f64::consts::LN_2;
-        let sd = std_along_scale(f(0.0), f(-h), f(h), h);
-        assert!((sd - 0.5).abs() < 1e-12, "{sd}");
-        // A ridge (flat, or falling away) fixes no scale.
-        assert_eq!(std_along_scale(3.0, 3.0, 3.0, h), f64::INFINITY);
-        assert_eq!(std_along_scale(3.0, 2.0, 2.5, h), f64::INFINITY);
-        assert_eq!(std_along_scale(3.0, f64::INFINITY, 4.0, h), f64::INFINITY);
-    }
-
-    proptest! {
-        #[test]
-        fn a_quadratic_in_ln_scale_gives_its_sd(k in 0.01f64..1e4, h in 0.05f64..2.0, f0 in 0.0f64..100.0) {
-            let f = |l: f64| f0 + k * l * l;
-            let sd = std_along_scale(f(0.0), f(-h), f(h), h);
-            prop_assert!((sd - (1.0 / k).sqrt()).abs() <= 1e-9 * sd);
-        }
     }
 }

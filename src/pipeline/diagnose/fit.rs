@@ -17,9 +17,7 @@ use crate::diagnose::gap::{
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::runout::RunoutForm;
-use crate::diagnose::search::{
-    curvature_std_about, minimise, std_along_scale, SearchOptions, SearchResult,
-};
+use crate::diagnose::search::{curvature_std_about, minimise, SearchOptions, SearchResult};
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
@@ -125,17 +123,30 @@ fn shared_std(
     r: &SearchResult,
     o: &SearchOptions,
 ) -> f64 {
+    shared_std_along(
+        evaluated,
+        |x| {
+            let mut v = base.to_vec();
+            v[i] = x;
+            v
+        },
+        r,
+        o,
+    )
+}
+
+/// [`shared_std`] for a search along any curve of the parameters: `at` maps the searched value
+/// to the parameters evaluated there.
+fn shared_std_along(
+    evaluated: &[(Vec<f64>, Objectives)],
+    at: impl Fn(f64) -> Vec<f64>,
+    r: &SearchResult,
+    o: &SearchOptions,
+) -> f64 {
     let points: Vec<(f64, f64)> = r
         .evaluations
         .iter()
-        .filter_map(|&(x, _)| {
-            let mut v = base.to_vec();
-            v[i] = x;
-            evaluated
-                .iter()
-                .find(|(w, _)| *w == v)
-                .map(|(_, f)| (x, f.shared_chi2))
-        })
+        .filter_map(|&(x, _)| objective_at(evaluated, &at(x)).map(|f| (x, f.shared_chi2)))
         .collect();
     let shared = curvature_std_about(&points, r.value, o);
     let curvature = if shared.is_finite() {
@@ -144,6 +155,30 @@ fn shared_std(
         r.std
     };
     curvature.hypot(r.bracket_std())
+}
+
+/// The objectives already evaluated at exactly `values` (the objective is deterministic: fixed
+/// seeds).
+fn objective_at(evaluated: &[(Vec<f64>, Objectives)], values: &[f64]) -> Option<Objectives> {
+    evaluated
+        .iter()
+        .find(|(w, _)| w.as_slice() == values)
+        .map(|&(_, f)| f)
+}
+
+/// The read noise (e⁻) that keeps the sensor's noise variance at normalised radiance
+/// `s_ref` at `var_ref` (in full-well units², s/FW + RN²/FW²) for a full well of `fw_e`: the
+/// valley of the noise fit, the one combination of the two that footage dominated by read noise
+/// fixes. `None` where shot noise alone exceeds `var_ref` (a full well below s_ref/var_ref).
+pub fn read_noise_on_valley(fw_e: f64, s_ref: f64, var_ref: f64) -> Option<f64> {
+    let rn2 = var_ref * fw_e * fw_e - s_ref * fw_e;
+    (fw_e > 0.0 && rn2.is_finite() && rn2 >= 0.0).then(|| rn2.sqrt())
+}
+
+/// The full well (e⁻) on [`read_noise_on_valley`]'s valley where the read noise reaches
+/// `rn_e`: the root of var_ref·FW² − s_ref·FW − rn² = 0.
+pub fn full_well_on_valley(rn_e: f64, s_ref: f64, var_ref: f64) -> f64 {
+    (s_ref + (s_ref * s_ref + 4.0 * var_ref * rn_e * rn_e).sqrt()) / (2.0 * var_ref)
 }
 
 /// Relative standard uncertainty of a blur fitted on edge widths that a renderer other than the
@@ -916,63 +951,163 @@ impl<'a> Fitter<'a> {
         )
     }
 
-    /// The full well and read noise of a searched pixel-noise fit with each other free. The two
-    /// coordinate searches each held the other, but the noise model has a direction the
-    /// footage barely fixes: scaling both by λ keeps the read noise's variance RN²/FW² and
-    /// changes only the shot part s/FW, small where read noise dominates. Two more evaluations,
-    /// at λ = 2 and ½, measure the objective's curvature along it ([`std_along_scale`]); that
-    /// scale's uncertainty adds to each parameter's, and neither has a ± when the full well's
-    /// then exceeds [`NOISE_SPLIT_MAX_REL_SD`] of itself. Returns the method's words (empty when
-    /// it could not be measured).
+    /// Whether the footage's noise has the sensor model's shape, more on the paper than on the
+    /// ink once the tone curve's clip is undone ([`plan::guess_noise`]): shot noise shows.
+    /// Denoising, compression or another camera's noise model can invert it; then no split of
+    /// full well and read noise is measured, only their total.
+    fn shot_noise_shows(&self) -> bool {
+        let s = &aligned_of(self).scenario;
+        let span = if s.effects.lighting.enabled {
+            s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
+        } else {
+            255.0
+        };
+        self.channel_pair("noise_ink", &[])
+            .zip(self.channel_pair("noise_paper", &[]))
+            .is_some_and(|((ni, _), (np, _))| {
+                plan::guess_noise(ni, np, s.scene.ink_radiance, s.scene.paper_radiance, span)
+                    .is_some()
+            })
+    }
+
+    /// The full well and read noise of a searched pixel-noise fit, searched once more along the
+    /// valley the footage fixes. The two coordinate searches each held the other, but where read
+    /// noise dominates the footage fixes only the total noise, s/FW + RN²/FW², and both move
+    /// together along that curve with little change in Σ z². So the full well is searched along
+    /// it ([`read_noise_on_valley`] at the mid-grey between ink and paper, through the point
+    /// the coordinate searches reached), each full well with the read noise that keeps the total;
+    /// the full well's ± is that search's (curvature of the shared χ² and the bracket's
+    /// spread), the read noise's carries it through the valley's slope. Neither has a ± (not
+    /// resolved apart) when the full well's exceeds [`NOISE_SPLIT_MAX_REL_SD`] of itself.
+    /// Returns the method's words.
     ///
     /// Why: held at the search's start, the read noise kept it: the independent renderer's
-    /// 2000 e⁻ / 185 e⁻ footage, searched from 60 e⁻, was fitted at 609 ± 193 e⁻ and 60 ± 30 e⁻
-    /// (one evaluation off the axes, both stepped by their own σ, inflated them only 2.5×:
-    /// that step does not follow the ridge).
-    fn noise_split_along_scale(
+    /// 2000 e⁻ / 185 e⁻ footage, searched from 60 e⁻, was fitted at 609 ± 193 e⁻ and 60 ± 30
+    /// e⁻; a probe scaling both together (2× and ½×) moved off the valley (the shot part
+    /// changes the total) and inflated that only to ± 229 e⁻.
+    fn noise_along_valley(
         &self,
         prior: &[(Effect, Vec<f64>)],
-        values: &[f64],
-        stds: &[f64],
+        values: &mut [f64],
+        stds: &mut [f64],
         reported: &mut [Option<f64>],
-        evaluated: &[(Vec<f64>, Objectives)],
+        evaluated: &RefCell<Vec<(Vec<f64>, Objectives)>>,
     ) -> String {
         let e = Effect::PixelNoise;
-        let Some(f_at) = evaluated
-            .iter()
-            .find(|(w, _)| w.as_slice() == values)
-            .map(|(_, f)| f.sum_z2)
-        else {
-            return String::new();
-        };
-        let at_scale = |lambda: f64| {
-            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-            applied.push((e, values.iter().map(|v| lambda * v).collect()));
-            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-            self.objectives(&effects, &applied, LensCells::All).sum_z2
-        };
-        let (f_half, f_double) = (at_scale(0.5), at_scale(2.0));
-        if !(f_half.is_finite() && f_double.is_finite()) {
-            return String::new();
-        }
-        let sd_ln_scale = std_along_scale(f_at, f_half, f_double, std::f64::consts::LN_2);
-        for ((r, s), v) in reported.iter_mut().zip(stds).zip(values) {
-            *r = Some(r.unwrap_or(*s).hypot(v * sd_ln_scale));
-        }
-        let sd_fw = reported[0].unwrap_or(f64::INFINITY);
-        if noise_split_determined(values[0], sd_fw) {
+        if !self.shot_noise_shows() {
+            reported.fill(Some(f64::INFINITY));
+            let s = &aligned_of(self).scenario;
+            let span = if s.effects.lighting.enabled {
+                s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
+            } else {
+                255.0
+            };
+            // The sensor's σ in DN, the clip undone, beside what the footage shows.
+            let sensor_dn = |channel: &str, level: f64| {
+                self.channel_pair(channel, &[])
+                    .map_or((f64::NAN, f64::NAN), |(dn, _)| {
+                        let v = plan::sensor_variance(dn, level, span).unwrap_or(f64::NAN);
+                        (v.sqrt() * span, dn)
+                    })
+            };
+            let (ink, ink_dn) = sensor_dn("noise_ink", s.scene.ink_radiance);
+            let (paper, paper_dn) = sensor_dn("noise_paper", s.scene.paper_radiance);
             return format!(
-                "; σ with both scaled together free (Σ z² {f_half:.1}, {f_at:.1}, {f_double:.1} \
-                 at ½, 1, 2 times both: the scale ± {sd_ln_scale:.2} in ln)"
+                "; full well and read noise not resolved apart: the sensor's noise is no higher \
+                 on the paper than on the ink ({paper:.2} and {ink:.2} DN once the tone curve's \
+                 clip is undone; {paper_dn:.2} and {ink_dn:.2} DN in the footage), so no shot \
+                 noise shows and only their total is measured; the values are one pair giving it"
             );
+        }
+        let specs = e.params();
+        let s = &aligned_of(self).scenario;
+        let s_ref = 0.5 * (s.scene.ink_radiance + s.scene.paper_radiance);
+        let (fw0, rn0) = (values[0], values[1]);
+        let var_ref = s_ref / fw0 + (rn0 / fw0).powi(2);
+        if !(s_ref > 0.0 && var_ref.is_finite() && var_ref > 0.0) {
+            return String::new();
+        }
+        let lo = specs[0].search.0.max(s_ref / var_ref).min(fw0);
+        let hi = specs[0]
+            .search
+            .1
+            .min(full_well_on_valley(specs[1].search.1, s_ref, var_ref))
+            .max(fw0);
+        let start = values.to_vec();
+        // The start exactly as the coordinate searches left it (its objective is looked up);
+        // elsewhere the valley's read noise.
+        let at = |fw: f64| -> Vec<f64> {
+            // The search's log scale round-trips fw0 to within rounding.
+            if (fw / fw0 - 1.0).abs() < 1e-12 {
+                start.clone()
+            } else {
+                vec![fw, read_noise_on_valley(fw, s_ref, var_ref).unwrap_or(0.0)]
+            }
+        };
+        let mut o = SearchOptions::new(lo, hi, true);
+        o.max_evaluations = 8;
+        let r = minimise(
+            |fw| {
+                let v = at(fw);
+                if let Some(f) = objective_at(&evaluated.borrow(), &v) {
+                    return f.sum_z2;
+                }
+                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+                applied.push((e, v.clone()));
+                let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+                let f = self.objectives(&effects, &applied, LensCells::All);
+                evaluated.borrow_mut().push((v, f));
+                f.sum_z2
+            },
+            fw0,
+            &o,
+        );
+        let best = at(r.value);
+        let sd_valley = shared_std_along(&evaluated.borrow(), at, &r, &o);
+        // d(RN)/d(FW) along the valley: (2·var_ref·FW − s_ref) / (2·RN).
+        let slope = if best[1] > 0.0 {
+            (2.0 * var_ref * best[0] - s_ref) / (2.0 * best[1])
+        } else {
+            f64::INFINITY
+        };
+        // Off the valley only the total noise is measured: the read noise's ± at fixed full well
+        // (the coordinate search's), carried to the new point by δRN = FW²·δvar / (2·RN).
+        let sd_rn_across = reported[1].unwrap_or(stds[1])
+            * if best == start {
+                1.0
+            } else {
+                Some((best[0] / fw0).powi(2) * rn0 / best[1])
+                    .filter(|k| k.is_finite())
+                    .unwrap_or(f64::INFINITY)
+            };
+        let sd_fw = if best == start {
+            reported[0].unwrap_or(stds[0]).hypot(sd_valley)
+        } else {
+            sd_valley
+        };
+        let sd_rn = sd_rn_across.hypot(slope * sd_valley);
+        values.copy_from_slice(&best);
+        stds.copy_from_slice(&[r.std, sd_rn_across.hypot(slope * r.std)]);
+        let evaluations: Vec<String> = {
+            let mut ev = r.evaluations.clone();
+            ev.sort_by(|p, q| p.0.total_cmp(&q.0));
+            ev.iter().map(|(x, f)| format!("{x:.0}: {f:.1}")).collect()
+        };
+        let words = format!(
+            "; then along the valley the footage fixes (the noise at mid-grey, s/FW + RN²/FW² = \
+             {var_ref:.3e}, kept: full well e⁻ → Σ z² {})",
+            evaluations.join(", ")
+        );
+        if noise_split_determined(best[0], sd_fw) {
+            reported[0] = Some(sd_fw);
+            reported[1] = Some(sd_rn);
+            return words;
         }
         reported.fill(Some(f64::INFINITY));
         format!(
-            "; full well and read noise not resolved apart: scaled together by ½ or 2 they move \
-             Σ z² from {f_at:.1} to {f_half:.1} and {f_double:.1} (the read noise / full well \
-             = {:.4} the footage shows kept); the values are one pair on that ridge, from the \
-             search's start",
-            values[1] / values[0]
+            "{words}; full well and read noise not resolved apart (the full well's ± {sd_fw:.0} \
+             e⁻ along it exceeds {NOISE_SPLIT_MAX_REL_SD} of itself): the values are one pair on \
+             that valley"
         )
     }
 
@@ -1167,8 +1302,7 @@ impl<'a> Fitter<'a> {
                         |x| {
                             let mut v = base.clone();
                             v[i] = x;
-                            if let Some(&(_, f)) = evaluated.borrow().iter().find(|(w, _)| *w == v)
-                            {
+                            if let Some(f) = objective_at(&evaluated.borrow(), &v) {
                                 return f.sum_z2;
                             }
                             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
@@ -1244,12 +1378,12 @@ impl<'a> Fitter<'a> {
                     }
                 }
                 if e == Effect::PixelNoise {
-                    method.push_str(&self.noise_split_along_scale(
+                    method.push_str(&self.noise_along_valley(
                         prior,
-                        &values,
-                        &stds,
+                        &mut values,
+                        &mut stds,
                         &mut reported,
-                        &evaluated.borrow(),
+                        &evaluated,
                     ));
                 }
                 for (s, r) in stds.iter_mut().zip(&reported) {
@@ -1332,13 +1466,7 @@ impl<'a> Fitter<'a> {
             // Only where the footage follows the model's shape (more sensor noise on the paper
             // than on the ink): denoising or compression can invert that, and Newton steps on a
             // map of the wrong shape run to the bounds; the Σ z² search handles those.
-            let model_shaped = self
-                .channel_pair("noise_ink", &[])
-                .zip(self.channel_pair("noise_paper", &[]))
-                .is_some_and(|((ni, _), (np, _))| {
-                    plan::guess_noise(ni, np, si, sp, span).is_some()
-                });
-            if !model_shaped {
+            if !self.shot_noise_shows() {
                 return Ok(MomentFit::Search(None));
             }
             let sensor = |sigma_dn: f64, level: f64| plan::sensor_variance(sigma_dn, level, span);
@@ -1721,6 +1849,34 @@ fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Every point of the valley has the total noise it was drawn through, and the full well
+        /// of a point's read noise is that point's.
+        #[test]
+        fn the_noise_valley_keeps_the_total_noise(
+            fw0 in 50.0f64..1e6,
+            rn0 in 0.0f64..5000.0,
+            s_ref in 0.01f64..1.0,
+            fw_rel in 0.05f64..20.0,
+        ) {
+            let var_ref = s_ref / fw0 + (rn0 / fw0).powi(2);
+            let fw = fw0 * fw_rel;
+            match read_noise_on_valley(fw, s_ref, var_ref) {
+                Some(rn) => {
+                    let var = s_ref / fw + (rn / fw).powi(2);
+                    prop_assert!((var / var_ref - 1.0).abs() < 1e-9, "{var} vs {var_ref}");
+                    let back = full_well_on_valley(rn, s_ref, var_ref);
+                    prop_assert!((back / fw - 1.0).abs() < 1e-6, "{back} vs {fw}");
+                }
+                // Only below the full well where shot noise alone makes the total.
+                None => prop_assert!(fw < s_ref / var_ref * (1.0 + 1e-9)),
+            }
+            let rn_back = read_noise_on_valley(fw0, s_ref, var_ref).unwrap_or(0.0);
+            prop_assert!((rn_back - rn0).abs() <= 1e-6 * fw0.max(rn0));
+        }
+    }
 
     #[test]
     fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {
