@@ -800,11 +800,7 @@ impl<'a> Fitter<'a> {
                 v[0] = ((r * r - n * n).max(1e-4).sqrt()).clamp(0.01, 10.0);
             }
             Effect::PixelNoise => {
-                let span = if fx.lighting.enabled {
-                    fx.lighting.white_level_dn - fx.lighting.black_level_dn
-                } else {
-                    255.0
-                };
+                let span = fx.lighting.span_dn();
                 if let (Some((ni, _)), Some((np, _))) = (
                     self.channel_pair("noise_ink", &[]),
                     self.channel_pair("noise_paper", &[]),
@@ -957,11 +953,7 @@ impl<'a> Fitter<'a> {
     /// full well and read noise is measured, only their total.
     fn shot_noise_shows(&self) -> bool {
         let s = &aligned_of(self).scenario;
-        let span = if s.effects.lighting.enabled {
-            s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
-        } else {
-            255.0
-        };
+        let span = s.effects.lighting.span_dn();
         self.channel_pair("noise_ink", &[])
             .zip(self.channel_pair("noise_paper", &[]))
             .is_some_and(|((ni, _), (np, _))| {
@@ -997,11 +989,7 @@ impl<'a> Fitter<'a> {
         if !self.shot_noise_shows() {
             reported.fill(Some(f64::INFINITY));
             let s = &aligned_of(self).scenario;
-            let span = if s.effects.lighting.enabled {
-                s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
-            } else {
-                255.0
-            };
+            let span = s.effects.lighting.span_dn();
             // The sensor's σ in DN, the clip undone, beside what the footage shows.
             let sensor_dn = |channel: &str, level: f64| {
                 self.channel_pair(channel, &[])
@@ -1453,11 +1441,7 @@ impl<'a> Fitter<'a> {
             // paper levels; blur, uneven light and compression bend the real map further, and
             // the simulations in the loop absorb that.
             let s = &aligned_of(self).scenario;
-            let span = if s.effects.lighting.enabled {
-                s.effects.lighting.white_level_dn - s.effects.lighting.black_level_dn
-            } else {
-                255.0
-            };
+            let span = s.effects.lighting.span_dn();
             let (si, sp) = (s.scene.ink_radiance, s.scene.paper_radiance);
             let det = si - sp;
             if det.abs() < 1e-12 || span <= 0.0 {

@@ -105,6 +105,16 @@ impl LightingConfig {
         }
     }
 
+    /// The tone curve's span in DN, radiance 0 to 1 ([`Self::tone`]'s, in f64): what the
+    /// noise a sensor adds in full-well units becomes in the footage's DN.
+    pub fn span_dn(&self) -> f64 {
+        if self.enabled {
+            self.white_level_dn - self.black_level_dn
+        } else {
+            255.0
+        }
+    }
+
     /// True when illumination is uneven (per-pixel gain needed).
     pub fn uneven(&self) -> bool {
         self.enabled
@@ -173,6 +183,14 @@ mod tests {
         assert_eq!(t.dn(0.0), 20.0);
         assert_eq!(t.dn(1.0), 220.0);
         assert_eq!(t.dn(0.5), 120.0);
+        // The span the noise fits read DN through is the tone curve's, enabled or not.
+        for enabled in [true, false] {
+            let l = LightingConfig {
+                enabled,
+                ..c.clone()
+            };
+            assert_eq!(l.span_dn() as f32, l.tone().dn(1.0) - l.tone().dn(0.0));
+        }
         c.gamma = 2.0;
         assert!((c.tone().dn(0.25) - 120.0).abs() < 1e-4);
         assert_eq!(quantise(-3.0), 0);
