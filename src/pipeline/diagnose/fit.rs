@@ -1111,15 +1111,7 @@ impl<'a> Fitter<'a> {
                         |x| {
                             let mut v = base.clone();
                             v[i] = x;
-                            if let Some(f) = objective_at(&evaluated.borrow(), &v) {
-                                return f.sum_z2;
-                            }
-                            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                            applied.push((e, v.clone()));
-                            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                            let f = self.objectives(&effects, &applied, lens_cells);
-                            evaluated.borrow_mut().push((v, f));
-                            f.sum_z2
+                            self.cached_sum_z2(prior, e, v, lens_cells, &evaluated)
                         },
                         values[i],
                         &o,
@@ -1224,6 +1216,28 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
         })
+    }
+
+    /// Σ z² with `e` at `v` on top of `prior` (cells as `lens` says), looked up in `evaluated`
+    /// when a search already simulated it (the objective is deterministic: fixed seeds), else
+    /// simulated and recorded there.
+    fn cached_sum_z2(
+        &self,
+        prior: &[(Effect, Vec<f64>)],
+        e: Effect,
+        v: Vec<f64>,
+        lens: LensCells,
+        evaluated: &RefCell<Vec<(Vec<f64>, Objectives)>>,
+    ) -> f64 {
+        if let Some(f) = objective_at(&evaluated.borrow(), &v) {
+            return f.sum_z2;
+        }
+        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+        applied.push((e, v.clone()));
+        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+        let f = self.objectives(&effects, &applied, lens);
+        evaluated.borrow_mut().push((v, f));
+        f.sum_z2
     }
 
     /// The gap map with `e` at `v` on top of `prior`, on the fit seeds.

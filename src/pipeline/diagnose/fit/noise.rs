@@ -5,8 +5,7 @@
 //! module keeps a split from being stated where the footage does not measure it.
 
 use super::{
-    aligned_of, objective_at, shared_std_along, Fitter, LensCells, MomentFit, Objectives,
-    MOMENT_SIMULATIONS,
+    aligned_of, shared_std_along, Fitter, LensCells, MomentFit, Objectives, MOMENT_SIMULATIONS,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan;
@@ -139,18 +138,7 @@ impl Fitter<'_> {
         let mut o = SearchOptions::new(lo, hi, true);
         o.max_evaluations = 8;
         let r = minimise(
-            |fw| {
-                let v = at(fw);
-                if let Some(f) = objective_at(&evaluated.borrow(), &v) {
-                    return f.sum_z2;
-                }
-                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                applied.push((e, v.clone()));
-                let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                let f = self.objectives(&effects, &applied, LensCells::All);
-                evaluated.borrow_mut().push((v, f));
-                f.sum_z2
-            },
+            |fw| self.cached_sum_z2(prior, e, at(fw), LensCells::All, evaluated),
             fw0,
             &o,
         );
