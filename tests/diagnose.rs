@@ -275,9 +275,11 @@ fn an_axis_runouts_phase_read_off_the_track_is_refined_by_simulation() {
         (refined_rad - truth_rad).abs() < (track_rad - truth_rad).abs(),
         "{method}"
     );
-    // The refined phase's ± is the shared-tolerance χ²'s, as every searched parameter's: it
-    // holds the truth (Σ z²'s own curvature had claimed 0.14 ± 0.04 rad for a true 0).
+    // The refined phase's ± (the shared-tolerance χ²'s, as every searched parameter's) holds
+    // the truth on this footage.
     assert!((refined_rad - truth_rad).abs() <= 2.0 * std_rad, "{method}");
+    // The amplitude is searched at that phase, and its ± says it does not carry the phase's.
+    assert!(method.contains("holds that phase fixed"), "{method}");
 }
 
 /// A read-noise-dominated pixel noise whose shot part still shows (paper below the white clip,
