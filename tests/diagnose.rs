@@ -257,29 +257,37 @@ fn an_axis_runouts_phase_read_off_the_track_is_refined_by_simulation() {
     assert!(o.top_k(1), "{o:?}");
     let runout = ranked_entry(work, &o.name, "axis_runout");
     let method = runout["method"][0].as_str().unwrap_or("");
-    // "…, phase P rad (S % of the centre residual), the phase refined by simulation to R ± U rad"
-    // The `skip`-th word after `key`, as a number.
-    let number_after = |key: &str, skip: usize| -> Option<f64> {
-        let rest = &method[method.find(key)? + key.len()..];
-        rest.split_whitespace().nth(skip)?.parse().ok()
-    };
-    let refined = "refined by simulation to ";
-    let (Some(track_rad), Some(refined_rad), Some(std_rad)) = (
-        number_after("per wheel revolution, phase ", 0),
-        number_after(refined, 0),
-        number_after(refined, 2),
-    ) else {
+    // The track's phase, in the method's words: "…, 2 cycles per wheel revolution, phase P rad".
+    let key = "per wheel revolution, phase ";
+    let Some(track_rad) = method
+        .find(key)
+        .and_then(|i| method[i + key.len()..].split_whitespace().next())
+        .and_then(|w| w.parse::<f64>().ok())
+    else {
         panic!("{method}");
     };
+    // The refined form, beside the amplitude in diagnosis.json.
+    let form = &runout["runout_form"];
+    let (Some(cycles), Some(refined_rad), Some(std_rad)) = (
+        form["cycles_per_wheel_rev"].as_f64(),
+        form["phase_rad"].as_f64(),
+        form["phase_std_rad"].as_f64(),
+    ) else {
+        panic!("{runout}");
+    };
+    assert_eq!(
+        cycles, case.data.dynamics.axis_runout.cycles_per_wheel_rev,
+        "{runout}"
+    );
     assert!(
         (refined_rad - truth_rad).abs() < (track_rad - truth_rad).abs(),
-        "{method}"
+        "{runout}"
     );
-    // The refined phase's ± (the shared-tolerance χ²'s, as every searched parameter's) holds
-    // the truth on this footage.
-    assert!((refined_rad - truth_rad).abs() <= 2.0 * std_rad, "{method}");
-    // The amplitude is searched at that phase, and its ± says it does not carry the phase's.
-    assert!(method.contains("holds that phase fixed"), "{method}");
+    // The refined phase's ± (the shared-tolerance χ²'s, as every searched parameter's, with the
+    // amplitude free) holds the truth on this footage.
+    assert!((refined_rad - truth_rad).abs() <= 2.0 * std_rad, "{runout}");
+    // A runout fitted alone measures how amplitude and phase trade, and frees each ±.
+    assert!(method.contains("each ± holds the other free"), "{method}");
 }
 
 /// A read-noise-dominated pixel noise whose shot part still shows (paper below the white clip,

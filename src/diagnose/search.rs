@@ -245,6 +245,43 @@ fn std_from_curvature(evals: &[(f64, f64)], u_at: f64, o: &SearchOptions) -> f64
     }
 }
 
+/// The most of a parameter's uncertainty [`std_with_other_free`] lets the other parameter's
+/// freedom explain: ρ² is capped here (σ grows at most tenfold). A cross-curvature at or past
+/// ±1 from one noisy evaluation says the two are not told apart along some line, not by how
+/// much; the caller says the ± is a lower bound then.
+pub const COUPLING_SQ_MAX: f64 = 0.99;
+
+/// The normalised cross-curvature ρ of a χ² (Δ = 1 at σ) in two parameters a and b, each
+/// searched with the other held, from one evaluation off both search lines.
+///
+/// b was searched first, at a = a₀: its minimum b\*, curvature σ_b. Then a was searched at
+/// b = b\*: its minimum a\*, curvature σ_a, χ² there `at_minimum`. At (a\* + s·σ_a, b\* + t·σ_b)
+/// the χ² is `off`. With `o` = (a\* − a₀)/σ_a the quadratic model (each line's minimum where
+/// its search found it) gives
+///
+///   off − at_minimum = s² + t² + 2ρ(o + s)t,
+///
+/// and the two estimates' correlation is |ρ| (ρ is the Hessian's, of the opposite sign). `None`
+/// when the evaluation says nothing about ρ (the point on the b line, (o + s)·t = 0) or a value
+/// is not finite.
+pub fn coupling_from_off_point(at_minimum: f64, off: f64, s: f64, t: f64, o: f64) -> Option<f64> {
+    let lever = 2.0 * (o + s) * t;
+    let rho = (off - at_minimum - s * s - t * t) / lever;
+    (lever.abs() >= 1e-9 && rho.is_finite()).then_some(rho)
+}
+
+/// A parameter's σ with another parameter free, from its σ with that one held and their
+/// coupling ρ ([`coupling_from_off_point`]): σ / √(1 − ρ²), ρ² capped at [`COUPLING_SQ_MAX`];
+/// the flag says the cap bit.
+pub fn std_with_other_free(std_held: f64, rho: f64) -> (f64, bool) {
+    let rho_sq = rho * rho;
+    let capped = rho_sq > COUPLING_SQ_MAX;
+    (
+        std_held / (1.0 - rho_sq.min(COUPLING_SQ_MAX)).sqrt(),
+        capped,
+    )
+}
+
 /// The vertex of the parabola through three points of distinct abscissae, when it opens
 /// upwards.
 fn parabola_vertex(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64)) -> Option<f64> {
@@ -364,5 +401,60 @@ mod tests {
         assert!(r.bracket.0 <= 2.0 && 2.0 <= r.bracket.1, "{r:?}");
         assert!(r.bracket_std() > (r.value - 2.0).abs() / 4.0, "{r:?}");
         assert!(r.bracket.1 - r.bracket.0 > o.tol_u, "{r:?}");
+    }
+
+    /// A quadratic χ² in two parameters, Δ = 1 at σ along each with the other held: the
+    /// coupling one evaluation off the two search lines recovers is the χ²'s own, and the
+    /// σ with the other free is the inverse Hessian's.
+    fn two_parameter_chi2(
+        rho: f64,
+        (sa, sb): (f64, f64),
+        (a0, b0): (f64, f64),
+    ) -> impl Fn(f64, f64) -> f64 {
+        move |a: f64, b: f64| {
+            let (x, y) = ((a - a0) / sa, (b - b0) / sb);
+            3.0 + x * x + y * y + 2.0 * rho * x * y
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_coupling_off_both_search_lines_is_the_chi2s_own(
+            rho in -0.97f64..0.97,
+            sa in 0.01f64..10.0,
+            sb in 0.01f64..10.0,
+            a_start in -5.0f64..5.0,
+            s in proptest::prop_oneof![-3.0f64..-0.5, 0.5f64..3.0],
+            t in proptest::prop_oneof![-3.0f64..-0.5, 0.5f64..3.0],
+        ) {
+            let (a0, b0) = (1.0, -2.0);
+            let f = two_parameter_chi2(rho, (sa, sb), (a0, b0));
+            // b searched at a = a_start·σ_a: its minimum; then a searched there.
+            let a_held = a0 + a_start * sa;
+            let b_star = b0 - rho * (a_held - a0) / sa * sb;
+            let a_star = a0 - rho * (b_star - b0) / sb * sa;
+            let o = (a_star - a_held) / sa;
+            proptest::prop_assume!(((o + s) * t).abs() > 0.1);
+            let off = f(a_star + s * sa, b_star + t * sb);
+            let got = coupling_from_off_point(f(a_star, b_star), off, s, t, o).unwrap();
+            proptest::prop_assert!((got - rho).abs() < 1e-9 * (1.0 + o.abs()), "{got} vs {rho}");
+            // σ_a with b free: Δχ² = 1 along the valley's floor.
+            let (free, capped) = std_with_other_free(1.0, got);
+            proptest::prop_assert!(!capped || rho * rho > COUPLING_SQ_MAX - 1e-6);
+            let a_free = a0 + free * sa;
+            let b_floor = b0 - rho * (a_free - a0) / sa * sb;
+            proptest::prop_assert!((f(a_free, b_floor) - 4.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_point_on_the_held_line_says_nothing_and_a_coupling_past_one_is_capped() {
+        assert_eq!(coupling_from_off_point(1.0, 5.0, -2.0, 2.0, 2.0), None);
+        assert_eq!(coupling_from_off_point(1.0, 5.0, 2.0, 0.0, 0.0), None);
+        assert_eq!(coupling_from_off_point(1.0, f64::NAN, 2.0, 2.0, 0.0), None);
+        assert_eq!(std_with_other_free(2.0, 0.0), (2.0, false));
+        let (s, capped) = std_with_other_free(1.0, -1.3);
+        assert!(capped);
+        assert!((s - 10.0).abs() < 1e-9, "{s}");
     }
 }

@@ -17,7 +17,10 @@ use crate::diagnose::gap::{
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::runout::RunoutForm;
-use crate::diagnose::search::{curvature_std_about, minimise, SearchOptions, SearchResult};
+use crate::diagnose::search::{
+    coupling_from_off_point, curvature_std_about, minimise, std_with_other_free, SearchOptions,
+    SearchResult,
+};
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
@@ -45,6 +48,8 @@ pub struct Fitted {
     pub method: String,
     /// Simulations run for the fit.
     pub simulations: usize,
+    /// An axis runout's form, when it took the footage's ([`FittedRunoutForm`]).
+    pub runout_form: Option<FittedRunoutForm>,
 }
 
 /// A fitted candidate (one effect or a pair) judged on the evaluation seeds.
@@ -151,18 +156,29 @@ fn shared_std_along(
     r: &SearchResult,
     o: &SearchOptions,
 ) -> f64 {
-    let points: Vec<(f64, f64)> = r
-        .evaluations
-        .iter()
-        .filter_map(|&(x, _)| objective_at(evaluated, &at(x)).map(|f| (x, f.shared_chi2)))
-        .collect();
-    let shared = curvature_std_about(&points, r.value, o);
+    let shared = shared_curvature_std_along(evaluated, at, r, o);
     let curvature = if shared.is_finite() {
         r.std.max(shared)
     } else {
         r.std
     };
     curvature.hypot(r.bracket_std())
+}
+
+/// The curvature part of [`shared_std_along`]: the shared-tolerance χ²'s alone, at the
+/// search's result (infinite where it has none).
+fn shared_curvature_std_along(
+    evaluated: &[(Vec<f64>, Objectives)],
+    at: impl Fn(f64) -> Vec<f64>,
+    r: &SearchResult,
+    o: &SearchOptions,
+) -> f64 {
+    let points: Vec<(f64, f64)> = r
+        .evaluations
+        .iter()
+        .filter_map(|&(x, _)| objective_at(evaluated, &at(x)).map(|f| (x, f.shared_chi2)))
+        .collect();
+    curvature_std_about(&points, r.value, o)
 }
 
 /// The objectives already evaluated at exactly `values` (the objective is deterministic: fixed
@@ -283,12 +299,44 @@ const RUNOUT_PHASE_REACH_RAD: f64 = 0.5;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct RunoutPhase {
     refined_rad: f64,
-    /// The refined phase's uncertainty, as every searched parameter's ([`shared_std_along`]):
-    /// the shared-tolerance χ²'s curvature and the search's final bracket. It does not hold
-    /// the fit seeds' own noise: on the independent renderer's calibrated chain the phase came
-    /// out 0.14 ± 0.05 rad for a true 0 on 2 fit seeds (± 0.04 from Σ z²'s curvature), 0.07 ±
-    /// 0.14 on 3.
+    /// The refined phase's uncertainty with the amplitude held at `at_amplitude_m`, as every
+    /// searched parameter's ([`shared_std_along`]): the shared-tolerance χ²'s curvature and the
+    /// search's final bracket. It does not hold the fit seeds' own noise: on the independent
+    /// renderer's calibrated chain the phase came out 0.14 ± 0.05 rad for a true 0 on 2 fit
+    /// seeds (± 0.04 from Σ z²'s curvature), 0.07 ± 0.14 on 3.
     std_rad: f64,
+    /// The parts of `std_rad`: the shared χ²'s curvature alone (infinite where it has none)
+    /// and the final bracket's spread.
+    curvature_std_rad: f64,
+    bracket_std_rad: f64,
+    /// Σ z²'s curvature (the search's own, which the reported ± never falls below).
+    search_std_rad: f64,
+    /// The amplitude the phase was searched at (the track's), m.
+    at_amplitude_m: f64,
+}
+
+/// The runout's amplitude and phase uncertainties with the other free
+/// ([`Fitter::runout_phase_freed`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct RunoutFreed {
+    amplitude_std_m: f64,
+    phase_std_rad: f64,
+    /// The shared χ²'s normalised cross-curvature of amplitude and phase
+    /// ([`coupling_from_off_point`]).
+    coupling: f64,
+    /// ρ² reached [`crate::diagnose::search::COUPLING_SQ_MAX`]: both ± are lower bounds.
+    capped: bool,
+}
+
+/// The runout form a fitted runout took from the footage (the track's order, the phase refined
+/// by simulation), reported beside its amplitude.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FittedRunoutForm {
+    pub cycles_per_wheel_rev: f64,
+    pub phase_rad: f64,
+    /// The phase's 1-σ uncertainty, with the amplitude free when the fit measured how the two
+    /// trade ([`Fitter::runout_phase_freed`]), else with it held at the track's.
+    pub phase_std_rad: f64,
 }
 
 /// Standard deviation of the median frame interval of timestamps `t_s`: the median's large-sample
@@ -599,11 +647,69 @@ impl<'a> Fitter<'a> {
             &o,
         );
         if r.objective.is_finite() {
+            let evaluated = evaluated.borrow();
             self.runout_phase = Some(RunoutPhase {
                 refined_rad: r.value,
-                std_rad: shared_std_along(&evaluated.borrow(), |x| vec![x], &r, &o),
+                std_rad: shared_std_along(&evaluated, |x| vec![x], &r, &o),
+                curvature_std_rad: shared_curvature_std_along(&evaluated, |x| vec![x], &r, &o),
+                bracket_std_rad: r.bracket_std(),
+                search_std_rad: r.std,
+                at_amplitude_m: amplitude_m,
             });
         }
+    }
+
+    /// The runout amplitude's and phase's uncertainties with the other free, for a runout fitted
+    /// alone whose form took the refined phase: the phase was searched at the track's amplitude
+    /// and the amplitude at the refined phase, each with the other held, and the two trade. One
+    /// more evaluation, 2 σ off both search lines, measures the shared χ²'s cross-curvature
+    /// ([`coupling_from_off_point`]), and each ± grows by 1/√(1 − ρ²). The fit seeds' own noise
+    /// is still not in them (see [`RunoutPhase::std_rad`]).
+    /// `None` when a curvature is missing or the point says nothing (the ± then hold the other
+    /// fixed, and the method says so).
+    fn runout_phase_freed(
+        &self,
+        amplitude_m: f64,
+        search: &(SearchResult, SearchOptions),
+        evaluated: &[(Vec<f64>, Objectives)],
+    ) -> Option<RunoutFreed> {
+        let (p, form) = (self.runout_phase?, self.fitted_runout_form()?);
+        let (r, o) = search;
+        let sigma_a = shared_curvature_std_along(evaluated, |x| vec![x], r, o);
+        let at_minimum = objective_at(evaluated, &[amplitude_m])?.shared_chi2;
+        let sigma_p = p.curvature_std_rad;
+        if !(sigma_a.is_finite() && sigma_p.is_finite() && at_minimum.is_finite()) {
+            return None;
+        }
+        // Away from the amplitude the phase was searched at: a point back on that line says
+        // nothing of the cross term.
+        let from_track = (amplitude_m - p.at_amplitude_m) / sigma_a;
+        let s = if from_track >= 0.0 || amplitude_m - 2.0 * sigma_a <= 0.0 {
+            2.0
+        } else {
+            -2.0
+        };
+        let t = 2.0;
+        let e = Effect::AxisRunout;
+        let trial = self.trial_with_form(
+            &[(e, vec![amplitude_m + s * sigma_a])],
+            Some(RunoutForm {
+                phase_rad: form.phase_rad + t * sigma_p,
+                ..form
+            }),
+        );
+        let off = self
+            .objectives_of(&[e], trial, compare_for_fit, LensCells::All)
+            .shared_chi2;
+        let coupling = coupling_from_off_point(at_minimum, off, s, t, from_track)?;
+        let (amplitude_curvature, capped) = std_with_other_free(r.std.max(sigma_a), coupling);
+        let (phase_curvature, _) = std_with_other_free(p.search_std_rad.max(sigma_p), coupling);
+        Some(RunoutFreed {
+            amplitude_std_m: amplitude_curvature.hypot(r.bracket_std()),
+            phase_std_rad: phase_curvature.hypot(p.bracket_std_rad),
+            coupling,
+            capped,
+        })
     }
 
     /// Cells of a trial on `seeds`.
@@ -938,12 +1044,14 @@ impl<'a> Fitter<'a> {
             stds,
             method,
             simulations: *self.simulations.borrow() - before,
+            runout_form: None,
         };
         let why_searched = match self.fit_by_moments(e, prior, &values)? {
             MomentFit::Fitted(direct) => return Ok(fitted(direct)),
             MomentFit::Search(why) => why,
         };
         let mut method: String;
+        let mut runout_form: Option<FittedRunoutForm> = None;
         match e {
             Effect::FrameTiming => {
                 let ts =
@@ -1093,6 +1201,7 @@ impl<'a> Fitter<'a> {
                 // `stds` (Σ z²'s) steer the search's own decisions, as they always have.
                 let mut reported: Vec<Option<f64>> = vec![None; specs.len()];
                 let mut searches_run = 0usize;
+                let mut last_search: Option<(SearchResult, SearchOptions)> = None;
                 for (k, &i) in searched.iter().enumerate() {
                     // A second round refits a coordinate at the others' new values: pointless when
                     // the one searched last did not move beyond its own uncertainty (a bound or a
@@ -1127,6 +1236,7 @@ impl<'a> Fitter<'a> {
                     stds[i] = r.std;
                     reported[i] = Some(shared_std(&evaluated.borrow(), &base, i, &r, &o));
                     searches_run += 1;
+                    last_search = Some((r, o));
                 }
                 method = format!(
                     "simulated method of moments: Σ z² over the {} signature cells, {} fit seeds",
@@ -1206,17 +1316,52 @@ impl<'a> Fitter<'a> {
                         f.phase_rad,
                         100.0 * f.rss_reduction_frac
                     ));
+                    runout_form = Some(FittedRunoutForm {
+                        cycles_per_wheel_rev: f.cycles_per_wheel_rev,
+                        phase_rad: f.phase_rad,
+                        phase_std_rad: f64::INFINITY,
+                    });
                     if let Some(p) = self.runout_phase {
-                        // The amplitude is searched at that phase: its ± does not carry the
-                        // phase's. On the calibrated chain's 2 mm runout, 2 fit seeds put the
-                        // phase at 0.14 rad and the amplitude at 2.14 mm, 3 fit seeds at 0.07
-                        // rad and 2.35 mm, both stated ± 0.06 mm.
+                        // In a pair the other effect's cells join the objective, whose phase
+                        // curvature the refinement did not measure.
+                        let freed =
+                            last_search
+                                .as_ref()
+                                .filter(|_| prior.is_empty())
+                                .and_then(|search| {
+                                    self.runout_phase_freed(values[0], search, &evaluated.borrow())
+                                });
+                        let phase_std_rad = freed.map_or(p.std_rad, |fr| fr.phase_std_rad);
+                        runout_form = Some(FittedRunoutForm {
+                            cycles_per_wheel_rev: f.cycles_per_wheel_rev,
+                            phase_rad: p.refined_rad,
+                            phase_std_rad,
+                        });
                         method.push_str(&format!(
-                            ", the phase refined by simulation to {:.2} ± {:.2} rad; the \
-                             amplitude's ± holds that phase fixed, and amplitude and phase trade \
-                             against each other",
-                            p.refined_rad, p.std_rad
+                            ", the phase refined by simulation to {:.2} ± {:.2} rad",
+                            p.refined_rad, phase_std_rad
                         ));
+                        match freed {
+                            Some(fr) => {
+                                stds[0] = fr.amplitude_std_m;
+                                method.push_str(&format!(
+                                    "; amplitude and phase trade against each other \
+                                     (cross-curvature {:.2}, from one more evaluation off both \
+                                     searches) and each ± holds the other free{}",
+                                    fr.coupling,
+                                    if fr.capped {
+                                        " (the cross-curvature at its cap: both ± are lower \
+                                         bounds)"
+                                    } else {
+                                        ""
+                                    }
+                                ));
+                            }
+                            None => method.push_str(
+                                "; the amplitude's ± holds that phase fixed, and amplitude and \
+                                 phase trade against each other",
+                            ),
+                        }
                     }
                 }
             }
@@ -1227,6 +1372,7 @@ impl<'a> Fitter<'a> {
             stds,
             method,
             simulations: *self.simulations.borrow() - before,
+            runout_form,
         })
     }
 

@@ -61,12 +61,21 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
             stds.insert(key, if s.is_finite() { json!(s) } else { Value::Null });
         }
     }
+    // An axis runout's form, beside its amplitude: the order and phase it took from the
+    // footage (not parameters of the vocabulary's effect, so not in `params`).
+    let runout_form = e.effects.iter().find_map(|f| f.runout_form).map(|f| {
+        json!({
+            "cycles_per_wheel_rev": f.cycles_per_wheel_rev,
+            "phase_rad": f.phase_rad,
+            "phase_std_rad": if f.phase_std_rad.is_finite() { json!(f.phase_std_rad) } else { Value::Null },
+        })
+    });
     let cell_shrink: Vec<Value> = r
         .cell_shrink
         .iter()
         .map(|(k, s)| json!({"cell": k.label(nyquist_hz), "shrink": s}))
         .collect();
-    json!({
+    let mut entry = json!({
         "effect": e.effects[0].effect.name(),
         "effects": e.effects.iter().map(|f| f.effect.name()).collect::<Vec<_>>(),
         "group": r.group,
@@ -79,7 +88,11 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
         "significant_cells_left": e.outcome.significant_left,
         "method": e.effects.iter().map(|f| format!("{}: {}", f.effect.name(), f.method)).collect::<Vec<_>>(),
         "cell_shrink": cell_shrink,
-    })
+    });
+    if let Some(form) = runout_form {
+        entry["runout_form"] = form;
+    }
+    entry
 }
 
 /// `diagnosis.json` as a value.

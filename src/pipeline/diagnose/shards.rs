@@ -13,7 +13,7 @@
 //! A record keeps every f64 as its bit pattern (a JSON integer): exact, infinities and NaN
 //! included, whatever the JSON float parser does.
 
-use super::fit::{Evaluated, Fitted, Fitter};
+use super::fit::{Evaluated, Fitted, FittedRunoutForm, Fitter};
 use super::{DiagnoseError, DiagnoseOptions};
 use crate::diagnose::cells::{channel, CellKey, PHASES};
 use crate::diagnose::gap::{CellGap, GapMap, GapOptions};
@@ -184,6 +184,9 @@ struct FittedRecord {
     stds: Vec<u64>,
     method: String,
     simulations: usize,
+    /// An axis runout's form as bits: cycles per wheel revolution, phase, phase's σ.
+    #[serde(default)]
+    runout_form: Option<[u64; 3]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -223,6 +226,13 @@ pub fn encode(e: &Evaluated, simulations: usize) -> Result<String, DiagnoseError
                 stds: bits(&f.stds),
                 method: f.method.clone(),
                 simulations: f.simulations,
+                runout_form: f.runout_form.map(|r| {
+                    [
+                        r.cycles_per_wheel_rev.to_bits(),
+                        r.phase_rad.to_bits(),
+                        r.phase_std_rad.to_bits(),
+                    ]
+                }),
             })
             .collect(),
         cells: g
@@ -279,6 +289,11 @@ pub fn decode(text: &str, place: &Path) -> Result<(Evaluated, usize), DiagnoseEr
                 stds: floats(&f.stds),
                 method: f.method.clone(),
                 simulations: f.simulations,
+                runout_form: f.runout_form.map(|[c, p, s]| FittedRunoutForm {
+                    cycles_per_wheel_rev: f64::from_bits(c),
+                    phase_rad: f64::from_bits(p),
+                    phase_std_rad: f64::from_bits(s),
+                }),
             })
         })
         .collect::<Result<Vec<_>, DiagnoseError>>()?;
@@ -346,6 +361,11 @@ mod tests {
                 stds: vec![f64::INFINITY, f64::NAN, 1.0 / 3.0, 7e22],
                 method: "secant".into(),
                 simulations: 17,
+                runout_form: Some(FittedRunoutForm {
+                    cycles_per_wheel_rev: -3.0,
+                    phase_rad: 0.1 + 0.2,
+                    phase_std_rad: f64::INFINITY,
+                }),
             }],
             gap: GapMap {
                 cells: vec![CellGap {
