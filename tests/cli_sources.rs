@@ -123,3 +123,40 @@ fn selfcheck_only_must_name_cases_of_its_plan() {
         ],
     );
 }
+
+#[test]
+fn selfcheck_base_must_be_a_scenario_and_its_duration_a_length() {
+    // `--base` runs the self-check on the user's rig; a rig that cannot be read, or a length
+    // that is none, is refused before any work, naming it.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fails_with(
+        d,
+        &with(
+            &["diagnose-selfcheck"],
+            &["--quick", "--base", "no-such-rig.toml", "--yes"],
+        ),
+        &["base scenario `no-such-rig.toml`"],
+    );
+    std::fs::write(
+        d.join("rig.toml"),
+        "extend = \"fast\"\nduration_s = 3.0\nfps = 30\n",
+    )
+    .unwrap();
+    fails_with(
+        d,
+        &with(
+            &["diagnose-selfcheck"],
+            &["--quick", "--base", "rig.toml", "--yes"],
+        ),
+        &["base scenario `rig.toml`", "fps"],
+    );
+    fails_with(
+        d,
+        &with(
+            &["diagnose-selfcheck"],
+            &["--quick", "--base", "fast", "--duration-s", "0", "--yes"],
+        ),
+        &["duration 0 s"],
+    );
+}

@@ -1,4 +1,4 @@
-//! `geneva diagnose-selfcheck --out DIR [--quick] [--seeds-per-case K] [--effects a,b]
+//! `geneva diagnose-selfcheck --out DIR [--base SCENARIO] [--quick] [--seeds-per-case K] [--effects a,b]
 //! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--renderer own|independent]
 //! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
@@ -6,7 +6,7 @@
 use anyhow::Result;
 use clap::Args;
 use geneva_vision::pipeline::diagnose::selfcheck::{
-    cases, phone_logs, suite_base, Level, SelfCheck, SuitePlan,
+    cases, phone_logs, suite_base, suite_base_from, Level, SelfCheck, SuitePlan,
 };
 use geneva_vision::pipeline::diagnose::DiagnoseOptions;
 use geneva_vision::pipeline::render_job::Renderer;
@@ -18,6 +18,11 @@ use std::path::{Path, PathBuf};
 pub struct SelfCheckArgs {
     #[arg(long, default_value = "reports/diagnosis")]
     out: PathBuf,
+    /// The rig every case starts from: a scenario file (e.g. `geneva calibrate`'s) or a built-in
+    /// name, its effects kept on in data and nominal, filmed for its own duration unless
+    /// `--duration-s` says otherwise (default: the built-in `fast` rig, 1280×720 at 30 fps).
+    #[arg(long)]
+    base: Option<String>,
     /// A small suite (one withheld effect, one null, one flicker case; 4 s of footage).
     #[arg(long)]
     quick: bool,
@@ -72,7 +77,10 @@ pub struct SelfCheckArgs {
 
 pub fn run(a: SelfCheckArgs) -> Result<()> {
     let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
-    let base = suite_base(a.duration_s.unwrap_or(if a.quick { 4.0 } else { 8.0 }))?;
+    let base = match &a.base {
+        Some(spec) => suite_base_from(spec, a.duration_s)?,
+        None => suite_base(a.duration_s.unwrap_or(if a.quick { 4.0 } else { 8.0 }))?,
+    };
     let mut plan = if a.quick {
         SuitePlan::quick(Effect::PixelNoise)
     } else {

@@ -128,8 +128,16 @@ pub enum DiagnoseError {
     SimulateFrames(#[source] Box<crate::pipeline::frames::FramesError>),
     #[error("estimating the simulated measurement")]
     SimulateEstimate(#[source] crate::estimate::EstimateError),
-    #[error("the self-check's base scenario")]
-    SuiteBase(#[source] Box<crate::scenario::ScenarioError>),
+    #[error("the self-check's base scenario `{spec}`")]
+    SuiteBase {
+        spec: String,
+        #[source]
+        source: Box<crate::scenario::ScenarioError>,
+    },
+    #[error(
+        "the self-check's footage duration {duration_s} s: expected a positive number of seconds"
+    )]
+    SuiteDuration { duration_s: f64 },
     #[error("phone timing log {}", path.display())]
     PhoneLog {
         path: PathBuf,

@@ -912,10 +912,26 @@ pub fn write_summary(
 /// The rig every self-check case starts from: the built-in `fast` rig (1280×720, 30 fps,
 /// 4-slot internal drive, optical blur, pixel noise and lighting on) filmed for `duration_s`.
 pub fn suite_base(duration_s: f64) -> Result<Scenario, DiagnoseError> {
-    let mut s =
-        crate::scenario::load_any("fast").map_err(|e| DiagnoseError::SuiteBase(Box::new(e)))?;
+    let mut s = suite_base_from("fast", Some(duration_s))?;
     s.name = "selfcheck-base".into();
-    s.duration_s = duration_s;
+    Ok(s)
+}
+
+/// The rig a self-check's cases start from, as the user states it: `spec`, a scenario file
+/// (often `geneva calibrate`'s) or a built-in name, filmed for `duration_s` (the scenario's own
+/// length when `None`). Every case keeps the effects it has on in both data and nominal, so the
+/// suite asks how the diagnosis does on that rig, not on the project's.
+pub fn suite_base_from(spec: &str, duration_s: Option<f64>) -> Result<Scenario, DiagnoseError> {
+    let mut s = crate::scenario::load_any(spec).map_err(|e| DiagnoseError::SuiteBase {
+        spec: spec.to_string(),
+        source: Box::new(e),
+    })?;
+    if let Some(d) = duration_s {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(DiagnoseError::SuiteDuration { duration_s: d });
+        }
+        s.duration_s = d;
+    }
     Ok(s)
 }
 
@@ -1046,6 +1062,28 @@ mod tests {
         assert!(q > 30.0, "quality {q}");
         let first = level_values(Effect::FrameTiming, Level::Weak, fps)[1];
         assert!((first - (1.0 / fps + 0.3 * (0.055 - 1.0 / fps))).abs() < 1e-12);
+    }
+
+    /// A user's rig as the base: a built-in keeps its own length unless one is given, and a
+    /// scenario that cannot be loaded, or a length that is no length, is an error naming it.
+    #[test]
+    fn a_suite_base_is_the_users_rig_at_its_own_or_a_given_length() {
+        let own = crate::scenario::load_any("seed-external-4k").unwrap();
+        let base = suite_base_from("seed-external-4k", None).unwrap();
+        assert_eq!(base, own);
+        let short = suite_base_from("seed-external-4k", Some(3.0)).unwrap();
+        assert_eq!(short.duration_s, 3.0);
+        assert_eq!(short.mechanism, own.mechanism);
+        let missing = suite_base_from("/nonexistent/rig.toml", None).unwrap_err();
+        assert!(
+            format!("{missing}").contains("/nonexistent/rig.toml"),
+            "{missing}"
+        );
+        for bad in [0.0, -1.0, f64::NAN] {
+            let e = suite_base_from("fast", Some(bad)).unwrap_err();
+            assert!(format!("{e}").contains("duration"), "{e}");
+        }
+        assert_eq!(suite_base(4.0).unwrap().duration_s, 4.0);
     }
 
     /// Every other-form case holds its effect at the strong level in a form the candidate at the
