@@ -156,13 +156,19 @@ fn shared_std_along(
     r: &SearchResult,
     o: &SearchOptions,
 ) -> f64 {
-    let shared = shared_curvature_std_along(evaluated, at, r, o);
-    let curvature = if shared.is_finite() {
-        r.std.max(shared)
+    held_curvature_std(r.std, shared_curvature_std_along(evaluated, at, r, o))
+        .hypot(r.bracket_std())
+}
+
+/// The curvature part of a searched parameter's ±: the shared-tolerance χ²'s (`shared`), never
+/// below Σ z²'s own (`search`, the one the search decides on); Σ z²'s alone where the shared χ²
+/// has none (`shared` infinite).
+fn held_curvature_std(search: f64, shared: f64) -> f64 {
+    if shared.is_finite() {
+        search.max(shared)
     } else {
-        r.std
-    };
-    curvature.hypot(r.bracket_std())
+        search
+    }
 }
 
 /// The curvature part of [`shared_std_along`]: the shared-tolerance χ²'s alone, at the
@@ -299,20 +305,25 @@ const RUNOUT_PHASE_REACH_RAD: f64 = 0.5;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct RunoutPhase {
     refined_rad: f64,
-    /// The refined phase's uncertainty with the amplitude held at `at_amplitude_m`, as every
-    /// searched parameter's ([`shared_std_along`]): the shared-tolerance χ²'s curvature and the
-    /// search's final bracket. It does not hold the fit seeds' own noise: on the independent
-    /// renderer's calibrated chain the phase came out 0.14 ± 0.05 rad for a true 0 on 2 fit
-    /// seeds (± 0.04 from Σ z²'s curvature), 0.07 ± 0.14 on 3.
-    std_rad: f64,
-    /// The parts of `std_rad`: the shared χ²'s curvature alone (infinite where it has none)
-    /// and the final bracket's spread.
+    /// The parts of [`RunoutPhase::std_rad`]: the shared χ²'s curvature alone (infinite where
+    /// it has none) and the final bracket's spread.
     curvature_std_rad: f64,
     bracket_std_rad: f64,
     /// Σ z²'s curvature (the search's own, which the reported ± never falls below).
     search_std_rad: f64,
     /// The amplitude the phase was searched at (the track's), m.
     at_amplitude_m: f64,
+}
+
+impl RunoutPhase {
+    /// The refined phase's uncertainty with the amplitude held at `at_amplitude_m`, as every
+    /// searched parameter's ([`shared_std_along`]): the shared-tolerance χ²'s curvature and the
+    /// search's final bracket. It does not hold the fit seeds' own noise: on the independent
+    /// renderer's calibrated chain the phase came out 0.14 ± 0.05 rad for a true 0 on 2 fit
+    /// seeds (± 0.04 from Σ z²'s curvature), 0.07 ± 0.14 on 3.
+    fn std_rad(&self) -> f64 {
+        held_curvature_std(self.search_std_rad, self.curvature_std_rad).hypot(self.bracket_std_rad)
+    }
 }
 
 /// The runout's amplitude and phase uncertainties with the other free
@@ -568,15 +579,20 @@ impl<'a> Fitter<'a> {
                 }
             }
         }
-        if applied
-            .iter()
-            .any(|(e, _)| matches!(e, Effect::PerspectiveTilt | Effect::AxisRunout))
-        {
+        if applied.iter().any(|(e, _)| {
+            matches!(
+                e,
+                Effect::PerspectiveTilt | Effect::AxisRunout | Effect::LensDistortion
+            )
+        }) {
             // The crank phase and speed, the marker's angle and the measured rotation centre
             // are nuisance: refit them through this camera or this wobbling axis (see
-            // `camera_warp`). Not for a lens distortion: its angle warp is most of what
-            // identifies k1, and it never biased the nominal's alignment enough to hide the
-            // lens.
+            // `camera_warp`). A lens too: the angle cells are residuals after the aligned
+            // nominal's motion, which absorbed part of the real lens's bend, so a trial that kept
+            // that motion matched its whole bend to the part left over and k1 came out biased,
+            // by how much depending on the alignment's loss (−0.377 and −0.534 for −0.3 on the
+            // independent renderer's footage, trimmed and Huber loss); refitted, the trial's
+            // motion absorbs the same part of its own bend, and the same footage gave −0.256.
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
             let base = &self.base.scenario;
@@ -650,7 +666,6 @@ impl<'a> Fitter<'a> {
             let evaluated = evaluated.borrow();
             self.runout_phase = Some(RunoutPhase {
                 refined_rad: r.value,
-                std_rad: shared_std_along(&evaluated, |x| vec![x], &r, &o),
                 curvature_std_rad: shared_curvature_std_along(&evaluated, |x| vec![x], &r, &o),
                 bracket_std_rad: r.bracket_std(),
                 search_std_rad: r.std,
@@ -702,8 +717,10 @@ impl<'a> Fitter<'a> {
             .objectives_of(&[e], trial, compare_for_fit, LensCells::All)
             .shared_chi2;
         let coupling = coupling_from_off_point(at_minimum, off, s, t, from_track)?;
-        let (amplitude_curvature, capped) = std_with_other_free(r.std.max(sigma_a), coupling);
-        let (phase_curvature, _) = std_with_other_free(p.search_std_rad.max(sigma_p), coupling);
+        let (amplitude_curvature, capped) =
+            std_with_other_free(held_curvature_std(r.std, sigma_a), coupling);
+        let (phase_curvature, _) =
+            std_with_other_free(held_curvature_std(p.search_std_rad, sigma_p), coupling);
         Some(RunoutFreed {
             amplitude_std_m: amplitude_curvature.hypot(r.bracket_std()),
             phase_std_rad: phase_curvature.hypot(p.bracket_std_rad),
@@ -1316,11 +1333,8 @@ impl<'a> Fitter<'a> {
                         f.phase_rad,
                         100.0 * f.rss_reduction_frac
                     ));
-                    runout_form = Some(FittedRunoutForm {
-                        cycles_per_wheel_rev: f.cycles_per_wheel_rev,
-                        phase_rad: f.phase_rad,
-                        phase_std_rad: f64::INFINITY,
-                    });
+                    // The track's phase, without a ± of its own, unless the simulation refined it.
+                    let mut phase = (f.phase_rad, f64::INFINITY);
                     if let Some(p) = self.runout_phase {
                         // In a pair the other effect's cells join the objective, whose phase
                         // curvature the refinement did not measure.
@@ -1331,12 +1345,8 @@ impl<'a> Fitter<'a> {
                                 .and_then(|search| {
                                     self.runout_phase_freed(values[0], search, &evaluated.borrow())
                                 });
-                        let phase_std_rad = freed.map_or(p.std_rad, |fr| fr.phase_std_rad);
-                        runout_form = Some(FittedRunoutForm {
-                            cycles_per_wheel_rev: f.cycles_per_wheel_rev,
-                            phase_rad: p.refined_rad,
-                            phase_std_rad,
-                        });
+                        let phase_std_rad = freed.map_or(p.std_rad(), |fr| fr.phase_std_rad);
+                        phase = (p.refined_rad, phase_std_rad);
                         method.push_str(&format!(
                             ", the phase refined by simulation to {:.2} ± {:.2} rad",
                             p.refined_rad, phase_std_rad
@@ -1363,6 +1373,11 @@ impl<'a> Fitter<'a> {
                             ),
                         }
                     }
+                    runout_form = Some(FittedRunoutForm {
+                        cycles_per_wheel_rev: f.cycles_per_wheel_rev,
+                        phase_rad: phase.0,
+                        phase_std_rad: phase.1,
+                    });
                 }
             }
         }
