@@ -9,15 +9,15 @@
 //! (negative s: the crank turns the other way), σ the nominal camera's screen sense and c a
 //! constant. The search's loss is a Huber loss (quadratic to 1.345 × the angle's noise, linear
 //! beyond), so impacts, over-rotation and other effects pull the fit only boundedly, yet no
-//! frame is ignored; the residual reported is the RMS of the 90 % smallest. A coarse grid over (θ1₀, s) is followed by a compass
-//! search around the best grid points, in the crank angle at mid-footage and ln |s| (where start
-//! and speed do not trade), with diagonal steps.
+//! frame is ignored; the residual reported is the RMS of the 90 % smallest. A coarse grid over
+//! (θ1₀, s) is followed by a compass search around the best grid points, in the crank angle at
+//! mid-footage and ln |s| (where start and speed do not trade), with diagonal steps.
 
 use crate::mechanism::{DriveSpeedConfig, Mechanism, Phase};
 use crate::scenario::Scenario;
 use std::f64::consts::TAU;
 
-/// Fraction of residuals kept by the trimmed loss.
+/// Fraction of residuals kept by the reported (trimmed) residual and offset.
 const KEEP_FRACTION: f64 = 0.9;
 /// Speed scales searched: |s| from 1/2 to 2 of the nominal, both senses.
 const SPEED_SCALE_RANGE: (f64, f64) = (0.5, 2.0);
