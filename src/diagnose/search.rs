@@ -198,6 +198,32 @@ pub fn minimise(mut f: impl FnMut(f64) -> f64, start: f64, o: &SearchOptions) ->
     }
 }
 
+/// Half the spread of the values whose objective lies within `delta` of the lowest
+/// (`points`: (value, objective) pairs; non-finite objectives ignored): the profile interval
+/// the evaluations themselves show, Δ = `delta`. For a parabola sampled densely it is the σ of
+/// its curvature at Δ = 1, and sparse samples only narrow it, so it is a floor for that σ. It
+/// matters where the objective is simulated on a few seeds and flat: neighbouring evaluations
+/// then scatter by more than the curvature between them, and their parabola can be far narrower
+/// than the region the objective does not tell apart. Zero when one point alone lies within.
+pub fn profile_half_width(points: &[(f64, f64)], delta: f64) -> f64 {
+    let lowest = points
+        .iter()
+        .map(|p| p.1)
+        .filter(|f| f.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let (lo, hi) = points
+        .iter()
+        .filter(|p| p.1.is_finite() && p.1 <= lowest + delta)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.0), hi.max(p.0))
+        });
+    if hi > lo {
+        0.5 * (hi - lo)
+    } else {
+        0.0
+    }
+}
+
 /// The 1-σ uncertainty of the parameter at `at_value` from the curvature of another objective
 /// evaluated at the same points (`points`: (value, objective) pairs, e.g. a correlated χ² beside
 /// the Σ z² that [`minimise`] searched): the parabola through `at_value` and its nearest
@@ -384,6 +410,34 @@ mod tests {
             f64::INFINITY
         );
         assert_eq!(curvature_std_about(&same, 123.0, &o), f64::INFINITY);
+    }
+
+    #[test]
+    fn the_profile_interval_spans_the_points_within_delta_of_the_lowest() {
+        // A parabola of σ = 2 about 5, sampled on a fine grid: the half-width is σ.
+        let dense: Vec<(f64, f64)> = (0..=4000)
+            .map(|k| {
+                let x = k as f64 * 0.0025;
+                (x, 3.0 + ((x - 5.0) / 2.0).powi(2))
+            })
+            .collect();
+        assert!((profile_half_width(&dense, 1.0) - 2.0).abs() < 0.01);
+        // A flat objective with noise: every point within 1 of the lowest counts, wherever the
+        // lowest lies (240 to 1600); 100, 1.1 above the lowest, and 50, far above, do not; NaN
+        // is ignored.
+        let flat = [
+            (100.0, 15.4),
+            (240.0, 14.9),
+            (400.0, 14.3),
+            (460.0, 15.0),
+            (800.0, 14.5),
+            (1600.0, 15.2),
+            (50.0, 35.0),
+            (70.0, f64::NAN),
+        ];
+        assert_eq!(profile_half_width(&flat, 1.0), 680.0);
+        assert_eq!(profile_half_width(&[(1.0, 2.0)], 1.0), 0.0);
+        assert_eq!(profile_half_width(&[], 1.0), 0.0);
     }
 
     #[test]

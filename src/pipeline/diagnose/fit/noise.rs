@@ -5,11 +5,12 @@
 //! module keeps a split from being stated where the footage does not measure it.
 
 use super::{
-    aligned_of, shared_std_along, Fitter, LensCells, MomentFit, Objectives, MOMENT_SIMULATIONS,
+    aligned_of, objective_at, shared_std_along, Fitter, LensCells, MomentFit, Objectives,
+    MOMENT_SIMULATIONS,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan;
-use crate::diagnose::search::{minimise, SearchOptions};
+use crate::diagnose::search::{minimise, profile_half_width, SearchOptions};
 use crate::pipeline::diagnose::DiagnoseError;
 use crate::scenario::effects::Effect;
 use std::cell::RefCell;
@@ -143,7 +144,21 @@ impl Fitter<'_> {
             &o,
         );
         let best = at(r.value);
-        let sd_valley = shared_std_along(&evaluated.borrow(), at, &r, &o);
+        // Along the valley Σ z² is nearly flat and simulated on the fit seeds, so it scatters by
+        // more than its curvature between neighbouring full wells: with the read noise dominating
+        // (500 e⁻, 46 e⁻) Σ z² lay within 14.3–18.5 from 239 to 1610 e⁻, and the parabola through
+        // the best point and its neighbours claimed a full well of about 900 e⁻ to a few percent.
+        // The ± is never narrower than the valley's profile interval (shared χ² within 1 of its
+        // lowest over the evaluated full wells).
+        let valley_points: Vec<(f64, f64)> = r
+            .evaluations
+            .iter()
+            .filter_map(|&(fw, _)| {
+                objective_at(&evaluated.borrow(), &at(fw)).map(|f| (fw, f.shared_chi2))
+            })
+            .collect();
+        let sd_valley = shared_std_along(&evaluated.borrow(), at, &r, &o)
+            .max(profile_half_width(&valley_points, 1.0));
         // d(RN)/d(FW) along the valley: (2·var_ref·FW − s_ref) / (2·RN).
         let slope = if best[1] > 0.0 {
             (2.0 * var_ref * best[0] - s_ref) / (2.0 * best[1])
