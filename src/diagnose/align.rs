@@ -13,6 +13,7 @@
 //! (θ1₀, s) is followed by a compass search around the best grid points, in the crank angle at
 //! mid-footage and ln |s| (where start and speed do not trade), with diagonal steps.
 
+use super::cells::median;
 use crate::mechanism::{DriveSpeedConfig, Mechanism, Phase};
 use crate::scenario::Scenario;
 use std::f64::consts::TAU;
@@ -98,16 +99,11 @@ const HUBER_TUNING: f64 = 1.345;
 /// The measured angle's frame-to-frame noise, rad: the MAD of its second differences (1.4826 ×
 /// MAD / √6), which the motion barely moves at a camera's frame rate; never below 1 µrad.
 fn angle_noise_rad(theta: &[f64]) -> f64 {
-    let mut d2: Vec<f64> = theta
+    let d2: Vec<f64> = theta
         .windows(3)
         .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .filter(|d| d.is_finite())
         .collect();
-    if d2.is_empty() {
-        return 1e-6;
-    }
-    d2.sort_by(f64::total_cmp);
-    (1.4826 * d2[d2.len() / 2] / 6f64.sqrt()).max(1e-6)
+    median(d2).map_or(1e-6, |m| (1.4826 * m / 6f64.sqrt()).max(1e-6))
 }
 
 /// The search's loss: the Huber loss with corner `c` of `theta − sign·model` about its own
@@ -122,9 +118,7 @@ fn angle_noise_rad(theta: &[f64]) -> f64 {
 /// or an over-rotation pulls (linear beyond the corner) but never ignores a frame.
 fn huber_fit(theta: &[f64], model: &[f64], sign: f64, c: f64) -> f64 {
     let r: Vec<f64> = theta.iter().zip(model).map(|(a, m)| a - sign * m).collect();
-    let mut sorted = r.clone();
-    sorted.sort_by(f64::total_cmp);
-    let mut location = sorted[sorted.len() / 2];
+    let mut location = median(r.clone()).unwrap_or(0.0);
     // A few reweighting steps from the median (the location moves little; the loss is flat
     // about it).
     for _ in 0..5 {

@@ -253,7 +253,9 @@ fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
     (n >= MIN_FRAMES).then(|| s / n as f64)
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
+/// The upper median of the finite values of `v` (`None` when there are none): the one median
+/// of the diagnosis's robust scales.
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return None;
