@@ -582,7 +582,11 @@ impl<'a> Fitter<'a> {
         if applied.iter().any(|(e, _)| {
             matches!(
                 e,
-                Effect::PerspectiveTilt | Effect::AxisRunout | Effect::LensDistortion
+                Effect::PerspectiveTilt
+                    | Effect::AxisRunout
+                    | Effect::LensDistortion
+                    | Effect::Backlash
+                    | Effect::Overrotation
             )
         }) {
             // The crank phase and speed, the marker's angle and the measured rotation centre
@@ -593,6 +597,8 @@ impl<'a> Fitter<'a> {
             // by how much depending on the alignment's loss (−0.377 and −0.534 for −0.3 on the
             // independent renderer's footage, trimmed and Huber loss); refitted, the trial's
             // motion absorbs the same part of its own bend, and the same footage gave −0.256.
+            // A clearance or coasting wheel too, for the same reason (its impacts pulled the
+            // aligned crank phase, and the clearance came out 12–18 % low).
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
             let base = &self.base.scenario;
