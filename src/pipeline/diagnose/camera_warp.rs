@@ -28,9 +28,10 @@
 //! A pin–slot clearance bends it as well: the pin crosses the gap before the wheel starts, the
 //! wheel bounces at the impacts and lags or runs ahead at exit. The alignment takes the late
 //! start for crank phase (55 mrad of crank for 0.5 mm on exact corners, this module's test),
-//! and a backlash trial that kept that motion added its own delay to it: the clearance came out
-//! 12–18 % low in the self-check. The exact view therefore runs the scenario's dynamics (without
-//! disc vibration, whose phase is a parameter, not a nuisance) when it has a clearance.
+//! and a backlash trial that kept that motion added its own delay to it. The exact view
+//! therefore runs the scenario's dynamics (without disc vibration, whose phase is a parameter,
+//! not a nuisance) when it has a clearance. (The self-check's 0.5 mm clearance, 12–18 % low
+//! before, is still 11–16 % low with the refit: the crank was not the main cause.)
 
 use super::nominal::wrap;
 use super::DiagnoseError;

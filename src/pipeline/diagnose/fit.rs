@@ -597,8 +597,10 @@ impl<'a> Fitter<'a> {
             // by how much depending on the alignment's loss (−0.377 and −0.534 for −0.3 on the
             // independent renderer's footage, trimmed and Huber loss); refitted, the trial's
             // motion absorbs the same part of its own bend, and the same footage gave −0.256.
-            // A clearance or coasting wheel too, for the same reason (its impacts pulled the
-            // aligned crank phase, and the clearance came out 12–18 % low).
+            // A clearance or coasting wheel too: the nominal's alignment took the wheel's late
+            // start for crank phase (55 mrad at 0.5 mm), and a trial that kept it added its own
+            // delay. Refitted, the 0.5 mm clearance still came out 11–16 % low on three seeds
+            // (`reports/diagnosis-stop37/`): that bias has another cause.
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
             let base = &self.base.scenario;

@@ -129,7 +129,8 @@ pub fn align(
     let mut motion =
         align_motion(nominal, &t_det, &th_det, sign).map_err(DiagnoseError::AlignMotion)?;
     let mut s = apply_motion(nominal, &motion);
-    // A nominal that states a tilted camera or a distorting lens: its angle warp is not a speed.
+    // A nominal that states a tilted camera, a distorting lens, a runout or a clearance: its
+    // angle warp (or late start) is not a crank speed or phase.
     let (realigned, refit) = super::camera_warp::realign_motion(&s, &t_det, &th_det, sign)?;
     if let Some(r) = refit {
         motion = MotionAlignment {
