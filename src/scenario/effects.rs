@@ -514,6 +514,25 @@ impl Effect {
         self.kind() == EffectKind::Image
     }
 
+    /// Whether the effect, switched on, bends the angle the estimator measures on exact corners
+    /// away from σ·θ2 + c in a way the plain motion alignment misreads as crank phase or speed:
+    /// the camera's geometry (a tilt, a lens off its centre), the wheel centre's wobble, or the
+    /// wheel's dynamics (a clearance's late start, coasting). A diagnosis trial of such an effect
+    /// refits the motion nuisance through it (`pipeline::diagnose::camera_warp`).
+    ///
+    /// Disc vibration bends the angle too but is not listed: its phase is one of its fitted
+    /// parameters, and a nuisance refit would absorb it.
+    pub fn bends_the_aligned_angle(self) -> bool {
+        matches!(
+            self,
+            Effect::PerspectiveTilt
+                | Effect::LensDistortion
+                | Effect::AxisRunout
+                | Effect::Backlash
+                | Effect::Overrotation
+        )
+    }
+
     /// Effects switched by the same scenario fields: switching one off switches off the other.
     pub fn shares_switch_with(self) -> &'static [Effect] {
         match self {

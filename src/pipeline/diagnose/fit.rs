@@ -579,16 +579,7 @@ impl<'a> Fitter<'a> {
                 }
             }
         }
-        if applied.iter().any(|(e, _)| {
-            matches!(
-                e,
-                Effect::PerspectiveTilt
-                    | Effect::AxisRunout
-                    | Effect::LensDistortion
-                    | Effect::Backlash
-                    | Effect::Overrotation
-            )
-        }) {
+        if applied.iter().any(|(e, _)| e.bends_the_aligned_angle()) {
             // The crank phase and speed, the marker's angle and the measured rotation centre
             // are nuisance: refit them through this camera or this wobbling axis (see
             // `camera_warp`). A lens too: the angle cells are residuals after the aligned
