@@ -60,6 +60,11 @@ pub struct SelfCheckArgs {
     /// would be with unlimited seeds (0: never).
     #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS)]
     escalate_seeds: usize,
+    /// Simulated seeds per objective evaluation in each case's candidate fits (at least 2;
+    /// `geneva diagnose` uses 3): 2 keeps the suite affordable, at the price of fitted values
+    /// that depend more on the fit's own noise than a user's diagnosis does.
+    #[arg(long, default_value_t = 2, value_parser = super::diagnose_cmd::parse_fit_seeds)]
+    fit_seeds: usize,
     /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
     /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).
     #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
@@ -114,7 +119,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     let options = DiagnoseOptions {
         seeds: a.seeds,
         escalate_seeds: a.escalate_seeds,
-        fit_seeds: 2,
+        fit_seeds: a.fit_seeds,
         ..Default::default()
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));

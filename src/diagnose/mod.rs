@@ -6,6 +6,7 @@
 pub mod align;
 pub mod bands;
 pub mod cells;
+pub mod fit_noise;
 pub mod gap;
 pub mod moments;
 pub mod plan;

@@ -465,6 +465,15 @@ impl<'a> Fitter<'a> {
         }
     }
 
+    /// `e` alone fitted again as [`Fitter::fit`] does, on `seeds` instead of the fit seeds (on
+    /// a fork): what the fitted values owe to the fit seeds' realisation
+    /// ([`crate::diagnose::fit_noise`]). The runout form's refined phase is the first fit's.
+    pub fn refit_on_seeds(&self, e: Effect, seeds: &[u64]) -> Result<Fitted, DiagnoseError> {
+        let mut fork = self.fork();
+        fork.fit_seeds = seeds.to_vec();
+        fork.fit(e, &[])
+    }
+
     /// One candidate alone: fitted, then judged on the evaluation seeds (on a fork), with the
     /// simulations it cost.
     pub fn fit_single(&self, e: Effect) -> Result<(Evaluated, usize), DiagnoseError> {

@@ -245,6 +245,21 @@ pub struct Ranked {
     pub group: Vec<String>,
     /// Per-cell shrink for the cells with a gap.
     pub cell_shrink: Vec<(crate::diagnose::cells::CellKey, f64)>,
+    /// The second fit on fresh seeds that measured the fit's own noise (the best single
+    /// candidate only; its stated ± include it).
+    pub refit: Option<Refit>,
+}
+
+/// A candidate fitted again on fit seeds disjoint from the first fit's
+/// ([`crate::diagnose::fit_noise`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Refit {
+    /// The values the second fit found (in [`Effect::params`] order), on `seeds`.
+    Done { seeds: Vec<u64>, values: Vec<f64> },
+    /// Not run: the time cap (`--max-minutes`) was reached first.
+    TimeCap,
+    /// The second fit failed; the first fit's ± stand without it.
+    Failed(String),
 }
 
 /// Everything a diagnosis found.
@@ -655,6 +670,46 @@ pub fn diagnose_with(
             .map(|&i| candidate_name(&ranking[i].evaluated))
             .collect();
         ranking[b].group = names;
+        // The fit's own noise, measured on the candidate a user reads first: its parameters
+        // fitted again on fresh fit seeds. The verdict and the ranking do not change (the
+        // values stay the first fit's); only the ± the report states do.
+        if ranking[b].evaluated.effects.len() == 1 {
+            let e = ranking[b].evaluated.effects[0].effect;
+            let capped = options
+                .max_minutes
+                .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0);
+            ranking[b].refit = Some(if capped {
+                Refit::TimeCap
+            } else {
+                progress(
+                    &format!(
+                        "refitting {} on fresh seeds (the fit's own noise)",
+                        e.name()
+                    ),
+                    0,
+                    1,
+                );
+                let fresh: Vec<u64> = (0..fit_seeds.len() as u64)
+                    .map(|k| nominal.seed.wrapping_add(REFIT_SEED_OFFSET + k))
+                    .collect();
+                match fitter.refit_on_seeds(e, &fresh) {
+                    Ok(second) => {
+                        candidate_simulations += second.simulations;
+                        let first = &mut ranking[b].evaluated.effects[0];
+                        first.stds = crate::diagnose::fit_noise::widened_stds(
+                            &first.stds,
+                            &first.values,
+                            &second.values,
+                        );
+                        Refit::Done {
+                            seeds: fresh,
+                            values: second.values,
+                        }
+                    }
+                    Err(err) => Refit::Failed(err.to_string()),
+                }
+            });
+        }
     }
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
@@ -693,6 +748,10 @@ pub fn diagnose_with(
     Ok(Finished::Diagnosis(Box::new(diagnosis), files))
 }
 
+/// Seeds of the refit on fresh seeds: the nominal's seed plus this (the evaluation seeds take
+/// +1000…, the fit seeds +2000…).
+const REFIT_SEED_OFFSET: u64 = 3000;
+
 /// Name of a candidate: `a` or `a+b`.
 pub fn candidate_name(e: &Evaluated) -> String {
     e.effects
@@ -714,6 +773,7 @@ fn ranked(nominal_gap: &GapMap, evaluated: Evaluated) -> Ranked {
         score: verdict::shrink(d0, &evaluated.outcome),
         group: Vec::new(),
         cell_shrink: fit::cell_shrink(nominal_gap, &evaluated.gap),
+        refit: None,
         evaluated,
     }
 }

@@ -6,7 +6,7 @@
 use super::fit::Fitter;
 use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
-use super::{candidate_name, nominal, DiagnoseError, Diagnosis, Ranked};
+use super::{candidate_name, nominal, DiagnoseError, Diagnosis, Ranked, Refit};
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::gap::{CellGap, GapMap};
@@ -92,7 +92,64 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     if let Some(form) = runout_form {
         entry["runout_form"] = form;
     }
+    if let Some(refit) = &r.refit {
+        entry["refit"] = refit_json(refit, e);
+    }
     entry
+}
+
+/// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`.
+fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
+    match refit {
+        Refit::Done { seeds, values } => {
+            let mut params = Map::new();
+            if let Some(f) = e.effects.first() {
+                for (spec, v) in f.effect.params().iter().zip(values) {
+                    params.insert(spec.name.to_string(), json!(v));
+                }
+            }
+            json!({"status": "done", "seeds": seeds, "params": params})
+        }
+        Refit::TimeCap => json!({"status": "not_run", "why": "time cap (--max-minutes)"}),
+        Refit::Failed(why) => json!({"status": "failed", "why": why}),
+    }
+}
+
+/// What the best candidate's refit on fresh seeds says, in words (empty when none was tried).
+fn refit_text(r: &Ranked) -> String {
+    let Some(f) = r.evaluated.effects.first() else {
+        return String::new();
+    };
+    match &r.refit {
+        None => String::new(),
+        Some(Refit::Done { seeds, values }) => {
+            let again: Vec<String> = f
+                .effect
+                .params()
+                .iter()
+                .zip(values)
+                .map(|(p, v)| format!("{} = {} {}", p.name, fmt(*v), p.unit))
+                .collect();
+            format!(
+                "Fitted again on {} fresh simulation seeds, {} gave {}; its ± include the \
+                 difference (the fit's own seed noise; the values above are the first fit's, \
+                 which the ranking judged).\n\n",
+                seeds.len(),
+                f.effect.name(),
+                again.join(", ")
+            )
+        }
+        Some(Refit::TimeCap) => format!(
+            "{} was not fitted again on fresh seeds (time cap reached): its ± do not hold the \
+             fit's own seed noise, which can be several times larger.\n\n",
+            f.effect.name()
+        ),
+        Some(Refit::Failed(why)) => format!(
+            "Fitting {} again on fresh seeds failed ({why}): its ± do not hold the fit's own \
+             seed noise.\n\n",
+            f.effect.name()
+        ),
+    }
 }
 
 /// `diagnosis.json` as a value.
@@ -426,6 +483,9 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             "Not judged: {} act on the pixels and cannot be judged from a corner track.\n\n",
             list(&d.not_judged)
         ));
+    }
+    if let Some(b) = best {
+        s.push_str(&refit_text(b));
     }
     if !d.not_tried.is_empty() {
         s.push_str(&format!(
