@@ -290,6 +290,21 @@ fn an_axis_runouts_phase_read_off_the_track_is_refined_by_simulation() {
     assert!((refined_rad - truth_rad).abs() <= 2.0 * std_rad, "{runout}");
     // A runout fitted alone measures how amplitude and phase trade, and frees each ±.
     assert!(method.contains("each ± holds the other free"), "{method}");
+    // The best candidate is fitted again on fresh seeds, and its stated ± is the first fit's
+    // widened by the two fits' difference (`diagnose::fit_noise`): √(σ₁² + (v₁ − v₂)²/2).
+    let refit = &runout["refit"];
+    assert_eq!(refit["status"], "done", "{runout}");
+    let (Some(first_m), Some(second_m), Some(std_m), Some(before_m)) = (
+        runout["params"]["amplitude_m"].as_f64(),
+        refit["params"]["amplitude_m"].as_f64(),
+        runout["params_std"]["amplitude_m"].as_f64(),
+        refit["params_std_first_fit"]["amplitude_m"].as_f64(),
+    ) else {
+        panic!("{runout}");
+    };
+    assert_ne!(first_m, second_m, "other seeds, another fit: {runout}");
+    let widened = before_m.hypot((first_m - second_m) / std::f64::consts::SQRT_2);
+    assert!((std_m / widened - 1.0).abs() < 1e-12, "{runout}");
 }
 
 /// A read-noise-dominated pixel noise whose shot part still shows (paper below the white clip,

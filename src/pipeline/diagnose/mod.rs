@@ -254,8 +254,13 @@ pub struct Ranked {
 /// ([`crate::diagnose::fit_noise`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refit {
-    /// The values the second fit found (in [`Effect::params`] order), on `seeds`.
-    Done { seeds: Vec<u64>, values: Vec<f64> },
+    /// The values the second fit found (in [`Effect::params`] order), on `seeds`, and the first
+    /// fit's ± before they were widened.
+    Done {
+        seeds: Vec<u64>,
+        values: Vec<f64>,
+        stds_before: Vec<f64>,
+    },
     /// Not run: the time cap (`--max-minutes`) was reached first.
     TimeCap,
     /// The second fit failed; the first fit's ± stand without it.
@@ -696,6 +701,7 @@ pub fn diagnose_with(
                     Ok(second) => {
                         candidate_simulations += second.simulations;
                         let first = &mut ranking[b].evaluated.effects[0];
+                        let stds_before = first.stds.clone();
                         first.stds = crate::diagnose::fit_noise::widened_stds(
                             &first.stds,
                             &first.values,
@@ -704,6 +710,7 @@ pub fn diagnose_with(
                         Refit::Done {
                             seeds: fresh,
                             values: second.values,
+                            stds_before,
                         }
                     }
                     Err(err) => Refit::Failed(err.to_string()),

@@ -101,14 +101,21 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
 /// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`.
 fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
     match refit {
-        Refit::Done { seeds, values } => {
+        Refit::Done {
+            seeds,
+            values,
+            stds_before,
+        } => {
             let mut params = Map::new();
+            let mut before = Map::new();
             if let Some(f) = e.effects.first() {
-                for (spec, v) in f.effect.params().iter().zip(values) {
+                for ((spec, v), s) in f.effect.params().iter().zip(values).zip(stds_before) {
                     params.insert(spec.name.to_string(), json!(v));
+                    let s = if s.is_finite() { json!(s) } else { Value::Null };
+                    before.insert(spec.name.to_string(), s);
                 }
             }
-            json!({"status": "done", "seeds": seeds, "params": params})
+            json!({"status": "done", "seeds": seeds, "params": params, "params_std_first_fit": before})
         }
         Refit::TimeCap => json!({"status": "not_run", "why": "time cap (--max-minutes)"}),
         Refit::Failed(why) => json!({"status": "failed", "why": why}),
@@ -122,7 +129,7 @@ fn refit_text(r: &Ranked) -> String {
     };
     match &r.refit {
         None => String::new(),
-        Some(Refit::Done { seeds, values }) => {
+        Some(Refit::Done { seeds, values, .. }) => {
             let again: Vec<String> = f
                 .effect
                 .params()
