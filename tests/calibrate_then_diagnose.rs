@@ -52,6 +52,8 @@ fn verdict(
     let options = DiagnoseOptions {
         seeds: 4,
         fit_seeds: 2,
+        // The refit on fresh seeds changes only the ±, which this test does not read.
+        refit_best: false,
         effects,
         ..Default::default()
     };

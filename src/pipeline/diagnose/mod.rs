@@ -202,6 +202,9 @@ pub struct DiagnoseOptions {
     pub gap: GapOptions,
     /// Try a second effect when the best single one leaves a significant remainder.
     pub pairs: bool,
+    /// Fit the best single candidate again on fresh seeds and widen its ± by the difference
+    /// ([`crate::diagnose::fit_noise`]); off, its ± do not hold the fit seeds' noise.
+    pub refit_best: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -214,6 +217,7 @@ impl Default for DiagnoseOptions {
             max_minutes: None,
             gap: GapOptions::default(),
             pairs: true,
+            refit_best: true,
         }
     }
 }
@@ -263,6 +267,8 @@ pub enum Refit {
     },
     /// Not run: the time cap (`--max-minutes`) was reached first.
     TimeCap,
+    /// Not run: switched off (`--no-refit`).
+    Off,
     /// The second fit failed; the first fit's ± stand without it.
     Failed(String),
 }
@@ -678,7 +684,9 @@ pub fn diagnose_with(
         // The fit's own noise, measured on the candidate a user reads first: its parameters
         // fitted again on fresh fit seeds. The verdict and the ranking do not change (the
         // values stay the first fit's); only the ± the report states do.
-        if ranking[b].evaluated.effects.len() == 1 {
+        if !options.refit_best && ranking[b].evaluated.effects.len() == 1 {
+            ranking[b].refit = Some(Refit::Off);
+        } else if ranking[b].evaluated.effects.len() == 1 {
             let e = ranking[b].evaluated.effects[0].effect;
             let capped = options
                 .max_minutes

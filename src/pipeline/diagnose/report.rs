@@ -118,6 +118,7 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
             json!({"status": "done", "seeds": seeds, "params": params, "params_std_first_fit": before})
         }
         Refit::TimeCap => json!({"status": "not_run", "why": "time cap (--max-minutes)"}),
+        Refit::Off => json!({"status": "not_run", "why": "switched off (--no-refit)"}),
         Refit::Failed(why) => json!({"status": "failed", "why": why}),
     }
 }
@@ -148,6 +149,11 @@ fn refit_text(r: &Ranked) -> String {
         }
         Some(Refit::TimeCap) => format!(
             "{} was not fitted again on fresh seeds (time cap reached): its ± do not hold the \
+             fit's own seed noise, which can be several times larger.\n\n",
+            f.effect.name()
+        ),
+        Some(Refit::Off) => format!(
+            "{} was not fitted again on fresh seeds (`--no-refit`): its ± do not hold the \
              fit's own seed noise, which can be several times larger.\n\n",
             f.effect.name()
         ),
