@@ -4,7 +4,8 @@
 //! Markdown are masked, nothing else. A merge with a shard missing names the missing candidates
 //! and writes no report. The footage is the self-check's withheld strong pixel noise, 3 s, 2
 //! seeds, diagnosed without pixel noise among the candidates (lighting, compression, optical
-//! blur), so no single candidate explains it and the pair stage runs, at merge time.
+//! blur), so no single candidate explains it and the pair stage runs, at merge time, as does the
+//! best candidate's second fit on fresh seeds.
 
 #![cfg(feature = "opencv-detector")]
 
@@ -132,6 +133,37 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
         );
     }
     assert!(sharded.join("shards/0/manifest.json").is_file());
+
+    // The best candidate (compression here, the pair with lighting in its group) was fitted
+    // again on fresh seeds at merge time, each of its parameters keyed as in its own `params`,
+    // and each stated ± is the first fit's widened by the two fits' difference
+    // (`diagnose::fit_noise`).
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(whole_dir.join("diagnosis.json")).unwrap())
+            .unwrap();
+    let best = &report["ranking"][0];
+    let refit = &best["refit"];
+    assert_eq!(refit["status"], "done", "{best}");
+    let first = best["params"].as_object().unwrap();
+    let again = refit["params"].as_object().unwrap();
+    assert_eq!(
+        first.keys().collect::<Vec<_>>(),
+        again.keys().collect::<Vec<_>>(),
+        "{best}"
+    );
+    for (key, v1) in first {
+        let (Some(v1), Some(v2)) = (v1.as_f64(), again[key].as_f64()) else {
+            panic!("{key}: {best}");
+        };
+        let (Some(stated), Some(before)) = (
+            best["params_std"][key].as_f64(),
+            refit["params_std_first_fit"][key].as_f64(),
+        ) else {
+            continue; // undetermined: stays undetermined
+        };
+        let widened = before.hypot((v1 - v2) / std::f64::consts::SQRT_2);
+        assert!((stated / widened - 1.0).abs() < 1e-12, "{key}: {best}");
+    }
 
     // Shards of other inputs are refused, naming the change.
     let other = DiagnoseOptions {

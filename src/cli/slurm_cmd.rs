@@ -37,6 +37,13 @@ pub struct ScriptArgs {
     /// Candidate effects of the diagnosis (`geneva diagnose --effects`).
     #[arg(long, value_delimiter = ',', requires = "diagnose")]
     pub effects: Option<Vec<String>>,
+    /// Fit seeds of the diagnosis (`geneva diagnose --fit-seeds`; the shards and the merge
+    /// must fit on the same ones).
+    #[arg(long, requires = "diagnose", value_parser = super::diagnose_cmd::parse_fit_seeds)]
+    pub fit_seeds: Option<usize>,
+    /// Skip the merge's second fit of the best candidate (`geneva diagnose --no-refit`).
+    #[arg(long, requires = "diagnose")]
+    pub no_refit: bool,
     /// Output folder of the sweep (shared by all nodes).
     #[arg(long)]
     pub out: PathBuf,
@@ -261,6 +268,12 @@ fn diagnose_job(a: &ScriptArgs, out_q: &str) -> Result<Job> {
     if let Some(seeds) = a.seeds {
         study.push_str(&format!(" --seeds {seeds}"));
     }
+    if let Some(k) = a.fit_seeds {
+        study.push_str(&format!(" --fit-seeds {k}"));
+    }
+    if a.no_refit {
+        study.push_str(" --no-refit");
+    }
     Ok(Job {
         merge: format!("{study} --out {out_q} --merge"),
         study,
@@ -281,6 +294,8 @@ mod tests {
             diagnose: None,
             source: Default::default(),
             effects: None,
+            fit_seeds: None,
+            no_refit: false,
             out: "/data/it's".into(),
             shards: 4,
             partition: Some("gpu".into()),
@@ -339,7 +354,7 @@ mod tests {
         let tracks = tmp.path().join("t.csv");
         std::fs::write(&tracks, "frame,t_s\n").unwrap();
         let t = tracks.to_str().unwrap();
-        let parse = |extra: &[&str]| {
+        let try_parse = |extra: &[&str]| {
             let mut args = vec![
                 "x",
                 "script",
@@ -351,9 +366,12 @@ mod tests {
                 "3",
             ];
             args.extend_from_slice(extra);
-            let SlurmCmd::Script(a) = <T as clap::Parser>::try_parse_from(args).unwrap().cmd;
-            a
+            <T as clap::Parser>::try_parse_from(args).map(|t| {
+                let SlurmCmd::Script(a) = t.cmd;
+                a
+            })
         };
+        let parse = |extra: &[&str]| try_parse(extra).unwrap();
         let a = parse(&[
             "--tracks",
             t,
@@ -361,10 +379,14 @@ mod tests {
             "lighting,pixel_noise",
             "--seeds",
             "4",
+            "--fit-seeds",
+            "5",
+            "--no-refit",
         ]);
         let job = diagnose_job(&a, "'/d'").unwrap();
         let study = format!(
-            "diagnose --scenario 'fast' --tracks '{t}' --effects lighting,pixel_noise --seeds 4"
+            "diagnose --scenario 'fast' --tracks '{t}' --effects lighting,pixel_noise --seeds 4 \
+             --fit-seeds 5 --no-refit"
         );
         assert_eq!(job.study, study);
         assert_eq!(job.merge, format!("{study} --out '/d' --merge"));
@@ -387,6 +409,15 @@ mod tests {
             "{}",
             s[1].1
         );
+        // Left out, the diagnosis's own defaults hold, on the shards and the merge alike.
+        let a = parse(&["--tracks", t]);
+        let job = diagnose_job(&a, "'/d'").unwrap();
+        assert_eq!(
+            job.study,
+            format!("diagnose --scenario 'fast' --tracks '{t}'")
+        );
+        // One fit seed is refused here, as `geneva diagnose` refuses it.
+        assert!(try_parse(&["--tracks", t, "--fit-seeds", "1"]).is_err());
         // Footage that is not there fails here, not on the cluster.
         let a = parse(&["--tracks", "/no/such.csv"]);
         let e = diagnose_job(&a, "'/d'").err().unwrap().to_string();

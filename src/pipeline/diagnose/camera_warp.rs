@@ -183,10 +183,23 @@ pub fn realign_motion(
     if !bends_angle(s) {
         return Ok((s.clone(), None));
     }
+    let wheel = wheel_angles(s, t_s)?;
+    let (out, last, _) = realign_with(s, t_s, theta_rad, screen_sign, wheel)?;
+    Ok((out, last))
+}
+
+/// [`realign_motion`] of an `s` that bends the angle, from `s`'s wheel angles, returning the
+/// result's wheel angles too.
+fn realign_with(
+    s: &Scenario,
+    t_s: &[f64],
+    theta_rad: &[f64],
+    screen_sign: f64,
+    mut wheel: WheelAngles,
+) -> Result<(Scenario, Option<Realigned>, WheelAngles), DiagnoseError> {
     let mut out = s.clone();
     let mut speed_scale = 1.0;
     let mut last = None;
-    let mut wheel = wheel_angles(&out, t_s)?;
     for _ in 0..MOTION_ROUNDS {
         let view = view_of(&out, t_s, &wheel, screen_sign)?;
         let straightened: Vec<f64> = theta_rad
@@ -223,7 +236,39 @@ pub fn realign_motion(
             break;
         }
     }
-    Ok((out, last))
+    Ok((out, last, wheel))
+}
+
+/// The nuisance a trial that bends the angle refits ([`bends_angle`]): `s`'s rotation centre
+/// moved to where the estimator measures `want_centre_px` ([`match_measured_centre`]), its
+/// motion and marker angle refitted to the real angle `theta_rad` ([`realign_motion`]), and the
+/// centre matched again after the motion moved it. The same as those three calls in turn, with
+/// the wheel's angles computed once per motion.
+pub fn refit_nuisance(
+    s: &Scenario,
+    want_centre_px: [f64; 2],
+    t_s: &[f64],
+    theta_rad: &[f64],
+    screen_sign: f64,
+) -> Result<Scenario, DiagnoseError> {
+    let wheel = wheel_angles(s, t_s)?;
+    let centred = centre_at(s, want_centre_px, t_s, &wheel, screen_sign)?;
+    if !bends_angle(&centred) {
+        return centre_at(&centred, want_centre_px, t_s, &wheel, screen_sign);
+    }
+    // The centre does not move the wheel: `wheel` is `centred`'s.
+    let (moved, _, wheel) = realign_with(&centred, t_s, theta_rad, screen_sign, wheel)?;
+    centre_at(&moved, want_centre_px, t_s, &wheel, screen_sign)
+}
+
+/// The rotation centre the estimator measures on `reference`'s exact corners, px: what
+/// [`match_measured_centre`] matches.
+pub fn measured_centre_px(
+    reference: &Scenario,
+    t_s: &[f64],
+    screen_sign: f64,
+) -> Result<[f64; 2], DiagnoseError> {
+    Ok(exact_view(reference, t_s, screen_sign)?.centre_px)
 }
 
 /// The motion refit of [`realign_motion`].
@@ -245,12 +290,23 @@ pub fn match_measured_centre(
     t_s: &[f64],
     screen_sign: f64,
 ) -> Result<Scenario, DiagnoseError> {
-    let want = exact_view(reference, t_s, screen_sign)?.centre_px;
+    let want = measured_centre_px(reference, t_s, screen_sign)?;
+    centre_at(s, want, t_s, &wheel_angles(s, t_s)?, screen_sign)
+}
+
+/// `s` with its rotation centre's image moved so that the estimator measures `want` px on its
+/// exact corners, `wheel` being `s`'s wheel angles.
+fn centre_at(
+    s: &Scenario,
+    want: [f64; 2],
+    t_s: &[f64],
+    wheel: &WheelAngles,
+    screen_sign: f64,
+) -> Result<Scenario, DiagnoseError> {
     let mut out = s.clone();
     // Only the rotation centre's image moves between rounds: the wheel's angles stay.
-    let wheel = wheel_angles(s, t_s)?;
     for _ in 0..CENTRE_ROUNDS {
-        let got = view_of(&out, t_s, &wheel, screen_sign)?.centre_px;
+        let got = view_of(&out, t_s, wheel, screen_sign)?.centre_px;
         if (got[0] - want[0]).hypot(got[1] - want[1]) < CENTRE_TOLERANCE_PX {
             break;
         }

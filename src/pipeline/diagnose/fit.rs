@@ -26,7 +26,7 @@ use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
-use std::cell::RefCell;
+use std::cell::{OnceCell, RefCell};
 
 mod noise;
 pub use noise::{
@@ -110,6 +110,10 @@ pub struct Fitter<'a> {
     pub gap_options: GapOptions,
     /// Simulations run so far, the nominal's included (for the report).
     pub simulations: RefCell<usize>,
+    /// The rotation centre the estimator measures on `base`'s exact corners, px: what every
+    /// trial that refits its nuisance matches (computed at the first such trial, shared with
+    /// forks made after it).
+    base_centre_px: OnceCell<[f64; 2]>,
 }
 
 /// One trial's two objectives, from the same simulations. The searches minimise `sum_z2`, Σ z²
@@ -422,6 +426,7 @@ impl<'a> Fitter<'a> {
             eval_seeds,
             gap_options,
             simulations,
+            base_centre_px: OnceCell::new(),
         })
     }
 
@@ -462,16 +467,30 @@ impl<'a> Fitter<'a> {
             eval_seeds: self.eval_seeds.clone(),
             gap_options: self.gap_options,
             simulations: RefCell::new(0),
+            base_centre_px: self.base_centre_px.clone(),
         }
     }
 
-    /// `e` alone fitted again as [`Fitter::fit`] does, on `seeds` instead of the fit seeds (on
-    /// a fork): what the fitted values owe to the fit seeds' realisation
-    /// ([`crate::diagnose::fit_noise`]). The runout form's refined phase is the first fit's.
-    pub fn refit_on_seeds(&self, e: Effect, seeds: &[u64]) -> Result<Fitted, DiagnoseError> {
+    /// A candidate fitted again as the diagnosis fitted it, on `seeds` instead of the fit seeds
+    /// (on a fork): what the fitted values owe to the fit seeds' realisation
+    /// ([`crate::diagnose::fit_noise`]). The first effect is fitted alone and each next one
+    /// beside the ones before it, at their refitted values, as the pair stage does. The runout
+    /// form's refined phase is the first fit's.
+    pub fn refit_on_seeds(
+        &self,
+        effects: &[Effect],
+        seeds: &[u64],
+    ) -> Result<Vec<Fitted>, DiagnoseError> {
         let mut fork = self.fork();
         fork.fit_seeds = seeds.to_vec();
-        fork.fit(e, &[])
+        let mut prior: Vec<(Effect, Vec<f64>)> = Vec::new();
+        let mut refitted = Vec::with_capacity(effects.len());
+        for &e in effects {
+            let f = fork.fit(e, &prior)?;
+            prior.push((e, f.values.clone()));
+            refitted.push(f);
+        }
+        Ok(refitted)
     }
 
     /// One candidate alone: fitted, then judged on the evaluation seeds (on a fork), with the
@@ -599,14 +618,19 @@ impl<'a> Fitter<'a> {
             // motion absorbs the same part of its own bend, and the same footage gave −0.256.
             // A clearance or coasting wheel too: the nominal's alignment took the wheel's late
             // start for crank phase (55 mrad at 0.5 mm), and a trial that kept it added its own
-            // delay. Refitted, the 0.5 mm clearance still came out 11–16 % low on three seeds
-            // (`reports/diagnosis-stop37/`): that bias has another cause.
+            // delay. (Refitted, the 0.5 mm clearance still came out 11–16 % low on three seeds
+            // in `reports/diagnosis-stop37/`: the self-check's shared fit seeds, not this
+            // refit; `reports/diagnosis-stop38/`.)
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
-            let base = &self.base.scenario;
-            let centred = camera_warp::match_measured_centre(&t.scenario, base, td, sign)?;
-            let (moved, _) = camera_warp::realign_motion(&centred, td, th, sign)?;
-            t.scenario = camera_warp::match_measured_centre(&moved, base, td, sign)?;
+            let want_px = match self.base_centre_px.get() {
+                Some(c) => *c,
+                None => {
+                    let c = camera_warp::measured_centre_px(&self.base.scenario, td, sign)?;
+                    *self.base_centre_px.get_or_init(|| c)
+                }
+            };
+            t.scenario = camera_warp::refit_nuisance(&t.scenario, want_px, td, th, sign)?;
         }
         Ok(t)
     }

@@ -202,7 +202,7 @@ pub struct DiagnoseOptions {
     pub gap: GapOptions,
     /// Try a second effect when the best single one leaves a significant remainder.
     pub pairs: bool,
-    /// Fit the best single candidate again on fresh seeds and widen its ± by the difference
+    /// Fit the best candidate again on fresh seeds and widen its ± by the difference
     /// ([`crate::diagnose::fit_noise`]); off, its ± do not hold the fit seeds' noise.
     pub refit_best: bool,
 }
@@ -249,8 +249,8 @@ pub struct Ranked {
     pub group: Vec<String>,
     /// Per-cell shrink for the cells with a gap.
     pub cell_shrink: Vec<(crate::diagnose::cells::CellKey, f64)>,
-    /// The second fit on fresh seeds that measured the fit's own noise (the best single
-    /// candidate only; its stated ± include it).
+    /// The second fit on fresh seeds that measured the fit's own noise (the best candidate
+    /// only, single or pair; its stated ± include it).
     pub refit: Option<Refit>,
 }
 
@@ -258,12 +258,12 @@ pub struct Ranked {
 /// ([`crate::diagnose::fit_noise`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refit {
-    /// The values the second fit found (in [`Effect::params`] order), on `seeds`, and the first
-    /// fit's ± before they were widened.
+    /// The values the second fit found, on `seeds`, and the first fit's ± before they were
+    /// widened: one list per effect of the candidate, in [`Effect::params`] order.
     Done {
         seeds: Vec<u64>,
-        values: Vec<f64>,
-        stds_before: Vec<f64>,
+        values: Vec<Vec<f64>>,
+        stds_before: Vec<Vec<f64>>,
     },
     /// Not run: the time cap (`--max-minutes`) was reached first.
     TimeCap,
@@ -684,47 +684,26 @@ pub fn diagnose_with(
         // The fit's own noise, measured on the candidate a user reads first: its parameters
         // fitted again on fresh fit seeds. The verdict and the ranking do not change (the
         // values stay the first fit's); only the ± the report states do.
-        if !options.refit_best && ranking[b].evaluated.effects.len() == 1 {
-            ranking[b].refit = Some(Refit::Off);
-        } else if ranking[b].evaluated.effects.len() == 1 {
-            let e = ranking[b].evaluated.effects[0].effect;
-            let capped = options
-                .max_minutes
-                .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0);
-            ranking[b].refit = Some(if capped {
-                Refit::TimeCap
-            } else {
-                progress(
-                    &format!(
-                        "refitting {} on fresh seeds (the fit's own noise)",
-                        e.name()
-                    ),
-                    0,
-                    1,
-                );
-                let fresh: Vec<u64> = (0..fit_seeds.len() as u64)
-                    .map(|k| nominal.seed.wrapping_add(REFIT_SEED_OFFSET + k))
-                    .collect();
-                match fitter.refit_on_seeds(e, &fresh) {
-                    Ok(second) => {
-                        candidate_simulations += second.simulations;
-                        let first = &mut ranking[b].evaluated.effects[0];
-                        let stds_before = first.stds.clone();
-                        first.stds = crate::diagnose::fit_noise::widened_stds(
-                            &first.stds,
-                            &first.values,
-                            &second.values,
-                        );
-                        Refit::Done {
-                            seeds: fresh,
-                            values: second.values,
-                            stds_before,
-                        }
-                    }
-                    Err(err) => Refit::Failed(err.to_string()),
-                }
-            });
-        }
+        let capped = options
+            .max_minutes
+            .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0);
+        let (refit, simulations) = if !options.refit_best {
+            (Refit::Off, 0)
+        } else if capped {
+            (Refit::TimeCap, 0)
+        } else {
+            progress(
+                &format!(
+                    "refitting {} on fresh seeds (the fit's own noise)",
+                    candidate_name(&ranking[b].evaluated)
+                ),
+                0,
+                1,
+            );
+            refit_on_fresh_seeds(&fitter, &mut ranking[b], nominal.seed, fit_seeds.len())
+        };
+        candidate_simulations += simulations;
+        ranking[b].refit = Some(refit);
     }
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
@@ -767,6 +746,51 @@ pub fn diagnose_with(
 /// +1000…, the fit seeds +2000…).
 const REFIT_SEED_OFFSET: u64 = 3000;
 
+/// Fits `best` again on `n` fresh fit seeds and widens each of its stated ± by the two fits'
+/// difference ([`crate::diagnose::fit_noise::widened_stds`]); its values stay the first fit's.
+/// Returns what the refit found and the simulations it ran. A failure is reported, not raised:
+/// the first fit stands.
+fn refit_on_fresh_seeds(
+    fitter: &Fitter,
+    best: &mut Ranked,
+    nominal_seed: u64,
+    n: usize,
+) -> (Refit, usize) {
+    let fresh: Vec<u64> = (0..n as u64)
+        .map(|k| nominal_seed.wrapping_add(REFIT_SEED_OFFSET + k))
+        .collect();
+    let effects: Vec<Effect> = best.evaluated.effects.iter().map(|f| f.effect).collect();
+    match fitter.refit_on_seeds(&effects, &fresh) {
+        Ok(second) => {
+            let simulations = second.iter().map(|f| f.simulations).sum();
+            (
+                widen_by_refit(&mut best.evaluated, fresh, second),
+                simulations,
+            )
+        }
+        Err(err) => (Refit::Failed(err.to_string()), 0),
+    }
+}
+
+/// Widens each effect's stated ± of `first` by its difference from `second`, the same
+/// candidate fitted on `seeds`, and returns what the refit found.
+fn widen_by_refit(first: &mut Evaluated, seeds: Vec<u64>, second: Vec<fit::Fitted>) -> Refit {
+    let mut values = Vec::with_capacity(second.len());
+    let mut stds_before = Vec::with_capacity(second.len());
+    for (first, second) in first.effects.iter_mut().zip(second) {
+        debug_assert_eq!(first.effect, second.effect);
+        stds_before.push(first.stds.clone());
+        first.stds =
+            crate::diagnose::fit_noise::widened_stds(&first.stds, &first.values, &second.values);
+        values.push(second.values);
+    }
+    Refit::Done {
+        seeds,
+        values,
+        stds_before,
+    }
+}
+
 /// Name of a candidate: `a` or `a+b`.
 pub fn candidate_name(e: &Evaluated) -> String {
     e.effects
@@ -801,4 +825,80 @@ fn sort_ranking(d0: f64, ranking: &mut Vec<Ranked>) {
     let order = verdict::rank(d0, &outcomes);
     let mut sorted: Vec<Ranked> = order.iter().map(|&i| ranking[i].clone()).collect();
     std::mem::swap(ranking, &mut sorted);
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// `effect` fitted at `values` ± `stds`, as a candidate's fit reports it.
+    pub(crate) fn fitted(effect: Effect, values: Vec<f64>, stds: Vec<f64>) -> fit::Fitted {
+        assert_eq!(values.len(), effect.params().len());
+        fit::Fitted {
+            effect,
+            values,
+            stds,
+            method: "by hand".into(),
+            simulations: 0,
+            runout_form: None,
+        }
+    }
+
+    /// A candidate of these fits, with no gap left.
+    pub(crate) fn evaluated(effects: Vec<fit::Fitted>) -> Evaluated {
+        let params = effects.iter().map(|f| f.values.len()).sum();
+        Evaluated {
+            effects,
+            gap: GapMap {
+                cells: Vec::new(),
+                total: 0.0,
+                options: GapOptions::default(),
+            },
+            outcome: Outcome {
+                remaining: 0.0,
+                params,
+                significant_left: 0,
+            },
+        }
+    }
+
+    #[test]
+    fn a_pairs_refit_widens_each_effects_stated_sd_by_its_own_difference() {
+        let noise = Effect::PixelNoise;
+        let n = noise.params().len();
+        assert!(n >= 2);
+        let noise_values: Vec<f64> = (0..n).map(|i| 100.0 + i as f64).collect();
+        let mut noise_stds = vec![3.0; n];
+        noise_stds[1] = f64::INFINITY;
+        let mut first = evaluated(vec![
+            fitted(Effect::Backlash, vec![0.5], vec![0.01]),
+            fitted(noise, noise_values.clone(), noise_stds.clone()),
+        ]);
+        let noise_again: Vec<f64> = noise_values.iter().map(|v| v + 4.0).collect();
+        let second = vec![
+            fitted(Effect::Backlash, vec![0.53], vec![0.02]),
+            fitted(noise, noise_again.clone(), vec![1.0; n]),
+        ];
+        let refit = widen_by_refit(&mut first, vec![3007, 3008], second);
+        let Refit::Done {
+            seeds,
+            values,
+            stds_before,
+        } = refit
+        else {
+            panic!("{refit:?}")
+        };
+        assert_eq!(seeds, vec![3007, 3008]);
+        assert_eq!(values, vec![vec![0.53], noise_again]);
+        assert_eq!(stds_before, vec![vec![0.01], noise_stds]);
+        // The values stay the first fit's; each ± is widened by its own effect's difference.
+        assert_eq!(first.effects[0].values, vec![0.5]);
+        assert_eq!(first.effects[1].values, noise_values);
+        let backlash = 0.01_f64.hypot(0.03 / std::f64::consts::SQRT_2);
+        assert!((first.effects[0].stds[0] / backlash - 1.0).abs() < 1e-12);
+        let noise_sd = 3.0_f64.hypot(4.0 / std::f64::consts::SQRT_2);
+        assert!((first.effects[1].stds[0] / noise_sd - 1.0).abs() < 1e-12);
+        // A parameter the footage does not determine stays undetermined.
+        assert_eq!(first.effects[1].stds[1], f64::INFINITY);
+    }
 }

@@ -98,7 +98,8 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     entry
 }
 
-/// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`.
+/// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`, its parameters keyed
+/// as the entry's own `params` are (`name`, or `effect.name` for a pair).
 fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
     match refit {
         Refit::Done {
@@ -106,13 +107,19 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
             values,
             stds_before,
         } => {
+            let single = e.effects.len() == 1;
             let mut params = Map::new();
             let mut before = Map::new();
-            if let Some(f) = e.effects.first() {
-                for ((spec, v), s) in f.effect.params().iter().zip(values).zip(stds_before) {
-                    params.insert(spec.name.to_string(), json!(v));
+            for ((f, values), stds) in e.effects.iter().zip(values).zip(stds_before) {
+                for ((spec, v), s) in f.effect.params().iter().zip(values).zip(stds) {
+                    let key = if single {
+                        spec.name.to_string()
+                    } else {
+                        format!("{}.{}", f.effect.name(), spec.name)
+                    };
+                    params.insert(key.clone(), json!(v));
                     let s = if s.is_finite() { json!(s) } else { Value::Null };
-                    before.insert(spec.name.to_string(), s);
+                    before.insert(key, s);
                 }
             }
             json!({"status": "done", "seeds": seeds, "params": params, "params_std_first_fit": before})
@@ -125,43 +132,47 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
 
 /// What the best candidate's refit on fresh seeds says, in words (empty when none was tried).
 fn refit_text(r: &Ranked) -> String {
-    let Some(f) = r.evaluated.effects.first() else {
-        return String::new();
-    };
+    let name = candidate_name(&r.evaluated);
+    let not_held = "its ± do not hold the fit's own seed noise, which can be several times larger";
     match &r.refit {
         None => String::new(),
         Some(Refit::Done { seeds, values, .. }) => {
-            let again: Vec<String> = f
-                .effect
-                .params()
+            let again: Vec<String> = r
+                .evaluated
+                .effects
                 .iter()
                 .zip(values)
-                .map(|(p, v)| format!("{} = {} {}", p.name, fmt(*v), p.unit))
+                .flat_map(|(f, values)| {
+                    f.effect
+                        .params()
+                        .iter()
+                        .zip(values)
+                        .map(|(p, v)| format!("{} = {} {}", p.name, fmt(*v), p.unit))
+                        .collect::<Vec<_>>()
+                })
                 .collect();
+            let how = if r.evaluated.effects.len() > 1 {
+                " (the first effect alone, the second beside it, as the pair was fitted)"
+            } else {
+                ""
+            };
             format!(
-                "Fitted again on {} fresh simulation seeds, {} gave {}; its ± include the \
-                 difference (the fit's own seed noise; the values above are the first fit's, \
-                 which the ranking judged).\n\n",
+                "Fitted again on {} fresh simulation seeds{how}, {name} gave {}; its ± include \
+                 the difference (the fit's own seed noise; the values above are the first \
+                 fit's, which the ranking judged).\n\n",
                 seeds.len(),
-                f.effect.name(),
                 again.join(", ")
             )
         }
         Some(Refit::TimeCap) => format!(
-            "{} was not fitted again on fresh seeds (time cap reached): its ± do not hold the \
-             fit's own seed noise, which can be several times larger.\n\n",
-            f.effect.name()
+            "{name} was not fitted again on fresh seeds (time cap reached): {not_held}.\n\n"
         ),
-        Some(Refit::Off) => format!(
-            "{} was not fitted again on fresh seeds (`--no-refit`): its ± do not hold the \
-             fit's own seed noise, which can be several times larger.\n\n",
-            f.effect.name()
-        ),
-        Some(Refit::Failed(why)) => format!(
-            "Fitting {} again on fresh seeds failed ({why}): its ± do not hold the fit's own \
-             seed noise.\n\n",
-            f.effect.name()
-        ),
+        Some(Refit::Off) => {
+            format!("{name} was not fitted again on fresh seeds (`--no-refit`): {not_held}.\n\n")
+        }
+        Some(Refit::Failed(why)) => {
+            format!("Fitting {name} again on fresh seeds failed ({why}): {not_held}.\n\n")
+        }
     }
 }
 
@@ -767,4 +778,73 @@ pub fn write(
     files.insert(0, md_path);
     files.insert(0, json_path);
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::diagnose::tests::{evaluated, fitted};
+    use crate::scenario::effects::Effect;
+
+    fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
+        Ranked {
+            evaluated: evaluated(effects),
+            shrink: 1.0,
+            score: 1.0,
+            group: Vec::new(),
+            cell_shrink: Vec::new(),
+            refit: Some(refit),
+        }
+    }
+
+    #[test]
+    fn a_refit_is_keyed_as_its_candidates_own_params_single_or_pair() {
+        let noise = Effect::PixelNoise;
+        let n = noise.params().len();
+        let pair = ranked(
+            vec![
+                fitted(Effect::Backlash, vec![0.5], vec![0.01]),
+                fitted(noise, vec![100.0; n], vec![f64::INFINITY; n]),
+            ],
+            Refit::Done {
+                seeds: vec![3007, 3008],
+                values: vec![vec![0.53], vec![104.0; n]],
+                stds_before: vec![vec![0.01], vec![f64::INFINITY; n]],
+            },
+        );
+        let json = ranked_json(&pair, 15.0);
+        let own: Vec<&String> = json["params"].as_object().unwrap().keys().collect();
+        let refit = &json["refit"];
+        let again: Vec<&String> = refit["params"].as_object().unwrap().keys().collect();
+        assert_eq!(own, again, "{json}");
+        assert!(own.iter().any(|k| *k == "backlash.clearance_mm"), "{json}");
+        assert_eq!(refit["params"]["backlash.clearance_mm"], 0.53, "{json}");
+        assert_eq!(refit["params_std_first_fit"]["backlash.clearance_mm"], 0.01);
+        assert!(refit["params_std_first_fit"]["pixel_noise.full_well_e"].is_null());
+        let text = refit_text(&pair);
+        assert!(
+            text.contains("backlash+pixel_noise gave clearance_mm = "),
+            "{text}"
+        );
+        assert!(text.contains("as the pair was fitted"), "{text}");
+
+        let single = ranked(
+            vec![fitted(Effect::Backlash, vec![0.5], vec![0.01])],
+            Refit::Done {
+                seeds: vec![3007, 3008],
+                values: vec![vec![0.53]],
+                stds_before: vec![vec![0.01]],
+            },
+        );
+        let json = ranked_json(&single, 15.0);
+        assert_eq!(json["refit"]["params"]["clearance_mm"], 0.53, "{json}");
+        assert!(!refit_text(&single).contains("pair"));
+        // Not run: the report says its ± do not hold the seed noise, naming the candidate.
+        let off = ranked(
+            vec![fitted(Effect::Backlash, vec![0.5], vec![0.01])],
+            Refit::Off,
+        );
+        assert!(refit_text(&off).contains("backlash was not fitted again"));
+        assert!(refit_text(&off).contains("do not hold"));
+    }
 }
