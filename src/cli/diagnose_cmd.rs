@@ -33,7 +33,8 @@ pub struct DiagnoseArgs {
     escalate_seeds: usize,
     /// Simulated seeds per objective evaluation in the candidate fits (at least 2): more cost
     /// time in proportion and make the fitted values less dependent on the fit's own noise
-    /// (a 0.5 mm clearance came out 0.43 mm on 2 and 0.49 mm on 3 from the same footage).
+    /// (on one footage of a 0.5 mm clearance, three sets of 2 seeds gave 0.43–0.49 mm and five
+    /// sets of 3 gave 0.46–0.53 mm, sd 0.024).
     #[arg(long, default_value_t = DiagnoseOptions::default().fit_seeds, value_parser = parse_fit_seeds)]
     fit_seeds: usize,
     /// Do not fit the best candidate again on fresh seeds (faster by about one fit; its stated
