@@ -344,7 +344,8 @@ mod tests {
     }
 
     #[test]
-    fn a_diagnosis_runs_its_candidate_fits_as_shards_and_merges_with_the_same_arguments() {
+    fn a_diagnosis_runs_its_candidate_fits_as_shards_and_merges_with_the_same_arguments(
+    ) -> Result<()> {
         #[derive(clap::Parser)]
         struct T {
             #[command(subcommand)]
@@ -371,8 +372,7 @@ mod tests {
                 a
             })
         };
-        let parse = |extra: &[&str]| try_parse(extra).unwrap();
-        let a = parse(&[
+        let a = try_parse(&[
             "--tracks",
             t,
             "--effects",
@@ -382,8 +382,8 @@ mod tests {
             "--fit-seeds",
             "5",
             "--no-refit",
-        ]);
-        let job = diagnose_job(&a, "'/d'").unwrap();
+        ])?;
+        let job = diagnose_job(&a, "'/d'")?;
         let study = format!(
             "diagnose --scenario 'fast' --tracks '{t}' --effects lighting,pixel_noise --seeds 4 \
              --fit-seeds 5 --no-refit"
@@ -410,8 +410,8 @@ mod tests {
             s[1].1
         );
         // Left out, the diagnosis's own defaults hold, on the shards and the merge alike.
-        let a = parse(&["--tracks", t]);
-        let job = diagnose_job(&a, "'/d'").unwrap();
+        let a = try_parse(&["--tracks", t])?;
+        let job = diagnose_job(&a, "'/d'")?;
         assert_eq!(
             job.study,
             format!("diagnose --scenario 'fast' --tracks '{t}'")
@@ -419,8 +419,9 @@ mod tests {
         // One fit seed is refused here, as `geneva diagnose` refuses it.
         assert!(try_parse(&["--tracks", t, "--fit-seeds", "1"]).is_err());
         // Footage that is not there fails here, not on the cluster.
-        let a = parse(&["--tracks", "/no/such.csv"]);
+        let a = try_parse(&["--tracks", "/no/such.csv"])?;
         let e = diagnose_job(&a, "'/d'").err().unwrap().to_string();
         assert!(e.contains("/no/such.csv"), "{e}");
+        Ok(())
     }
 }

@@ -496,32 +496,34 @@ mod tests {
     /// for bit, for a trial that refits through its dynamics (a 0.5 mm clearance), through its
     /// camera (a tilt) and one that bends nothing (only the centre moves).
     #[test]
-    fn refitting_the_nuisance_at_once_is_the_three_steps_in_turn() {
-        let reference = crate::scenario::load_any("fast").unwrap();
+    fn refitting_the_nuisance_at_once_is_the_three_steps_in_turn(
+    ) -> Result<(), Box<dyn std::error::Error>> {
+        let reference = crate::scenario::load_any("fast")?;
         let mut clearance = reference.clone();
         Effect::Backlash.apply(&mut clearance, &[0.5]);
         let t: Vec<f64> = (0..60).map(|k| k as f64 / 30.0).collect();
         let sign = super::super::nominal::screen_sign(&{
-            let camera = Camera::new(&reference.camera).unwrap();
-            Scene::new(&reference.scene, camera).unwrap()
+            let camera = Camera::new(&reference.camera)?;
+            Scene::new(&reference.scene, camera)?
         });
         for truth in [clearance, tilted(20.0), reference.clone()] {
             let mut moving = truth.clone();
             moving.mechanism.theta1_start_rad = Some(2.0);
             moving.scene.marker.angle_on_disc_deg += 4.0;
-            let theta = exact_view(&moving, &t, sign).unwrap().measured_rad;
+            let theta = exact_view(&moving, &t, sign)?.measured_rad;
             let mut trial = truth.clone();
             let c = trial.camera.image_centre_px();
             trial.camera.rotation_centre_px = Some([c[0] + 3.0, c[1] - 2.0]);
 
-            let centred = match_measured_centre(&trial, &reference, &t, sign).unwrap();
-            let (moved, _) = realign_motion(&centred, &t, &theta, sign).unwrap();
-            let in_turn = match_measured_centre(&moved, &reference, &t, sign).unwrap();
-            let want = measured_centre_px(&reference, &t, sign).unwrap();
-            let at_once = refit_nuisance(&trial, want, &t, &theta, sign).unwrap();
+            let centred = match_measured_centre(&trial, &reference, &t, sign)?;
+            let (moved, _) = realign_motion(&centred, &t, &theta, sign)?;
+            let in_turn = match_measured_centre(&moved, &reference, &t, sign)?;
+            let want = measured_centre_px(&reference, &t, sign)?;
+            let at_once = refit_nuisance(&trial, want, &t, &theta, sign)?;
             assert_eq!(at_once, in_turn);
             assert_ne!(at_once, trial, "the refit moved nothing");
         }
+        Ok(())
     }
 
     /// The registry's [`Effect::bends_the_aligned_angle`] (which trials refit their motion) and

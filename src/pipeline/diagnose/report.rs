@@ -47,27 +47,19 @@ fn cell_json(c: &CellGap, nyquist_hz: f64) -> Value {
 
 fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     let e = &r.evaluated;
-    let single = e.effects.len() == 1;
-    let mut params = Map::new();
-    let mut stds = Map::new();
-    for f in &e.effects {
-        for ((spec, v), s) in f.effect.params().iter().zip(&f.values).zip(&f.stds) {
-            let key = if single {
-                spec.name.to_string()
-            } else {
-                format!("{}.{}", f.effect.name(), spec.name)
-            };
-            params.insert(key.clone(), json!(v));
-            stds.insert(key, if s.is_finite() { json!(s) } else { Value::Null });
-        }
-    }
+    let (params, stds) = params_json(
+        e.effects
+            .iter()
+            .map(|f| (f.effect, f.values.as_slice(), f.stds.as_slice())),
+        e.effects.len() == 1,
+    );
     // An axis runout's form, beside its amplitude: the order and phase it took from the
     // footage (not parameters of the vocabulary's effect, so not in `params`).
     let runout_form = e.effects.iter().find_map(|f| f.runout_form).map(|f| {
         json!({
             "cycles_per_wheel_rev": f.cycles_per_wheel_rev,
             "phase_rad": f.phase_rad,
-            "phase_std_rad": if f.phase_std_rad.is_finite() { json!(f.phase_std_rad) } else { Value::Null },
+            "phase_std_rad": sd_json(f.phase_std_rad),
         })
     });
     let cell_shrink: Vec<Value> = r
@@ -98,6 +90,37 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     entry
 }
 
+/// A candidate's parameter values and their ± as `diagnosis.json` keys them: `name` for a
+/// single effect, `effect.name` for a pair (`single` false).
+fn params_json<'v>(
+    per_effect: impl Iterator<Item = (Effect, &'v [f64], &'v [f64])>,
+    single: bool,
+) -> (Map<String, Value>, Map<String, Value>) {
+    let mut params = Map::new();
+    let mut stds = Map::new();
+    for (effect, values, sds) in per_effect {
+        for ((spec, v), s) in effect.params().iter().zip(values).zip(sds) {
+            let key = if single {
+                spec.name.to_string()
+            } else {
+                format!("{}.{}", effect.name(), spec.name)
+            };
+            params.insert(key.clone(), json!(v));
+            stds.insert(key, sd_json(*s));
+        }
+    }
+    (params, stds)
+}
+
+/// A 1-σ uncertainty in `diagnosis.json`: null when the data do not determine the parameter.
+fn sd_json(sd: f64) -> Value {
+    if sd.is_finite() {
+        json!(sd)
+    } else {
+        Value::Null
+    }
+}
+
 /// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`, its parameters keyed
 /// as the entry's own `params` are (`name`, or `effect.name` for a pair).
 fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
@@ -107,21 +130,14 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
             values,
             stds_before,
         } => {
-            let single = e.effects.len() == 1;
-            let mut params = Map::new();
-            let mut before = Map::new();
-            for ((f, values), stds) in e.effects.iter().zip(values).zip(stds_before) {
-                for ((spec, v), s) in f.effect.params().iter().zip(values).zip(stds) {
-                    let key = if single {
-                        spec.name.to_string()
-                    } else {
-                        format!("{}.{}", f.effect.name(), spec.name)
-                    };
-                    params.insert(key.clone(), json!(v));
-                    let s = if s.is_finite() { json!(s) } else { Value::Null };
-                    before.insert(key, s);
-                }
-            }
+            let (params, before) = params_json(
+                e.effects
+                    .iter()
+                    .zip(values)
+                    .zip(stds_before)
+                    .map(|((f, v), s)| (f.effect, v.as_slice(), s.as_slice())),
+                e.effects.len() == 1,
+            );
             json!({"status": "done", "seeds": seeds, "params": params, "params_std_first_fit": before})
         }
         Refit::TimeCap => json!({"status": "not_run", "why": "time cap (--max-minutes)"}),
@@ -784,7 +800,6 @@ pub fn write(
 mod tests {
     use super::*;
     use crate::pipeline::diagnose::tests::{evaluated, fitted};
-    use crate::scenario::effects::Effect;
 
     fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
         Ranked {
@@ -798,7 +813,7 @@ mod tests {
     }
 
     #[test]
-    fn a_refit_is_keyed_as_its_candidates_own_params_single_or_pair() {
+    fn a_refit_is_keyed_as_its_candidates_own_params_single_or_pair() -> Result<(), String> {
         let noise = Effect::PixelNoise;
         let n = noise.params().len();
         let pair = ranked(
@@ -813,9 +828,13 @@ mod tests {
             },
         );
         let json = ranked_json(&pair, 15.0);
-        let own: Vec<&String> = json["params"].as_object().unwrap().keys().collect();
+        let keys = |v: &Value| -> Result<Vec<String>, String> {
+            let map = v.as_object().ok_or_else(|| format!("not an object: {v}"))?;
+            Ok(map.keys().cloned().collect())
+        };
+        let own = keys(&json["params"])?;
         let refit = &json["refit"];
-        let again: Vec<&String> = refit["params"].as_object().unwrap().keys().collect();
+        let again = keys(&refit["params"])?;
         assert_eq!(own, again, "{json}");
         assert!(own.iter().any(|k| *k == "backlash.clearance_mm"), "{json}");
         assert_eq!(refit["params"]["backlash.clearance_mm"], 0.53, "{json}");
@@ -846,5 +865,6 @@ mod tests {
         );
         assert!(refit_text(&off).contains("backlash was not fitted again"));
         assert!(refit_text(&off).contains("do not hold"));
+        Ok(())
     }
 }
