@@ -53,7 +53,7 @@ fn verdict(
         seeds: 4,
         fit_seeds: 2,
         // The refit on fresh seeds changes only the ±, which this test does not read.
-        refit_best: false,
+        refits: 0,
         effects,
         ..Default::default()
     };

@@ -17,6 +17,8 @@ use geneva_vision::scenario::effects::Effect;
 use geneva_vision::shard::Shard;
 use std::path::Path;
 
+mod common;
+
 /// The report with the wall time masked.
 fn masked(dir: &Path, file: &str) -> String {
     let text = std::fs::read_to_string(dir.join(file)).unwrap();
@@ -135,34 +137,17 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
     assert!(sharded.join("shards/0/manifest.json").is_file());
 
     // The best candidate (compression here, the pair with lighting in its group) was fitted
-    // again on fresh seeds at merge time, each of its parameters keyed as in its own `params`,
-    // and each stated ± is the first fit's widened by the two fits' difference
-    // (`diagnose::fit_noise`).
+    // again on two sets of fresh seeds at merge time, each refit's parameters keyed as in its
+    // own `params`, and each stated value and ± pools the three fits (`diagnose::fit_noise`).
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(whole_dir.join("diagnosis.json")).unwrap())
             .unwrap();
     let best = &report["ranking"][0];
-    let refit = &best["refit"];
-    assert_eq!(refit["status"], "done", "{best}");
-    let first = best["params"].as_object().unwrap();
-    let again = refit["params"].as_object().unwrap();
-    assert_eq!(
-        first.keys().collect::<Vec<_>>(),
-        again.keys().collect::<Vec<_>>(),
-        "{best}"
-    );
-    for (key, v1) in first {
-        let (Some(v1), Some(v2)) = (v1.as_f64(), again[key].as_f64()) else {
-            panic!("{key}: {best}");
-        };
-        let (Some(stated), Some(before)) = (
-            best["params_std"][key].as_f64(),
-            refit["params_std_first_fit"][key].as_f64(),
-        ) else {
-            continue; // undetermined: stays undetermined
-        };
-        let widened = before.hypot((v1 - v2) / std::f64::consts::SQRT_2);
-        assert!((stated / widened - 1.0).abs() < 1e-12, "{key}: {best}");
+    assert_eq!(common::check_pooled_refit(best), Ok(2), "{best}");
+    let own: Vec<&String> = best["params"].as_object().unwrap().keys().collect();
+    for run in 0..2 {
+        let again = best["refit"]["runs"][run]["params"].as_object().unwrap();
+        assert_eq!(own, again.keys().collect::<Vec<_>>(), "{best}");
     }
 
     // Shards of other inputs are refused, naming the change.

@@ -1,5 +1,5 @@
 //! `geneva diagnose --scenario NOMINAL (--video F | --frames DIR --timestamps F | --tracks F)
-//! --out DIR [--effects a,b,c] [--seeds N] [--fit-seeds N] [--no-refit] [--max-minutes M] [--shard I/N [--restart] | --merge]`.
+//! --out DIR [--effects a,b,c] [--seeds N] [--fit-seeds N] [--refits N | --no-refit] [--max-minutes M] [--shard I/N [--restart] | --merge]`.
 //! With `--shard I/N` the candidate fits are split across machines (written under
 //! `DIR/shards/I/`); `--merge`, with the same arguments, writes the report a one-machine run
 //! would have written.
@@ -37,8 +37,14 @@ pub struct DiagnoseArgs {
     /// sets of 3 gave 0.46–0.53 mm, sd 0.024).
     #[arg(long, default_value_t = DiagnoseOptions::default().fit_seeds, value_parser = parse_fit_seeds)]
     fit_seeds: usize,
-    /// Do not fit the best candidate again on fresh seeds (faster by about one fit; its stated
-    /// ± then do not hold the fit seeds' own noise, which can be several times larger).
+    /// Fit the best candidate again on this many sets of fresh fit seeds and state the mean of
+    /// all its fits, with the seed noise their spread shows (each refit costs about one fit;
+    /// more make the ± surer: one refit's difference had one degree of freedom and understated
+    /// a drive speed's seed noise about twofold).
+    #[arg(long, default_value_t = DiagnoseOptions::default().refits, conflicts_with = "no_refit")]
+    refits: usize,
+    /// `--refits 0`: the best candidate's values and ± are its first fit's (faster; its ± then
+    /// do not hold the fit seeds' own noise, which can be several times larger).
     #[arg(long)]
     no_refit: bool,
     /// Cap on the candidate search, minutes; what was not tried is reported.
@@ -86,7 +92,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         seeds: a.seeds,
         escalate_seeds: a.escalate_seeds,
         fit_seeds: a.fit_seeds,
-        refit_best: !a.no_refit,
+        refits: if a.no_refit { 0 } else { a.refits },
         effects,
         max_minutes: a.max_minutes,
         ..DiagnoseOptions::default()

@@ -41,7 +41,10 @@ pub struct ScriptArgs {
     /// must fit on the same ones).
     #[arg(long, requires = "diagnose", value_parser = super::diagnose_cmd::parse_fit_seeds)]
     pub fit_seeds: Option<usize>,
-    /// Skip the merge's second fit of the best candidate (`geneva diagnose --no-refit`).
+    /// Refits of the best candidate at merge time (`geneva diagnose --refits`).
+    #[arg(long, requires = "diagnose", conflicts_with = "no_refit")]
+    pub refits: Option<usize>,
+    /// Skip the merge's refits of the best candidate (`geneva diagnose --no-refit`).
     #[arg(long, requires = "diagnose")]
     pub no_refit: bool,
     /// Output folder of the sweep (shared by all nodes).
@@ -271,6 +274,9 @@ fn diagnose_job(a: &ScriptArgs, out_q: &str) -> Result<Job> {
     if let Some(k) = a.fit_seeds {
         study.push_str(&format!(" --fit-seeds {k}"));
     }
+    if let Some(r) = a.refits {
+        study.push_str(&format!(" --refits {r}"));
+    }
     if a.no_refit {
         study.push_str(" --no-refit");
     }
@@ -295,6 +301,7 @@ mod tests {
             source: Default::default(),
             effects: None,
             fit_seeds: None,
+            refits: None,
             no_refit: false,
             out: "/data/it's".into(),
             shards: 4,
@@ -416,6 +423,14 @@ mod tests {
             job.study,
             format!("diagnose --scenario 'fast' --tracks '{t}'")
         );
+        // The refits go to the merge as to the shards (the study line is both's).
+        let a = try_parse(&["--tracks", t, "--refits", "4"])?;
+        let job = diagnose_job(&a, "'/d'")?;
+        assert_eq!(
+            job.study,
+            format!("diagnose --scenario 'fast' --tracks '{t}' --refits 4")
+        );
+        assert!(try_parse(&["--tracks", t, "--refits", "4", "--no-refit"]).is_err());
         // One fit seed is refused here, as `geneva diagnose` refuses it.
         assert!(try_parse(&["--tracks", t, "--fit-seeds", "1"]).is_err());
         // Footage that is not there fails here, not on the cluster.

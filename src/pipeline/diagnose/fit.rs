@@ -475,22 +475,31 @@ impl<'a> Fitter<'a> {
     /// (on a fork): what the fitted values owe to the fit seeds' realisation
     /// ([`crate::diagnose::fit_noise`]). The first effect is fitted alone and each next one
     /// beside the ones before it, at their refitted values, as the pair stage does. The runout
-    /// form's refined phase is the first fit's.
+    /// form's refined phase is the first fit's. Returns the fits, and the simulations run, a
+    /// failed fit's included.
     pub fn refit_on_seeds(
         &self,
         effects: &[Effect],
         seeds: &[u64],
-    ) -> Result<Vec<Fitted>, DiagnoseError> {
+    ) -> (Result<Vec<Fitted>, DiagnoseError>, usize) {
         let mut fork = self.fork();
         fork.fit_seeds = seeds.to_vec();
         let mut prior: Vec<(Effect, Vec<f64>)> = Vec::new();
         let mut refitted = Vec::with_capacity(effects.len());
         for &e in effects {
-            let f = fork.fit(e, &prior)?;
-            prior.push((e, f.values.clone()));
-            refitted.push(f);
+            match fork.fit(e, &prior) {
+                Ok(f) => {
+                    prior.push((e, f.values.clone()));
+                    refitted.push(f);
+                }
+                Err(err) => {
+                    let simulations = *fork.simulations.borrow();
+                    return (Err(err), simulations);
+                }
+            }
         }
-        Ok(refitted)
+        let simulations = *fork.simulations.borrow();
+        (Ok(refitted), simulations)
     }
 
     /// One candidate alone: fitted, then judged on the evaluation seeds (on a fork), with the

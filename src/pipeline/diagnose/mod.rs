@@ -202,9 +202,10 @@ pub struct DiagnoseOptions {
     pub gap: GapOptions,
     /// Try a second effect when the best single one leaves a significant remainder.
     pub pairs: bool,
-    /// Fit the best candidate again on fresh seeds and widen its ± by the difference
-    /// ([`crate::diagnose::fit_noise`]); off, its ± do not hold the fit seeds' noise.
-    pub refit_best: bool,
+    /// Fit the best candidate again on this many sets of fresh fit seeds and state the mean of
+    /// all its fits, with the seed noise their spread shows ([`crate::diagnose::fit_noise`]);
+    /// at 0 its values and ± are the first fit's, and the ± do not hold the fit seeds' noise.
+    pub refits: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -217,10 +218,15 @@ impl Default for DiagnoseOptions {
             max_minutes: None,
             gap: GapOptions::default(),
             pairs: true,
-            refit_best: true,
+            refits: REFITS,
         }
     }
 }
+
+/// Default of [`DiagnoseOptions::refits`]: two refits give the seed noise two degrees of
+/// freedom and the pooled value a third of one fit's seed variance, at two fits' cost (on the
+/// benchmark footage one refit took 10–24 s, `reports/diagnosis-stop39/bench.txt`).
+pub const REFITS: usize = 2;
 
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
 /// strong axis runout, 4 seeds left the angle's low band at z = 4.3–4.8 short of significance on
@@ -254,23 +260,33 @@ pub struct Ranked {
     pub refit: Option<Refit>,
 }
 
-/// A candidate fitted again on fit seeds disjoint from the first fit's
-/// ([`crate::diagnose::fit_noise`]).
+/// A candidate fitted again on sets of fit seeds disjoint from the first fit's and from each
+/// other's ([`crate::diagnose::fit_noise`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refit {
-    /// The values the second fit found, on `seeds`, and the first fit's ± before they were
-    /// widened: one list per effect of the candidate, in [`Effect::params`] order.
+    /// The refits made (at least one), and the first fit's values and ± before they were
+    /// pooled with them: one list per effect of the candidate, in [`Effect::params`] order.
     Done {
-        seeds: Vec<u64>,
-        values: Vec<Vec<f64>>,
+        runs: Vec<RefitRun>,
+        first_values: Vec<Vec<f64>>,
         stds_before: Vec<Vec<f64>>,
+        /// Why fewer refits than asked were made (the time cap, a failed fit), if so.
+        short: Option<String>,
     },
     /// Not run: the time cap (`--max-minutes`) was reached first.
     TimeCap,
-    /// Not run: switched off (`--no-refit`).
+    /// Not run: switched off (`--refits 0`).
     Off,
-    /// The second fit failed; the first fit's ± stand without it.
+    /// The first refit failed; the first fit's values and ± stand without it.
     Failed(String),
+}
+
+/// One refit: its fit seeds, and the values and ± it found, one list per effect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefitRun {
+    pub seeds: Vec<u64>,
+    pub values: Vec<Vec<f64>>,
+    pub stds: Vec<Vec<f64>>,
 }
 
 /// Everything a diagnosis found.
@@ -682,25 +698,25 @@ pub fn diagnose_with(
             .collect();
         ranking[b].group = names;
         // The fit's own noise, measured on the candidate a user reads first: its parameters
-        // fitted again on fresh fit seeds. The verdict and the ranking do not change (the
-        // values stay the first fit's); only the ± the report states do.
-        let capped = options
-            .max_minutes
-            .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0);
-        let (refit, simulations) = if !options.refit_best {
+        // fitted again on fresh fit seeds, and stated as the mean of all its fits. The verdict
+        // and the ranking do not change (they judged the first fit's values); only the values
+        // and ± the report states do.
+        let capped = || {
+            options
+                .max_minutes
+                .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0)
+        };
+        let (refit, simulations) = if options.refits == 0 {
             (Refit::Off, 0)
-        } else if capped {
+        } else if capped() {
             (Refit::TimeCap, 0)
         } else {
-            progress(
-                &format!(
-                    "refitting {} on fresh seeds (the fit's own noise)",
-                    candidate_name(&ranking[b].evaluated)
-                ),
-                0,
-                1,
-            );
-            refit_on_fresh_seeds(&fitter, &mut ranking[b], nominal.seed, fit_seeds.len())
+            let plan = RefitPlan {
+                nominal_seed: nominal.seed,
+                seeds_per_run: fit_seeds.len(),
+                runs: options.refits,
+            };
+            refit_on_fresh_seeds(&fitter, &mut ranking[b], &plan, capped, progress)
         };
         candidate_simulations += simulations;
         ranking[b].refit = Some(refit);
@@ -742,52 +758,101 @@ pub fn diagnose_with(
     Ok(Finished::Diagnosis(Box::new(diagnosis), files))
 }
 
-/// Seeds of the refit on fresh seeds: the nominal's seed plus this (the evaluation seeds take
-/// +1000…, the fit seeds +2000…).
+/// Seeds of the refits on fresh seeds: the nominal's seed plus this (the evaluation seeds take
+/// +1000…, the fit seeds +2000…); refit r takes the r-th block of as many as the fit seeds.
 const REFIT_SEED_OFFSET: u64 = 3000;
 
-/// Fits `best` again on `n` fresh fit seeds and widens each of its stated ± by the two fits'
-/// difference ([`crate::diagnose::fit_noise::widened_stds`]); its values stay the first fit's.
-/// Returns what the refit found and the simulations it ran. A failure is reported, not raised:
-/// the first fit stands.
-fn refit_on_fresh_seeds(
-    fitter: &Fitter,
-    best: &mut Ranked,
+/// How many refits of the best candidate, on how many fresh seeds each.
+struct RefitPlan {
     nominal_seed: u64,
-    n: usize,
-) -> (Refit, usize) {
-    let fresh: Vec<u64> = (0..n as u64)
-        .map(|k| nominal_seed.wrapping_add(REFIT_SEED_OFFSET + k))
-        .collect();
-    let effects: Vec<Effect> = best.evaluated.effects.iter().map(|f| f.effect).collect();
-    match fitter.refit_on_seeds(&effects, &fresh) {
-        Ok(second) => {
-            let simulations = second.iter().map(|f| f.simulations).sum();
-            (
-                widen_by_refit(&mut best.evaluated, fresh, second),
-                simulations,
-            )
-        }
-        Err(err) => (Refit::Failed(err.to_string()), 0),
+    seeds_per_run: usize,
+    runs: usize,
+}
+
+impl RefitPlan {
+    fn seeds(&self, run: usize) -> Vec<u64> {
+        let start = (run * self.seeds_per_run) as u64;
+        (start..start + self.seeds_per_run as u64)
+            .map(|k| self.nominal_seed.wrapping_add(REFIT_SEED_OFFSET + k))
+            .collect()
     }
 }
 
-/// Widens each effect's stated ± of `first` by its difference from `second`, the same
-/// candidate fitted on `seeds`, and returns what the refit found.
-fn widen_by_refit(first: &mut Evaluated, seeds: Vec<u64>, second: Vec<fit::Fitted>) -> Refit {
-    let mut values = Vec::with_capacity(second.len());
-    let mut stds_before = Vec::with_capacity(second.len());
-    for (first, second) in first.effects.iter_mut().zip(second) {
-        debug_assert_eq!(first.effect, second.effect);
-        stds_before.push(first.stds.clone());
-        first.stds =
-            crate::diagnose::fit_noise::widened_stds(&first.stds, &first.values, &second.values);
-        values.push(second.values);
+/// Fits `best` again on `plan.runs` sets of fresh fit seeds and pools its values and ± with
+/// theirs ([`pool_refits`]). Returns what the refits found and the simulations they ran. A
+/// failure is reported, not raised: the fits made before it stand (the first fit alone when
+/// the first refit fails). `capped` is asked before every refit after the first.
+fn refit_on_fresh_seeds(
+    fitter: &Fitter,
+    best: &mut Ranked,
+    plan: &RefitPlan,
+    capped: impl Fn() -> bool,
+    progress: &Progress<'_>,
+) -> (Refit, usize) {
+    let name = candidate_name(&best.evaluated);
+    let effects: Vec<Effect> = best.evaluated.effects.iter().map(|f| f.effect).collect();
+    let mut runs: Vec<(Vec<u64>, Vec<fit::Fitted>)> = Vec::with_capacity(plan.runs);
+    let mut simulations = 0;
+    let mut short = None;
+    for run in 0..plan.runs {
+        if run > 0 && capped() {
+            short = Some(format!(
+                "the time cap (--max-minutes) was reached after {run} of {} refits",
+                plan.runs
+            ));
+            break;
+        }
+        progress(
+            &format!("refitting {name} on fresh seeds (the fit's own noise)"),
+            run,
+            plan.runs,
+        );
+        let seeds = plan.seeds(run);
+        let (fits, sims) = fitter.refit_on_seeds(&effects, &seeds);
+        simulations += sims;
+        match fits {
+            Ok(fits) => runs.push((seeds, fits)),
+            Err(err) if runs.is_empty() => return (Refit::Failed(err.to_string()), simulations),
+            Err(err) => {
+                short = Some(format!("refit {} of {} failed: {err}", run + 1, plan.runs));
+                break;
+            }
+        }
+    }
+    (pool_refits(&mut best.evaluated, runs, short), simulations)
+}
+
+/// Pools each effect's values and ± of `first` with the same candidate's refits on other
+/// seeds (`runs`, at least one; [`crate::diagnose::fit_noise::pooled`]), and returns what the
+/// refits found.
+fn pool_refits(
+    first: &mut Evaluated,
+    runs: Vec<(Vec<u64>, Vec<fit::Fitted>)>,
+    short: Option<String>,
+) -> Refit {
+    let first_values: Vec<Vec<f64>> = first.effects.iter().map(|f| f.values.clone()).collect();
+    let stds_before: Vec<Vec<f64>> = first.effects.iter().map(|f| f.stds.clone()).collect();
+    for (i, f) in first.effects.iter_mut().enumerate() {
+        let refits: Vec<(&[f64], &[f64])> = runs
+            .iter()
+            .filter_map(|(_, fits)| fits.get(i))
+            .inspect(|again| debug_assert_eq!(again.effect, f.effect))
+            .map(|again| (again.values.as_slice(), again.stds.as_slice()))
+            .collect();
+        (f.values, f.stds) = crate::diagnose::fit_noise::pooled((&f.values, &f.stds), &refits);
     }
     Refit::Done {
-        seeds,
-        values,
+        runs: runs
+            .into_iter()
+            .map(|(seeds, fits)| RefitRun {
+                seeds,
+                values: fits.iter().map(|f| f.values.clone()).collect(),
+                stds: fits.into_iter().map(|f| f.stds).collect(),
+            })
+            .collect(),
+        first_values,
         stds_before,
+        short,
     }
 }
 
@@ -863,7 +928,7 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn a_pairs_refit_widens_each_effects_stated_sd_by_its_own_difference() {
+    fn a_pairs_refits_pool_each_effects_values_and_sds_with_its_own_fits() {
         let noise = Effect::PixelNoise;
         let n = noise.params().len();
         assert!(n >= 2);
@@ -874,31 +939,58 @@ pub(crate) mod tests {
             fitted(Effect::Backlash, vec![0.5], vec![0.01]),
             fitted(noise, noise_values.clone(), noise_stds.clone()),
         ]);
-        let noise_again: Vec<f64> = noise_values.iter().map(|v| v + 4.0).collect();
-        let second = vec![
-            fitted(Effect::Backlash, vec![0.53], vec![0.02]),
-            fitted(noise, noise_again.clone(), vec![1.0; n]),
+        let run = |clearance: f64, shift: f64| {
+            let again: Vec<f64> = noise_values.iter().map(|v| v + shift).collect();
+            vec![
+                fitted(Effect::Backlash, vec![clearance], vec![0.02]),
+                fitted(noise, again, vec![1.0; n]),
+            ]
+        };
+        let runs = vec![
+            (vec![3007, 3008], run(0.53, 4.0)),
+            (vec![3009, 3010], run(0.47, 2.0)),
         ];
-        let refit = widen_by_refit(&mut first, vec![3007, 3008], second);
+        let refit = pool_refits(&mut first, runs, None);
         let Refit::Done {
-            seeds,
-            values,
+            runs,
+            first_values,
             stds_before,
+            short,
         } = refit
         else {
             panic!("{refit:?}")
         };
-        assert_eq!(seeds, vec![3007, 3008]);
-        assert_eq!(values, vec![vec![0.53], noise_again]);
+        assert_eq!(runs.len(), 2);
+        assert_eq!(runs[1].seeds, vec![3009, 3010]);
+        assert_eq!(runs[0].values[0], vec![0.53]);
+        assert_eq!(runs[1].stds[1], vec![1.0; n]);
+        assert_eq!(first_values, vec![vec![0.5], noise_values.clone()]);
         assert_eq!(stds_before, vec![vec![0.01], noise_stds]);
-        // The values stay the first fit's; each ± is widened by its own effect's difference.
-        assert_eq!(first.effects[0].values, vec![0.5]);
-        assert_eq!(first.effects[1].values, noise_values);
-        let backlash = 0.01_f64.hypot(0.03 / std::f64::consts::SQRT_2);
-        assert!((first.effects[0].stds[0] / backlash - 1.0).abs() < 1e-12);
-        let noise_sd = 3.0_f64.hypot(4.0 / std::f64::consts::SQRT_2);
-        assert!((first.effects[1].stds[0] / noise_sd - 1.0).abs() < 1e-12);
-        // A parameter the footage does not determine stays undetermined.
-        assert_eq!(first.effects[1].stds[1], f64::INFINITY);
+        assert_eq!(short, None);
+        // Each effect is pooled with its own fits: the mean of three, and
+        // √(mean σ² + sample variance / 3).
+        let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+        let clearance = &first.effects[0];
+        assert!(close(clearance.values[0], 0.5), "{clearance:?}");
+        let want = ((0.01f64.powi(2) + 2.0 * 0.02f64.powi(2)) / 3.0 + 0.0009 / 3.0).sqrt();
+        assert!(close(clearance.stds[0], want), "{clearance:?}");
+        let pixel = &first.effects[1];
+        assert!(close(pixel.values[0], 102.0), "{pixel:?}");
+        let want = ((9.0 + 2.0) / 3.0 + 4.0 / 3.0f64).sqrt();
+        assert!(close(pixel.stds[0], want), "{pixel:?}");
+        // A parameter the footage does not determine stays the first fit's, undetermined.
+        assert_eq!(pixel.values[1], noise_values[1]);
+        assert_eq!(pixel.stds[1], f64::INFINITY);
+    }
+
+    #[test]
+    fn each_refit_takes_its_own_block_of_fresh_seeds() {
+        let plan = RefitPlan {
+            nominal_seed: 7,
+            seeds_per_run: 3,
+            runs: 2,
+        };
+        assert_eq!(plan.seeds(0), vec![3007, 3008, 3009]);
+        assert_eq!(plan.seeds(1), vec![3010, 3011, 3012]);
     }
 }

@@ -121,70 +121,114 @@ fn sd_json(sd: f64) -> Value {
     }
 }
 
-/// The second fit on fresh seeds (`Ranked::refit`) in `diagnosis.json`, its parameters keyed
-/// as the entry's own `params` are (`name`, or `effect.name` for a pair).
+/// The refits on fresh seeds (`Ranked::refit`) in `diagnosis.json`, each one's parameters
+/// keyed as the entry's own `params` are (`name`, or `effect.name` for a pair), beside the
+/// first fit's values and ± that the entry's pooled ones replaced.
 fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
+    let single = e.effects.len() == 1;
+    let keyed = |values: &[Vec<f64>], stds: &[Vec<f64>]| {
+        params_json(
+            e.effects
+                .iter()
+                .zip(values)
+                .zip(stds)
+                .map(|((f, v), s)| (f.effect, v.as_slice(), s.as_slice())),
+            single,
+        )
+    };
     match refit {
         Refit::Done {
-            seeds,
-            values,
+            runs,
+            first_values,
             stds_before,
+            short,
         } => {
-            let (params, before) = params_json(
-                e.effects
-                    .iter()
-                    .zip(values)
-                    .zip(stds_before)
-                    .map(|((f, v), s)| (f.effect, v.as_slice(), s.as_slice())),
-                e.effects.len() == 1,
-            );
-            json!({"status": "done", "seeds": seeds, "params": params, "params_std_first_fit": before})
+            let runs: Vec<Value> = runs
+                .iter()
+                .map(|run| {
+                    let (params, stds) = keyed(&run.values, &run.stds);
+                    json!({"seeds": run.seeds, "params": params, "params_std": stds})
+                })
+                .collect();
+            let (first, before) = keyed(first_values, stds_before);
+            json!({
+                "status": "done",
+                "runs": runs,
+                "params_first_fit": first,
+                "params_std_first_fit": before,
+                "short": short,
+            })
         }
         Refit::TimeCap => json!({"status": "not_run", "why": "time cap (--max-minutes)"}),
-        Refit::Off => json!({"status": "not_run", "why": "switched off (--no-refit)"}),
+        Refit::Off => json!({"status": "not_run", "why": "switched off (--refits 0)"}),
         Refit::Failed(why) => json!({"status": "failed", "why": why}),
     }
 }
 
-/// What the best candidate's refit on fresh seeds says, in words (empty when none was tried).
+/// A candidate's values in words, `name = v unit` (`effect.name` for a pair).
+fn values_text(e: &super::fit::Evaluated, values: &[Vec<f64>]) -> String {
+    let single = e.effects.len() == 1;
+    e.effects
+        .iter()
+        .zip(values)
+        .flat_map(|(f, values)| {
+            f.effect.params().iter().zip(values).map(move |(p, v)| {
+                let name = if single {
+                    p.name.to_string()
+                } else {
+                    format!("{}.{}", f.effect.name(), p.name)
+                };
+                format!("{name} = {} {}", fmt(*v), p.unit)
+            })
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What the best candidate's refits on fresh seeds say, in words (empty when none was tried).
 fn refit_text(r: &Ranked) -> String {
     let name = candidate_name(&r.evaluated);
-    let not_held = "its ± do not hold the fit's own seed noise, which can be several times larger";
+    let not_held = "its values and ± are the first fit's, and its ± do not hold the fit's own \
+                    seed noise, which can be several times larger";
     match &r.refit {
         None => String::new(),
-        Some(Refit::Done { seeds, values, .. }) => {
-            let again: Vec<String> = r
-                .evaluated
-                .effects
+        Some(Refit::Done {
+            runs,
+            first_values,
+            short,
+            ..
+        }) => {
+            let again: Vec<String> = runs
                 .iter()
-                .zip(values)
-                .flat_map(|(f, values)| {
-                    f.effect
-                        .params()
-                        .iter()
-                        .zip(values)
-                        .map(|(p, v)| format!("{} = {} {}", p.name, fmt(*v), p.unit))
-                        .collect::<Vec<_>>()
-                })
+                .map(|run| values_text(&r.evaluated, &run.values))
                 .collect();
             let how = if r.evaluated.effects.len() > 1 {
                 " (the first effect alone, the second beside it, as the pair was fitted)"
             } else {
                 ""
             };
+            let seeds = runs.first().map_or(0, |run| run.seeds.len());
+            let short = short
+                .as_ref()
+                .map(|why| format!(" Fewer refits than asked: {why}."))
+                .unwrap_or_default();
             format!(
-                "Fitted again on {} fresh simulation seeds{how}, {name} gave {}; its ± include \
-                 the difference (the fit's own seed noise; the values above are the first \
-                 fit's, which the ranking judged).\n\n",
-                seeds.len(),
-                again.join(", ")
+                "Fitted again on {} set(s) of {seeds} fresh simulation seeds{how}, {name} gave \
+                 {}. The values and ± above pool all {} fits: their mean, with the footage's \
+                 noise (the fits' mean variance) and the seed noise their spread shows, divided \
+                 by the number of fits. The first fit gave {}; the ranking and the shrink \
+                 judged those.{short}\n\n",
+                runs.len(),
+                again.join("; "),
+                runs.len() + 1,
+                values_text(&r.evaluated, first_values),
             )
         }
         Some(Refit::TimeCap) => format!(
             "{name} was not fitted again on fresh seeds (time cap reached): {not_held}.\n\n"
         ),
         Some(Refit::Off) => {
-            format!("{name} was not fitted again on fresh seeds (`--no-refit`): {not_held}.\n\n")
+            format!("{name} was not fitted again on fresh seeds (`--refits 0`): {not_held}.\n\n")
         }
         Some(Refit::Failed(why)) => {
             format!("Fitting {name} again on fresh seeds failed ({why}): {not_held}.\n\n")
@@ -800,6 +844,7 @@ pub fn write(
 mod tests {
     use super::*;
     use crate::pipeline::diagnose::tests::{evaluated, fitted};
+    use crate::pipeline::diagnose::RefitRun;
 
     fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
         Ranked {
@@ -813,18 +858,24 @@ mod tests {
     }
 
     #[test]
-    fn a_refit_is_keyed_as_its_candidates_own_params_single_or_pair() -> Result<(), String> {
+    fn refits_are_keyed_as_their_candidates_own_params_single_or_pair() -> Result<(), String> {
         let noise = Effect::PixelNoise;
         let n = noise.params().len();
+        let run = |clearance: f64, seeds: Vec<u64>| RefitRun {
+            seeds,
+            values: vec![vec![clearance], vec![104.0; n]],
+            stds: vec![vec![0.02], vec![f64::INFINITY; n]],
+        };
         let pair = ranked(
             vec![
-                fitted(Effect::Backlash, vec![0.5], vec![0.01]),
+                fitted(Effect::Backlash, vec![0.52], vec![0.015]),
                 fitted(noise, vec![100.0; n], vec![f64::INFINITY; n]),
             ],
             Refit::Done {
-                seeds: vec![3007, 3008],
-                values: vec![vec![0.53], vec![104.0; n]],
+                runs: vec![run(0.53, vec![3007, 3008]), run(0.51, vec![3009, 3010])],
+                first_values: vec![vec![0.5], vec![100.0; n]],
                 stds_before: vec![vec![0.01], vec![f64::INFINITY; n]],
+                short: None,
             },
         );
         let json = ranked_json(&pair, 15.0);
@@ -834,30 +885,58 @@ mod tests {
         };
         let own = keys(&json["params"])?;
         let refit = &json["refit"];
-        let again = keys(&refit["params"])?;
-        assert_eq!(own, again, "{json}");
+        for key in ["params_first_fit", "params_std_first_fit"] {
+            assert_eq!(own, keys(&refit[key])?, "{key}: {json}");
+        }
+        for run in 0..2 {
+            assert_eq!(own, keys(&refit["runs"][run]["params"])?, "{json}");
+            assert_eq!(own, keys(&refit["runs"][run]["params_std"])?, "{json}");
+        }
         assert!(own.iter().any(|k| *k == "backlash.clearance_mm"), "{json}");
-        assert_eq!(refit["params"]["backlash.clearance_mm"], 0.53, "{json}");
+        assert_eq!(json["params"]["backlash.clearance_mm"], 0.52, "{json}");
+        assert_eq!(refit["params_first_fit"]["backlash.clearance_mm"], 0.5);
+        assert_eq!(refit["runs"][1]["params"]["backlash.clearance_mm"], 0.51);
+        assert_eq!(refit["runs"][1]["seeds"], json!([3009, 3010]));
         assert_eq!(refit["params_std_first_fit"]["backlash.clearance_mm"], 0.01);
         assert!(refit["params_std_first_fit"]["pixel_noise.full_well_e"].is_null());
+        assert!(refit["short"].is_null());
+        // In words, a pair's parameters carry their effect's name, as in the JSON.
         let text = refit_text(&pair);
-        assert!(
-            text.contains("backlash+pixel_noise gave clearance_mm = "),
-            "{text}"
-        );
-        assert!(text.contains("as the pair was fitted"), "{text}");
+        for want in [
+            "2 set(s) of 2 fresh simulation seeds",
+            "backlash+pixel_noise gave backlash.clearance_mm = 0.53",
+            "; backlash.clearance_mm = 0.51",
+            "pool all 3 fits",
+            "The first fit gave backlash.clearance_mm = 0.5",
+            "as the pair was fitted",
+        ] {
+            assert!(text.contains(want), "{want}: {text}");
+        }
 
         let single = ranked(
-            vec![fitted(Effect::Backlash, vec![0.5], vec![0.01])],
+            vec![fitted(Effect::Backlash, vec![0.515], vec![0.01])],
             Refit::Done {
-                seeds: vec![3007, 3008],
-                values: vec![vec![0.53]],
+                runs: vec![RefitRun {
+                    seeds: vec![3007, 3008],
+                    values: vec![vec![0.53]],
+                    stds: vec![vec![0.01]],
+                }],
+                first_values: vec![vec![0.5]],
                 stds_before: vec![vec![0.01]],
+                short: Some("refit 2 of 2 failed: no detection".into()),
             },
         );
         let json = ranked_json(&single, 15.0);
-        assert_eq!(json["refit"]["params"]["clearance_mm"], 0.53, "{json}");
-        assert!(!refit_text(&single).contains("pair"));
+        assert_eq!(json["refit"]["runs"][0]["params"]["clearance_mm"], 0.53);
+        assert_eq!(json["refit"]["params_first_fit"]["clearance_mm"], 0.5);
+        assert_eq!(json["refit"]["short"], "refit 2 of 2 failed: no detection");
+        let text = refit_text(&single);
+        assert!(!text.contains("pair"), "{text}");
+        assert!(text.contains("gave clearance_mm = 0.53"), "{text}");
+        assert!(
+            text.contains("Fewer refits than asked: refit 2 of 2 failed"),
+            "{text}"
+        );
         // Not run: the report says its ± do not hold the seed noise, naming the candidate.
         let off = ranked(
             vec![fitted(Effect::Backlash, vec![0.5], vec![0.01])],
