@@ -52,7 +52,8 @@ fn verdict(
     let options = DiagnoseOptions {
         seeds: 4,
         fit_seeds: 2,
-        // The refit on fresh seeds changes only the ±, which this test does not read.
+        // The refits on fresh seeds change only the stated values and ±, which this test does
+        // not read (it reads the verdict).
         refits: 0,
         effects,
         ..Default::default()

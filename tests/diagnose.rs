@@ -368,7 +368,7 @@ fn single_case_options() -> DiagnoseOptions {
     DiagnoseOptions {
         seeds: 4,
         fit_seeds: 2,
-        // The refit on fresh seeds costs one more fit; only the runout test asks for it.
+        // Each refit on fresh seeds costs one more fit; only the runout test asks for them.
         refits: 0,
         ..Default::default()
     }
