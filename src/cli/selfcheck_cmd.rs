@@ -65,6 +65,11 @@ pub struct SelfCheckArgs {
     /// that depend more on the fit's own noise than a user's diagnosis does.
     #[arg(long, default_value_t = 2, value_parser = super::diagnose_cmd::parse_fit_seeds)]
     fit_seeds: usize,
+    /// Refits of each case's best candidate on fresh fit seeds, pooled with its first fit
+    /// (`geneva diagnose --refits`; 0: its first fit alone, with ± that do not hold the fit
+    /// seeds' noise).
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::REFITS)]
+    refits: usize,
     /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
     /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).
     #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
@@ -120,6 +125,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         seeds: a.seeds,
         escalate_seeds: a.escalate_seeds,
         fit_seeds: a.fit_seeds,
+        refits: a.refits,
         ..Default::default()
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -668,7 +668,7 @@ impl SelfCheck {
         }
         inputs.insert(
             "options".into(),
-            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "escalate_seeds": options.escalate_seeds, "pairs": options.pairs}),
+            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "refits": options.refits, "escalate_seeds": options.escalate_seeds, "pairs": options.pairs}),
         );
         let manifest = Manifest::new("diagnosis-selfcheck", cases.len(), inputs);
         Self {
@@ -969,7 +969,7 @@ impl SuitePlan {
             "Plan: {} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s), {} null case(s), {} flicker \
              case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
              diagnosis with {} evaluation seeds (raised to {} when a cell misses significance only \
-             for lack of seeds) and {} fit seeds{}.",
+             for lack of seeds) and {} fit seeds, {}{}.",
             self.effects.len(),
             self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
             self.levels.len(),
@@ -1002,6 +1002,13 @@ impl SuitePlan {
             options.seeds,
             options.escalate_seeds,
             options.fit_seeds,
+            match options.refits {
+                0 => "the best candidate stated as its first fit (no refit)".to_string(),
+                r => format!(
+                    "the best candidate refitted on {r} more set(s) of them and stated as the \
+                     pool of its fits"
+                ),
+            },
             options
                 .effects
                 .as_ref()
@@ -1062,6 +1069,33 @@ mod tests {
         assert!(q > 30.0, "quality {q}");
         let first = level_values(Effect::FrameTiming, Level::Weak, fps)[1];
         assert!((first - (1.0 / fps + 0.3 * (0.055 - 1.0 / fps))).abs() < 1e-12);
+    }
+
+    /// The refits of each case's best are in the plan's words and in the suite's fingerprint: a
+    /// suite resumed with other refits is another suite (its stated ± and values differ).
+    #[test]
+    fn a_suites_refits_are_stated_and_fingerprinted() -> Result<(), DiagnoseError> {
+        let base = suite_base(3.0)?;
+        let plan = SuitePlan::quick(Effect::PixelNoise);
+        let suite = |refits| {
+            let options = DiagnoseOptions {
+                refits,
+                ..Default::default()
+            };
+            let text = plan.describe(&base, &options);
+            let check = SelfCheck::new(cases(&base, &plan, &[]), options, text.clone());
+            (text, check.manifest.fingerprint)
+        };
+        let (two, two_print) = suite(2);
+        let (none, none_print) = suite(0);
+        assert!(two.contains("refitted on 2 more set(s)"), "{two}");
+        assert!(
+            none.contains("stated as its first fit (no refit)"),
+            "{none}"
+        );
+        assert_ne!(two_print, none_print);
+        assert_eq!(suite(2).1, two_print);
+        Ok(())
     }
 
     /// A user's rig as the base: a built-in keeps its own length unless one is given, and a
