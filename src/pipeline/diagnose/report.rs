@@ -100,16 +100,22 @@ fn params_json<'v>(
     let mut stds = Map::new();
     for (effect, values, sds) in per_effect {
         for ((spec, v), s) in effect.params().iter().zip(values).zip(sds) {
-            let key = if single {
-                spec.name.to_string()
-            } else {
-                format!("{}.{}", effect.name(), spec.name)
-            };
+            let key = param_key(effect, spec.name, single);
             params.insert(key.clone(), json!(v));
             stds.insert(key, sd_json(*s));
         }
     }
     (params, stds)
+}
+
+/// A parameter's name in `diagnosis.json` and in words: `name` for a single effect,
+/// `effect.name` for a pair (`single` false), so two effects' parameters never read alike.
+fn param_key(effect: Effect, name: &str, single: bool) -> String {
+    if single {
+        name.to_string()
+    } else {
+        format!("{}.{name}", effect.name())
+    }
 }
 
 /// A 1-σ uncertainty in `diagnosis.json`: null when the data do not determine the parameter.
@@ -165,21 +171,30 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
     }
 }
 
-/// A candidate's values in words, `name = v unit` (`effect.name` for a pair).
-fn values_text(e: &super::fit::Evaluated, values: &[Vec<f64>]) -> String {
+/// A candidate's values in words, `name = v ± σ unit` (named as [`param_key`]); no ± where
+/// `stds` has none or the data do not determine the parameter.
+fn values_text(e: &super::fit::Evaluated, values: &[Vec<f64>], stds: &[Vec<f64>]) -> String {
     let single = e.effects.len() == 1;
     e.effects
         .iter()
-        .zip(values)
-        .flat_map(|(f, values)| {
-            f.effect.params().iter().zip(values).map(move |(p, v)| {
-                let name = if single {
-                    p.name.to_string()
-                } else {
-                    format!("{}.{}", f.effect.name(), p.name)
-                };
-                format!("{name} = {} {}", fmt(*v), p.unit)
-            })
+        .enumerate()
+        .flat_map(|(i, f)| {
+            let values = values.get(i).map_or(&[][..], Vec::as_slice);
+            let stds = stds.get(i).map_or(&[][..], Vec::as_slice);
+            f.effect
+                .params()
+                .iter()
+                .zip(values)
+                .enumerate()
+                .map(move |(j, (p, v))| {
+                    let name = param_key(f.effect, p.name, single);
+                    match stds.get(j) {
+                        Some(s) if s.is_finite() => {
+                            format!("{name} = {} ± {} {}", fmt(*v), fmt(*s), p.unit)
+                        }
+                        _ => format!("{name} = {} {}", fmt(*v), p.unit),
+                    }
+                })
         })
         .collect::<Vec<_>>()
         .join(", ")
@@ -200,7 +215,7 @@ fn refit_text(r: &Ranked) -> String {
         }) => {
             let again: Vec<String> = runs
                 .iter()
-                .map(|run| values_text(&r.evaluated, &run.values))
+                .map(|run| values_text(&r.evaluated, &run.values, &[]))
                 .collect();
             let how = if r.evaluated.effects.len() > 1 {
                 " (the first effect alone, the second beside it, as the pair was fitted)"
@@ -221,7 +236,7 @@ fn refit_text(r: &Ranked) -> String {
                 runs.len(),
                 again.join("; "),
                 runs.len() + 1,
-                values_text(&r.evaluated, first_values),
+                values_text(&r.evaluated, first_values, &[]),
             )
         }
         Some(Refit::TimeCap) => format!(
@@ -346,26 +361,12 @@ fn fmt(v: f64) -> String {
     }
 }
 
+/// A candidate's stated values and ± in words ([`values_text`]).
 fn params_text(r: &Ranked) -> String {
-    r.evaluated
-        .effects
-        .iter()
-        .flat_map(|f| {
-            f.effect
-                .params()
-                .iter()
-                .zip(&f.values)
-                .zip(&f.stds)
-                .map(move |((p, v), s)| {
-                    if s.is_finite() {
-                        format!("{} = {} ± {} {}", p.name, fmt(*v), fmt(*s), p.unit)
-                    } else {
-                        format!("{} = {} {}", p.name, fmt(*v), p.unit)
-                    }
-                })
-        })
-        .collect::<Vec<_>>()
-        .join(", ")
+    let e = &r.evaluated;
+    let values: Vec<Vec<f64>> = e.effects.iter().map(|f| f.values.clone()).collect();
+    let stds: Vec<Vec<f64>> = e.effects.iter().map(|f| f.stds.clone()).collect();
+    values_text(e, &values, &stds)
 }
 
 /// `diagnosis.md`.
@@ -913,6 +914,18 @@ mod tests {
             assert!(text.contains(want), "{want}: {text}");
         }
 
+        // The stated values and ±, named the same way; an undetermined parameter without ±.
+        let stated = params_text(&pair);
+        assert!(
+            stated.starts_with("backlash.clearance_mm = 0.5200 ± 0.0150 mm, pixel_noise."),
+            "{stated}"
+        );
+        assert!(
+            stated.contains("pixel_noise.full_well_e = 100.0000 ")
+                && !stated.contains("pixel_noise.full_well_e = 100.0000 ±"),
+            "{stated}"
+        );
+
         let single = ranked(
             vec![fitted(Effect::Backlash, vec![0.515], vec![0.01])],
             Refit::Done {
@@ -933,6 +946,7 @@ mod tests {
         let text = refit_text(&single);
         assert!(!text.contains("pair"), "{text}");
         assert!(text.contains("gave clearance_mm = 0.53"), "{text}");
+        assert_eq!(params_text(&single), "clearance_mm = 0.5150 ± 0.0100 mm");
         assert!(
             text.contains("Fewer refits than asked: refit 2 of 2 failed"),
             "{text}"
