@@ -3,7 +3,7 @@
 //! real and simulated residual curves; written into a staging folder that replaces the output
 //! folder only once everything is written.
 
-use super::fit::Fitter;
+use super::fit::{Evaluated, Fitter};
 use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{candidate_name, nominal, DiagnoseError, Diagnosis, Ranked, Refit};
@@ -47,12 +47,7 @@ fn cell_json(c: &CellGap, nyquist_hz: f64) -> Value {
 
 fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     let e = &r.evaluated;
-    let (params, stds) = params_json(
-        e.effects
-            .iter()
-            .map(|f| (f.effect, f.values.as_slice(), f.stds.as_slice())),
-        e.effects.len() == 1,
-    );
+    let (params, stds) = params_json(e, None);
     // An axis runout's form, beside its amplitude: the order and phase it took from the
     // footage (not parameters of the vocabulary's effect, so not in `params`).
     let runout_form = e.effects.iter().find_map(|f| f.runout_form).map(|f| {
@@ -90,15 +85,32 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     entry
 }
 
-/// A candidate's parameter values and their ± as `diagnosis.json` keys them: `name` for a
-/// single effect, `effect.name` for a pair (`single` false).
-fn params_json<'v>(
-    per_effect: impl Iterator<Item = (Effect, &'v [f64], &'v [f64])>,
-    single: bool,
+/// Values and ± of a candidate's fit, one list per effect in [`Effect::params`] order.
+type PerEffect<'v> = (&'v [Vec<f64>], &'v [Vec<f64>]);
+
+/// Each effect of `e` with the values and ± of `lists` (`None`: the candidate's own stated
+/// ones); a list that is missing reads as empty.
+fn per_effect<'v>(
+    e: &'v Evaluated,
+    lists: Option<PerEffect<'v>>,
+) -> impl Iterator<Item = (Effect, &'v [f64], &'v [f64])> + 'v {
+    let get = |l: &'v [Vec<f64>], i: usize| l.get(i).map_or(&[][..], Vec::as_slice);
+    e.effects.iter().enumerate().map(move |(i, f)| match lists {
+        None => (f.effect, f.values.as_slice(), f.stds.as_slice()),
+        Some((values, stds)) => (f.effect, get(values, i), get(stds, i)),
+    })
+}
+
+/// A candidate's parameter values and their ± (`lists`, as [`per_effect`]) as
+/// `diagnosis.json` keys them ([`param_key`]).
+fn params_json(
+    e: &Evaluated,
+    lists: Option<PerEffect<'_>>,
 ) -> (Map<String, Value>, Map<String, Value>) {
+    let single = e.effects.len() == 1;
     let mut params = Map::new();
     let mut stds = Map::new();
-    for (effect, values, sds) in per_effect {
+    for (effect, values, sds) in per_effect(e, lists) {
         for ((spec, v), s) in effect.params().iter().zip(values).zip(sds) {
             let key = param_key(effect, spec.name, single);
             params.insert(key.clone(), json!(v));
@@ -130,18 +142,7 @@ fn sd_json(sd: f64) -> Value {
 /// The refits on fresh seeds (`Ranked::refit`) in `diagnosis.json`, each one's parameters
 /// keyed as the entry's own `params` are (`name`, or `effect.name` for a pair), beside the
 /// first fit's values and ± that the entry's pooled ones replaced.
-fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
-    let single = e.effects.len() == 1;
-    let keyed = |values: &[Vec<f64>], stds: &[Vec<f64>]| {
-        params_json(
-            e.effects
-                .iter()
-                .zip(values)
-                .zip(stds)
-                .map(|((f, v), s)| (f.effect, v.as_slice(), s.as_slice())),
-            single,
-        )
-    };
+fn refit_json(refit: &Refit, e: &Evaluated) -> Value {
     match refit {
         Refit::Done {
             runs,
@@ -152,11 +153,11 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
             let runs: Vec<Value> = runs
                 .iter()
                 .map(|run| {
-                    let (params, stds) = keyed(&run.values, &run.stds);
+                    let (params, stds) = params_json(e, Some((&run.values, &run.stds)));
                     json!({"seeds": run.seeds, "params": params, "params_std": stds})
                 })
                 .collect();
-            let (first, before) = keyed(first_values, stds_before);
+            let (first, before) = params_json(e, Some((first_values, stds_before)));
             json!({
                 "status": "done",
                 "runs": runs,
@@ -171,23 +172,19 @@ fn refit_json(refit: &Refit, e: &super::fit::Evaluated) -> Value {
     }
 }
 
-/// A candidate's values in words, `name = v ± σ unit` (named as [`param_key`]); no ± where
-/// `stds` has none or the data do not determine the parameter.
-fn values_text(e: &super::fit::Evaluated, values: &[Vec<f64>], stds: &[Vec<f64>]) -> String {
+/// A candidate's values in words, `name = v ± σ unit` (`lists` as [`per_effect`], named as
+/// [`param_key`]); no ± where a list has none or the data do not determine the parameter.
+fn values_text(e: &Evaluated, lists: Option<PerEffect<'_>>) -> String {
     let single = e.effects.len() == 1;
-    e.effects
-        .iter()
-        .enumerate()
-        .flat_map(|(i, f)| {
-            let values = values.get(i).map_or(&[][..], Vec::as_slice);
-            let stds = stds.get(i).map_or(&[][..], Vec::as_slice);
-            f.effect
+    per_effect(e, lists)
+        .flat_map(|(effect, values, stds)| {
+            effect
                 .params()
                 .iter()
                 .zip(values)
                 .enumerate()
                 .map(move |(j, (p, v))| {
-                    let name = param_key(f.effect, p.name, single);
+                    let name = param_key(effect, p.name, single);
                     match stds.get(j) {
                         Some(s) if s.is_finite() => {
                             format!("{name} = {} ± {} {}", fmt(*v), fmt(*s), p.unit)
@@ -215,7 +212,7 @@ fn refit_text(r: &Ranked) -> String {
         }) => {
             let again: Vec<String> = runs
                 .iter()
-                .map(|run| values_text(&r.evaluated, &run.values, &[]))
+                .map(|run| values_text(&r.evaluated, Some((&run.values, &[]))))
                 .collect();
             let how = if r.evaluated.effects.len() > 1 {
                 " (the first effect alone, the second beside it, as the pair was fitted)"
@@ -236,7 +233,7 @@ fn refit_text(r: &Ranked) -> String {
                 runs.len(),
                 again.join("; "),
                 runs.len() + 1,
-                values_text(&r.evaluated, first_values, &[]),
+                values_text(&r.evaluated, Some((first_values, &[]))),
             )
         }
         Some(Refit::TimeCap) => format!(
@@ -363,10 +360,7 @@ fn fmt(v: f64) -> String {
 
 /// A candidate's stated values and ± in words ([`values_text`]).
 fn params_text(r: &Ranked) -> String {
-    let e = &r.evaluated;
-    let values: Vec<Vec<f64>> = e.effects.iter().map(|f| f.values.clone()).collect();
-    let stds: Vec<Vec<f64>> = e.effects.iter().map(|f| f.stds.clone()).collect();
-    values_text(e, &values, &stds)
+    values_text(&r.evaluated, None)
 }
 
 /// `diagnosis.md`.
