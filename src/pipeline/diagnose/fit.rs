@@ -471,6 +471,29 @@ impl<'a> Fitter<'a> {
         }
     }
 
+    /// `job` on each of `items`, each on its own fork, all at once (rayon), with the simulations
+    /// each fork ran; results in the items' order. A fork shares nothing mutable, so a result
+    /// is the same whatever ran beside it and whatever the thread count. Concurrent fits fill
+    /// the core one fit leaves idle between its frame-parallel simulations (the optimiser, the
+    /// cells, the rig set-up are serial).
+    pub fn on_forks<I: Sync, T: Send>(
+        &self,
+        items: &[I],
+        job: impl Fn(&Fitter<'a>, &I) -> T + Sync,
+    ) -> Vec<(T, usize)> {
+        use rayon::prelude::*;
+        let forks: Vec<Fitter<'a>> = items.iter().map(|_| self.fork()).collect();
+        forks
+            .into_par_iter()
+            .zip(items.par_iter())
+            .map(|(fork, item)| {
+                let out = job(&fork, item);
+                let simulations = *fork.simulations.borrow();
+                (out, simulations)
+            })
+            .collect()
+    }
+
     /// A candidate fitted again as the diagnosis fitted it, on `seeds` instead of the fit seeds
     /// (on a fork): what the fitted values owe to the fit seeds' realisation
     /// ([`crate::diagnose::fit_noise`]). The first effect is fitted alone and each next one

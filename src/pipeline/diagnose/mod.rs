@@ -228,6 +228,13 @@ impl Default for DiagnoseOptions {
 /// benchmark footage one refit took 10–24 s, `reports/diagnosis-stop39/bench.txt`).
 pub const REFITS: usize = 2;
 
+/// Fits run at once (candidates, pairs, refits), each on its own fork: a fixed number, not the
+/// thread count, so which candidates a wave fits before the best-score bound can prune them is
+/// the same on every machine. On 2 cores one fit kept them 1.6 busy (its optimiser, cells and
+/// rig set-up are serial between frame-parallel simulations); two at once took the runout
+/// benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
+pub const CONCURRENT_FITS: usize = 2;
+
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
 /// strong axis runout, 4 seeds left the angle's low band at z = 4.3–4.8 short of significance on
 /// 2 of 3 seeds (`reports/diagnosis-seeds-independent/`); 12 seeds found all three, and the 4
@@ -603,15 +610,27 @@ pub fn diagnose_with(
             Some(shards::stored(out_dir, &manifest, &units)?)
         }
     };
-    // One candidate: fitted here, or looked up in the shards' records.
-    let fit_candidate = |e: Effect| -> Result<(Evaluated, usize), DiagnoseError> {
+    // Candidates: fitted here, a wave at a time on forks, or looked up in the shards' records.
+    let fit_wave = |wave: &[Effect]| -> Vec<Result<(Evaluated, usize), DiagnoseError>> {
         match &stored {
-            None => fitter.fit_single(e),
-            Some(stored) => stored
+            None => fitter
+                .on_forks(wave, |fork, &e| fork.fit_single(e))
+                .into_iter()
+                .map(|(result, fork_simulations)| {
+                    result
+                        .map(|(evaluated, simulations)| (evaluated, simulations + fork_simulations))
+                })
+                .collect(),
+            Some(stored) => wave
                 .iter()
-                .find(|(x, _)| *x == e)
-                .map(|(_, r)| r.clone())
-                .ok_or(DiagnoseError::MissingCandidate { effect: e.name() }),
+                .map(|&e| {
+                    stored
+                        .iter()
+                        .find(|(x, _)| *x == e)
+                        .map(|(_, r)| r.clone())
+                        .ok_or(DiagnoseError::MissingCandidate { effect: e.name() })
+                })
+                .collect(),
         }
     };
     let mut candidate_simulations = 0usize;
@@ -624,33 +643,57 @@ pub fn diagnose_with(
         let deadline = options.max_minutes.map(|m| m * 60.0);
         let total = screened.len();
         let mut best_score = f64::NEG_INFINITY;
-        for (i, (e, share)) in screened.into_iter().enumerate() {
-            if !plan::signature_significant(e, nominal_gap) {
-                screened_out.push((e, share));
+        let mut queue = screened.into_iter().enumerate().peekable();
+        let mut done = 0usize;
+        while queue.peek().is_some() {
+            // A wave of up to CONCURRENT_FITS candidates, each judged against the best score
+            // of the waves before it.
+            let mut wave: Vec<Effect> = Vec::with_capacity(CONCURRENT_FITS);
+            let before = done;
+            while wave.len() < CONCURRENT_FITS {
+                let Some((i, (e, share))) = queue.next() else {
+                    break;
+                };
+                done = i + 1;
+                if !plan::signature_significant(e, nominal_gap) {
+                    screened_out.push((e, share));
+                    continue;
+                }
+                // A candidate moves only its signature cells, so its shrink is at most its
+                // share; below the best score by more than the group margin it can neither win
+                // nor join the best's group.
+                if share < best_score - verdict::GROUP_MARGIN {
+                    bounded_out.push((e, share));
+                    continue;
+                }
+                if deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d) {
+                    not_tried.push(e);
+                    continue;
+                }
+                wave.push(e);
+            }
+            if wave.is_empty() {
                 continue;
             }
-            // A candidate moves only its signature cells, so its shrink is at most its share;
-            // below the best score by more than the group margin it can neither win nor join
-            // the best's group.
-            if share < best_score - verdict::GROUP_MARGIN {
-                bounded_out.push((e, share));
-                continue;
+            let names: Vec<&str> = wave.iter().map(|e| e.name()).collect();
+            progress(&format!("fitting {}", names.join(" and ")), before, total);
+            for result in fit_wave(&wave) {
+                let (evaluated, simulations) = result?;
+                candidate_simulations += simulations;
+                let r = ranked(nominal_gap, evaluated);
+                progress(
+                    &format!(
+                        "{}: shrink {:.2}, score {:.2}",
+                        candidate_name(&r.evaluated),
+                        r.shrink,
+                        r.score
+                    ),
+                    done,
+                    total,
+                );
+                best_score = best_score.max(r.score);
+                ranking.push(r);
             }
-            if deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d) {
-                not_tried.push(e);
-                continue;
-            }
-            progress(&format!("fitting {}", e.name()), i, total);
-            let (evaluated, simulations) = fit_candidate(e)?;
-            candidate_simulations += simulations;
-            let r = ranked(nominal_gap, evaluated);
-            progress(
-                &format!("{}: shrink {:.2}, score {:.2}", e.name(), r.shrink, r.score),
-                i + 1,
-                total,
-            );
-            best_score = best_score.max(r.score);
-            ranking.push(r);
         }
         sort_ranking(d0, &mut ranking);
         // A second effect when the best single one does not explain the gap.
@@ -669,15 +712,24 @@ pub fn diagnose_with(
                     .filter(|e| !first.effect.shares_switch_with().contains(e))
                     .take(3)
                     .collect();
-                for (k, e) in others.into_iter().enumerate() {
+                for (k, wave) in others.chunks(CONCURRENT_FITS).enumerate() {
+                    let names: Vec<String> = wave
+                        .iter()
+                        .map(|e| format!("{} + {}", first.effect.name(), e.name()))
+                        .collect();
                     progress(
-                        &format!("fitting {} + {}", first.effect.name(), e.name()),
-                        k,
-                        3,
+                        &format!("fitting {}", names.join(" and ")),
+                        k * CONCURRENT_FITS,
+                        others.len(),
                     );
-                    let second = fitter.fit(e, &prior)?;
-                    let evaluated = fitter.evaluate(vec![first.clone(), second])?;
-                    ranking.push(ranked(nominal_gap, evaluated));
+                    let fits = fitter.on_forks(wave, |fork, &e| {
+                        let second = fork.fit(e, &prior)?;
+                        fork.evaluate(vec![first.clone(), second])
+                    });
+                    for (evaluated, simulations) in fits {
+                        candidate_simulations += simulations;
+                        ranking.push(ranked(nominal_gap, evaluated?));
+                    }
                 }
                 sort_ranking(d0, &mut ranking);
             }
@@ -726,7 +778,7 @@ pub fn diagnose_with(
         d0,
         best.map(|b| &ranking[b].evaluated.outcome),
     );
-    // The prefix and the pairs ran on `fitter`, each single candidate on a fork of it.
+    // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
     let simulations = *fitter.simulations.borrow() + candidate_simulations;
     let diagnosis = Diagnosis {
         verdict,
@@ -781,7 +833,8 @@ impl RefitPlan {
 /// Fits `best` again on `plan.runs` sets of fresh fit seeds and pools its values and ± with
 /// theirs ([`pool_refits`]). Returns what the refits found and the simulations they ran. A
 /// failure is reported, not raised: the fits made before it stand (the first fit alone when
-/// the first refit fails). `capped` is asked before every refit after the first.
+/// the first refit fails). The refits run [`CONCURRENT_FITS`] at a time; `capped` is asked
+/// before every wave after the first.
 fn refit_on_fresh_seeds(
     fitter: &Fitter,
     best: &mut Ranked,
@@ -794,28 +847,37 @@ fn refit_on_fresh_seeds(
     let mut runs: Vec<(Vec<u64>, Vec<fit::Fitted>)> = Vec::with_capacity(plan.runs);
     let mut simulations = 0;
     let mut short = None;
-    for run in 0..plan.runs {
-        if run > 0 && capped() {
+    let all: Vec<usize> = (0..plan.runs).collect();
+    'waves: for wave in all.chunks(CONCURRENT_FITS) {
+        let first_run = wave[0];
+        if first_run > 0 && capped() {
             short = Some(format!(
-                "the time cap (--max-minutes) was reached after {run} of {} refits",
+                "the time cap (--max-minutes) was reached after {first_run} of {} refits",
                 plan.runs
             ));
             break;
         }
         progress(
             &format!("refitting {name} on fresh seeds (the fit's own noise)"),
-            run,
+            first_run,
             plan.runs,
         );
-        let seeds = plan.seeds(run);
-        let (fits, sims) = fitter.refit_on_seeds(&effects, &seeds);
-        simulations += sims;
-        match fits {
-            Ok(fits) => runs.push((seeds, fits)),
-            Err(err) if runs.is_empty() => return (Refit::Failed(err.to_string()), simulations),
-            Err(err) => {
-                short = Some(format!("refit {} of {} failed: {err}", run + 1, plan.runs));
-                break;
+        let fits = fitter.on_forks(wave, |fork, &run| {
+            let seeds = plan.seeds(run);
+            let (fits, sims) = fork.refit_on_seeds(&effects, &seeds);
+            (seeds, fits, sims)
+        });
+        for (&run, ((seeds, fits, sims), fork_sims)) in wave.iter().zip(fits) {
+            simulations += sims + fork_sims;
+            match fits {
+                Ok(fits) => runs.push((seeds, fits)),
+                Err(err) if runs.is_empty() => {
+                    return (Refit::Failed(err.to_string()), simulations)
+                }
+                Err(err) => {
+                    short = Some(format!("refit {} of {} failed: {err}", run + 1, plan.runs));
+                    break 'waves;
+                }
             }
         }
     }
