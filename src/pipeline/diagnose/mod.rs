@@ -867,8 +867,12 @@ fn refit_on_fresh_seeds(
             let (fits, sims) = fork.refit_on_seeds(&effects, &seeds);
             (seeds, fits, sims)
         });
-        for (&run, ((seeds, fits, sims), fork_sims)) in wave.iter().zip(fits) {
-            simulations += sims + fork_sims;
+        // Every refit of the wave ran, so all their simulations count, whichever fails.
+        simulations += fits
+            .iter()
+            .map(|((_, _, sims), fork_sims)| sims + fork_sims)
+            .sum::<usize>();
+        for (&run, ((seeds, fits, _), _)) in wave.iter().zip(fits) {
             match fits {
                 Ok(fits) => runs.push((seeds, fits)),
                 Err(err) if runs.is_empty() => {
