@@ -474,8 +474,8 @@ impl<'a> Fitter<'a> {
     /// `job` on each of `items`, each on its own fork, all at once (rayon), with the simulations
     /// each fork ran; results in the items' order. A fork shares nothing mutable, so a result
     /// is the same whatever ran beside it and whatever the thread count. Concurrent fits fill
-    /// the core one fit leaves idle between its frame-parallel simulations (the optimiser, the
-    /// cells, the rig set-up are serial).
+    /// the core one fit's serial work (the optimiser's among it) leaves idle between its
+    /// frame-parallel simulations.
     pub fn on_forks<I: Sync, T: Send>(
         &self,
         items: &[I],

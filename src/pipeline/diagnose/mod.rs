@@ -230,8 +230,8 @@ pub const REFITS: usize = 2;
 
 /// Fits run at once (candidates, pairs, refits), each on its own fork: a fixed number, not the
 /// thread count, so which candidates a wave fits before the best-score bound can prune them is
-/// the same on every machine. On 2 cores one fit kept them 1.6 busy (its optimiser, cells and
-/// rig set-up are serial between frame-parallel simulations); two at once took the runout
+/// the same on every machine. On 2 cores one fit kept them 1.6 busy (its serial work between
+/// frame-parallel simulations, the optimiser's among it, leaves a core idle); two at once took the runout
 /// benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
 pub const CONCURRENT_FITS: usize = 2;
 
