@@ -471,26 +471,22 @@ impl<'a> Fitter<'a> {
         }
     }
 
-    /// `job` on each of `items`, each on its own fork, all at once (rayon), with the simulations
-    /// each fork ran; results in the items' order. A fork shares nothing mutable, so a result
-    /// is the same whatever ran beside it and whatever the thread count. Concurrent fits fill
-    /// the core one fit's serial work (the optimiser's among it) leaves idle between its
-    /// frame-parallel simulations.
+    /// `job` on each of `items`, each on its own fork, all at once (rayon); results in the
+    /// items' order (a job that counts simulations reads its fork's). A fork shares nothing
+    /// mutable, so a result is the same whatever ran beside it and whatever the thread count.
+    /// Concurrent fits fill the core one fit's serial work (the optimiser's among it) leaves
+    /// idle between its frame-parallel simulations.
     pub fn on_forks<I: Sync, T: Send>(
         &self,
         items: &[I],
         job: impl Fn(&Fitter<'a>, &I) -> T + Sync,
-    ) -> Vec<(T, usize)> {
+    ) -> Vec<T> {
         use rayon::prelude::*;
         let forks: Vec<Fitter<'a>> = items.iter().map(|_| self.fork()).collect();
         forks
             .into_par_iter()
             .zip(items.par_iter())
-            .map(|(fork, item)| {
-                let out = job(&fork, item);
-                let simulations = *fork.simulations.borrow();
-                (out, simulations)
-            })
+            .map(|(fork, item)| job(&fork, item))
             .collect()
     }
 

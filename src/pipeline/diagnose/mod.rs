@@ -231,8 +231,8 @@ pub const REFITS: usize = 2;
 /// Fits run at once (candidates, pairs, refits), each on its own fork: a fixed number, not the
 /// thread count, so which candidates a wave fits before the best-score bound can prune them is
 /// the same on every machine. On 2 cores one fit kept them 1.6 busy (its serial work between
-/// frame-parallel simulations, the optimiser's among it, leaves a core idle); two at once took the runout
-/// benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
+/// frame-parallel simulations, the optimiser's among it, leaves a core idle); two at once took
+/// the runout benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
 pub const CONCURRENT_FITS: usize = 2;
 
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
@@ -613,14 +613,7 @@ pub fn diagnose_with(
     // Candidates: fitted here, a wave at a time on forks, or looked up in the shards' records.
     let fit_wave = |wave: &[Effect]| -> Vec<Result<(Evaluated, usize), DiagnoseError>> {
         match &stored {
-            None => fitter
-                .on_forks(wave, |fork, &e| fork.fit_single(e))
-                .into_iter()
-                .map(|(result, fork_simulations)| {
-                    result
-                        .map(|(evaluated, simulations)| (evaluated, simulations + fork_simulations))
-                })
-                .collect(),
+            None => fitter.on_forks(wave, |fork, &e| fork.fit_single(e)),
             Some(stored) => wave
                 .iter()
                 .map(|&e| {
@@ -723,8 +716,10 @@ pub fn diagnose_with(
                         others.len(),
                     );
                     let fits = fitter.on_forks(wave, |fork, &e| {
-                        let second = fork.fit(e, &prior)?;
-                        fork.evaluate(vec![first.clone(), second])
+                        let evaluated = fork
+                            .fit(e, &prior)
+                            .and_then(|second| fork.evaluate(vec![first.clone(), second]));
+                        (evaluated, *fork.simulations.borrow())
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
@@ -868,11 +863,8 @@ fn refit_on_fresh_seeds(
             (seeds, fits, sims)
         });
         // Every refit of the wave ran, so all their simulations count, whichever fails.
-        simulations += fits
-            .iter()
-            .map(|((_, _, sims), fork_sims)| sims + fork_sims)
-            .sum::<usize>();
-        for (&run, ((seeds, fits, _), _)) in wave.iter().zip(fits) {
+        simulations += fits.iter().map(|(_, _, sims)| sims).sum::<usize>();
+        for (&run, (seeds, fits, _)) in wave.iter().zip(fits) {
             match fits {
                 Ok(fits) => runs.push((seeds, fits)),
                 Err(err) if runs.is_empty() => {
