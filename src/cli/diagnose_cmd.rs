@@ -47,7 +47,10 @@ pub struct DiagnoseArgs {
     /// do not hold the fit seeds' own noise, which can be several times larger).
     #[arg(long)]
     no_refit: bool,
-    /// Cap on the candidate search, minutes; what was not tried is reported.
+    /// Cap on the candidate search, minutes; what was not tried is reported. It is checked
+    /// before each wave of fits (two at a time) and before each wave of refits after the
+    /// first: a wave started before the cap runs to its end, so the run can overrun the cap by
+    /// about one fit's time.
     #[arg(long)]
     max_minutes: Option<f64>,
     #[arg(long, default_value = "out/diagnose")]

@@ -471,64 +471,65 @@ impl<'a> Fitter<'a> {
         }
     }
 
-    /// `job` on each of `items`, each on its own fork, all at once (rayon); results in the
-    /// items' order (a job that counts simulations reads its fork's). A fork shares nothing
-    /// mutable, so a result is the same whatever ran beside it and whatever the thread count.
-    /// Concurrent fits fill the core one fit's serial work (the optimiser's among it) leaves
-    /// idle between its frame-parallel simulations.
+    /// `job` on each of `items`, each on its own fork (handed to the job, which owns it), all
+    /// at once (rayon); results in the items' order (a job that counts simulations reads its
+    /// fork's). A fork shares nothing mutable, so a result is the same whatever ran beside it
+    /// and whatever the thread count. Concurrent fits fill the core one fit's serial work (the
+    /// optimiser's among it) leaves idle between its frame-parallel simulations.
     pub fn on_forks<I: Sync, T: Send>(
         &self,
         items: &[I],
-        job: impl Fn(&Fitter<'a>, &I) -> T + Sync,
+        job: impl Fn(Fitter<'a>, &I) -> T + Sync,
     ) -> Vec<T> {
         use rayon::prelude::*;
         let forks: Vec<Fitter<'a>> = items.iter().map(|_| self.fork()).collect();
         forks
             .into_par_iter()
             .zip(items.par_iter())
-            .map(|(fork, item)| job(&fork, item))
+            .map(|(fork, item)| job(fork, item))
             .collect()
     }
 
-    /// A candidate fitted again as the diagnosis fitted it, on `seeds` instead of the fit seeds
-    /// (on a fork): what the fitted values owe to the fit seeds' realisation
-    /// ([`crate::diagnose::fit_noise`]). The first effect is fitted alone and each next one
-    /// beside the ones before it, at their refitted values, as the pair stage does. The runout
-    /// form's refined phase is the first fit's. Returns the fits, and the simulations run, a
-    /// failed fit's included.
+    /// The simulations this fitter has run so far (a fork's start at zero).
+    pub fn simulations(&self) -> usize {
+        *self.simulations.borrow()
+    }
+
+    /// A candidate fitted again as the diagnosis fitted it, on `seeds` instead of the fit seeds:
+    /// what the fitted values owe to the fit seeds' realisation
+    /// ([`crate::diagnose::fit_noise`]). Consumes the fitter, so that its changed fit seeds
+    /// cannot leak into later fits: call it on a fork ([`Self::on_forks`]). The first effect is
+    /// fitted alone and each next one beside the ones before it, at their refitted values, as
+    /// the pair stage does. The runout form's refined phase is the first fit's. Returns the
+    /// fits, and the simulations run, a failed fit's included.
     pub fn refit_on_seeds(
-        &self,
+        mut self,
         effects: &[Effect],
         seeds: &[u64],
     ) -> (Result<Vec<Fitted>, DiagnoseError>, usize) {
-        let mut fork = self.fork();
-        fork.fit_seeds = seeds.to_vec();
-        let mut prior: Vec<(Effect, Vec<f64>)> = Vec::new();
+        let before = self.simulations();
+        self.fit_seeds = seeds.to_vec();
+        let mut prior: Vec<(Effect, Vec<f64>)> = Vec::with_capacity(effects.len());
         let mut refitted = Vec::with_capacity(effects.len());
         for &e in effects {
-            match fork.fit(e, &prior) {
+            match self.fit(e, &prior) {
                 Ok(f) => {
                     prior.push((e, f.values.clone()));
                     refitted.push(f);
                 }
-                Err(err) => {
-                    let simulations = *fork.simulations.borrow();
-                    return (Err(err), simulations);
-                }
+                Err(err) => return (Err(err), self.simulations() - before),
             }
         }
-        let simulations = *fork.simulations.borrow();
-        (Ok(refitted), simulations)
+        (Ok(refitted), self.simulations() - before)
     }
 
-    /// One candidate alone: fitted, then judged on the evaluation seeds (on a fork), with the
-    /// simulations it cost.
+    /// One candidate alone: fitted, then judged on the evaluation seeds, with the simulations
+    /// this call ran. The diagnosis calls it on forks ([`Self::on_forks`]), several at once.
     pub fn fit_single(&self, e: Effect) -> Result<(Evaluated, usize), DiagnoseError> {
-        let fork = self.fork();
-        let fitted = fork.fit(e, &[])?;
-        let evaluated = fork.evaluate(vec![fitted])?;
-        let simulations = *fork.simulations.borrow();
-        Ok((evaluated, simulations))
+        let before = self.simulations();
+        let fitted = self.fit(e, &[])?;
+        let evaluated = self.evaluate(vec![fitted])?;
+        Ok((evaluated, self.simulations() - before))
     }
 
     /// The base trial: the aligned nominal at the real frame times, timestamps from the

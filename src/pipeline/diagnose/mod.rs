@@ -668,8 +668,7 @@ pub fn diagnose_with(
             if wave.is_empty() {
                 continue;
             }
-            let names: Vec<&str> = wave.iter().map(|e| e.name()).collect();
-            progress(&format!("fitting {}", names.join(" and ")), before, total);
+            progress(&fitting(wave.iter().map(|e| e.name())), before, total);
             for result in fit_wave(&wave) {
                 let (evaluated, simulations) = result?;
                 candidate_simulations += simulations;
@@ -706,20 +705,15 @@ pub fn diagnose_with(
                     .take(3)
                     .collect();
                 for (k, wave) in others.chunks(CONCURRENT_FITS).enumerate() {
-                    let names: Vec<String> = wave
+                    let names = wave
                         .iter()
-                        .map(|e| format!("{} + {}", first.effect.name(), e.name()))
-                        .collect();
-                    progress(
-                        &format!("fitting {}", names.join(" and ")),
-                        k * CONCURRENT_FITS,
-                        others.len(),
-                    );
+                        .map(|e| format!("{} + {}", first.effect.name(), e.name()));
+                    progress(&fitting(names), k * CONCURRENT_FITS, others.len());
                     let fits = fitter.on_forks(wave, |fork, &e| {
                         let evaluated = fork
                             .fit(e, &prior)
                             .and_then(|second| fork.evaluate(vec![first.clone(), second]));
-                        (evaluated, *fork.simulations.borrow())
+                        (evaluated, fork.simulations())
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
@@ -774,7 +768,7 @@ pub fn diagnose_with(
         best.map(|b| &ranking[b].evaluated.outcome),
     );
     // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
-    let simulations = *fitter.simulations.borrow() + candidate_simulations;
+    let simulations = fitter.simulations() + candidate_simulations;
     let diagnosis = Diagnosis {
         verdict,
         aligned: aligned.clone(),
@@ -803,6 +797,13 @@ pub fn diagnose_with(
     let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
     staging.commit()?;
     Ok(Finished::Diagnosis(Box::new(diagnosis), files))
+}
+
+/// The progress line of a wave: "fitting a and b".
+fn fitting<S: AsRef<str>>(names: impl Iterator<Item = S>) -> String {
+    let names: Vec<S> = names.collect();
+    let names: Vec<&str> = names.iter().map(AsRef::as_ref).collect();
+    format!("fitting {}", names.join(" and "))
 }
 
 /// Seeds of the refits on fresh seeds: the nominal's seed plus this (the evaluation seeds take
@@ -1050,5 +1051,12 @@ pub(crate) mod tests {
         };
         assert_eq!(plan.seeds(0), vec![3007, 3008, 3009]);
         assert_eq!(plan.seeds(1), vec![3010, 3011, 3012]);
+    }
+
+    #[test]
+    fn a_waves_progress_line_names_its_fits() {
+        assert_eq!(fitting(["backlash"].iter()), "fitting backlash");
+        let pairs = ["a + b".to_string(), "a + c".to_string()];
+        assert_eq!(fitting(pairs.iter()), "fitting a + b and a + c");
     }
 }
