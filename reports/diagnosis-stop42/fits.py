@@ -21,5 +21,8 @@ for eff, rows in sorted(by.items()):
                 vals.setdefault(k, []).append((p[k], s[k]))
     for k, vs in vals.items():
         v = [a for a,_ in vs]; sd = [b for _,b in vs]
-        if len(v) > 1:
+        if len(v) > 1 and any(x is None for x in sd):
+            # A parameter the footage does not determine has no finite ± (JSON null).
+            print(f'  {k}: n={len(v)} mean {st.mean(v):.4f}, between-footage sd {st.stdev(v):.4f}, stated ± not determined')
+        elif len(v) > 1:
             print(f'  {k}: n={len(v)} mean {st.mean(v):.4f}, between-footage sd {st.stdev(v):.4f}, rms stated ± {(sum(x*x for x in sd)/len(sd))**0.5:.4f}, ratio {st.stdev(v)/((sum(x*x for x in sd)/len(sd))**0.5):.2f}')

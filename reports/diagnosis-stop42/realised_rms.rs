@@ -1,7 +1,8 @@
 //! The realised RMS of a case's camera shake at its frame times: copy to `examples/` and run
 //! `cut -d, -f2 CASE/diagnosis/real/tracks.csv | tail -n +2 | cargo run --example realised_rms -- SEED`
 //! with SEED the case's data seed (`manifest.json`, `inputs.CASE.data.seed`). The configuration is
-//! the self-check's strong camera-vibration level.
+//! the self-check's strong camera-vibration level, copied by hand from the same manifest
+//! (`inputs.CASE.data.effects.camera_vibration`): check it there before reusing this.
 use geneva_vision::render::effects::camera_vibration::{CameraVibrationConfig, Vibration};
 use std::io::Read;
 

@@ -48,9 +48,10 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     no_refit: bool,
     /// Cap on the candidate search, minutes; what was not tried is reported. It is checked
-    /// before each wave of fits (two at a time) and before each wave of refits after the
-    /// first: a wave started before the cap runs to its end, so the run can overrun the cap by
-    /// about one fit's time.
+    /// before each candidate joins a wave of fits (two at a time), once before the pair stage
+    /// (up to 3 pairs, all run once it starts) and before each wave of refits after the
+    /// first: work started before the cap runs to its end, so the run can overrun the cap by
+    /// about one wave's time, and by the pair stage's when it starts just before the cap.
     #[arg(long)]
     max_minutes: Option<f64>,
     #[arg(long, default_value = "out/diagnose")]

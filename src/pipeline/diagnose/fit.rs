@@ -490,7 +490,7 @@ impl<'a> Fitter<'a> {
             .collect()
     }
 
-    /// The simulations this fitter has run so far (a fork's start at zero).
+    /// The simulations this fitter has run so far (a fork starts at zero).
     pub fn simulations(&self) -> usize {
         *self.simulations.borrow()
     }

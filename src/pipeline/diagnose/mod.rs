@@ -801,9 +801,12 @@ pub fn diagnose_with(
 
 /// The progress line of a wave: "fitting a and b".
 fn fitting<S: AsRef<str>>(names: impl Iterator<Item = S>) -> String {
-    let names: Vec<S> = names.collect();
-    let names: Vec<&str> = names.iter().map(AsRef::as_ref).collect();
-    format!("fitting {}", names.join(" and "))
+    names
+        .enumerate()
+        .fold(String::from("fitting"), |line, (i, name)| {
+            let joint = if i == 0 { " " } else { " and " };
+            line + joint + name.as_ref()
+        })
 }
 
 /// Seeds of the refits on fresh seeds: the nominal's seed plus this (the evaluation seeds take
