@@ -1,5 +1,5 @@
 //! `geneva diagnose --scenario NOMINAL (--video F | --frames DIR --timestamps F | --tracks F)
-//! --out DIR [--effects a,b,c] [--seeds N] [--fit-seeds N] [--refits N | --no-refit] [--max-minutes M] [--shard I/N [--restart] | --merge]`.
+//! --out DIR [--effects a,b,c] [--seeds N] [--fit-seeds N] [--refits N | --no-refit] [--bootstrap B] [--max-minutes M] [--shard I/N [--restart] | --merge]`.
 //! With `--shard I/N` the candidate fits are split across machines (written under
 //! `DIR/shards/I/`); `--merge`, with the same arguments, writes the report a one-machine run
 //! would have written.
@@ -47,6 +47,13 @@ pub struct DiagnoseArgs {
     /// do not hold the fit seeds' own noise, which can be several times larger).
     #[arg(long)]
     no_refit: bool,
+    /// Fit the best candidate on this many footages simulated at its stated values (fresh data
+    /// seeds, each measured and fitted as the real footage): their spread, the footage's own
+    /// noise, widens its ± where the fit's curvature undercounts it (a random camera shake's
+    /// stated value spread 2.3× its ± over four footages). Each costs about one fit; 3 or more
+    /// when the best candidate is a random process (shake, vibration, noise, timing jitter).
+    #[arg(long, default_value_t = DiagnoseOptions::default().bootstrap)]
+    bootstrap: usize,
     /// Cap on the candidate search, minutes; what was not tried is reported. It is checked
     /// before each candidate joins a wave of fits (two at a time), once before the pair stage
     /// (up to 3 pairs, all run once it starts) and before each wave of refits after the
@@ -97,6 +104,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         escalate_seeds: a.escalate_seeds,
         fit_seeds: a.fit_seeds,
         refits: if a.no_refit { 0 } else { a.refits },
+        bootstrap: a.bootstrap,
         effects,
         max_minutes: a.max_minutes,
         ..DiagnoseOptions::default()

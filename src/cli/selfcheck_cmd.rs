@@ -70,6 +70,10 @@ pub struct SelfCheckArgs {
     /// seeds' noise).
     #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::REFITS)]
     refits: usize,
+    /// Footages simulated at each case's best candidate's stated values, fitted to measure
+    /// the footage's own noise (`geneva diagnose --bootstrap`; 0: off).
+    #[arg(long, default_value_t = 0)]
+    bootstrap: usize,
     /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
     /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).
     #[arg(long, default_value = "own", value_parser = ["own", "independent"])]
@@ -126,6 +130,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         escalate_seeds: a.escalate_seeds,
         fit_seeds: a.fit_seeds,
         refits: a.refits,
+        bootstrap: a.bootstrap,
         ..Default::default()
     };
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));

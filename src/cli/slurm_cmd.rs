@@ -47,6 +47,10 @@ pub struct ScriptArgs {
     /// Skip the merge's refits of the best candidate (`geneva diagnose --no-refit`).
     #[arg(long, requires = "diagnose")]
     pub no_refit: bool,
+    /// Footages simulated at the best candidate's values, fitted at merge time to measure the
+    /// footage's own noise (`geneva diagnose --bootstrap`).
+    #[arg(long, requires = "diagnose")]
+    pub bootstrap: Option<usize>,
     /// Output folder of the sweep (shared by all nodes).
     #[arg(long)]
     pub out: PathBuf,
@@ -280,6 +284,9 @@ fn diagnose_job(a: &ScriptArgs, out_q: &str) -> Result<Job> {
     if a.no_refit {
         study.push_str(" --no-refit");
     }
+    if let Some(b) = a.bootstrap {
+        study.push_str(&format!(" --bootstrap {b}"));
+    }
     Ok(Job {
         merge: format!("{study} --out {out_q} --merge"),
         study,
@@ -303,6 +310,7 @@ mod tests {
             fit_seeds: None,
             refits: None,
             no_refit: false,
+            bootstrap: None,
             out: "/data/it's".into(),
             shards: 4,
             partition: Some("gpu".into()),
@@ -431,6 +439,13 @@ mod tests {
             format!("diagnose --scenario 'fast' --tracks '{t}' --refits 4")
         );
         assert!(try_parse(&["--tracks", t, "--refits", "4", "--no-refit"]).is_err());
+        // So does the bootstrap of the footage's own noise.
+        let a = try_parse(&["--tracks", t, "--bootstrap", "3"])?;
+        let job = diagnose_job(&a, "'/d'")?;
+        assert_eq!(
+            job.study,
+            format!("diagnose --scenario 'fast' --tracks '{t}' --bootstrap 3")
+        );
         // One fit seed is refused here, as `geneva diagnose` refuses it.
         assert!(try_parse(&["--tracks", t, "--fit-seeds", "1"]).is_err());
         // Footage that is not there fails here, not on the cluster.

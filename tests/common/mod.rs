@@ -71,3 +71,89 @@ pub fn check_pooled_refit(entry: &serde_json::Value) -> Result<usize, String> {
     }
     Ok(runs.len())
 }
+
+/// Checks a ranked entry of `diagnosis.json` whose fits on footages simulated at its stated
+/// values were done, with no refit (`--refits 0`, so the ± before is the first fit's
+/// curvature), recomputing from the JSON alone (`diagnose::fit_noise::from_footage_fits`): per
+/// parameter, `footage_std` is the sample sd s of the footages' fitted values, `bias` their
+/// mean less the value before, `bias_std` s/√B; the ± widened is max(± before, s); when the bias
+/// was taken off (only at p < 0.05) the stated value is the value before less the bias and its
+/// ± √(widened² + bias_std²), else the value before and the widened ±. Each footage fit lies
+/// within 50 % of the value it was simulated at (a footage that is not the effect's would not),
+/// and two footages (other data seeds) give other values. Returns the number of footages.
+pub fn check_bootstrap(entry: &serde_json::Value) -> Result<usize, String> {
+    let b = &entry["bootstrap"];
+    if b["status"] != "done" {
+        return Err(format!("bootstrap not done: {entry}"));
+    }
+    let footages = b["footages"]
+        .as_array()
+        .ok_or_else(|| format!("no footages: {entry}"))?;
+    let params = entry["params"]
+        .as_object()
+        .ok_or_else(|| format!("no params: {entry}"))?;
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+    let num = |v: &serde_json::Value, what: &str, key: &str| {
+        v[what][key]
+            .as_f64()
+            .ok_or_else(|| format!("{key}: no {what}: {entry}"))
+    };
+    for (key, stated) in params {
+        let stated = stated.as_f64().ok_or_else(|| format!("{key}: {entry}"))?;
+        let before = num(b, "params_before", key)?;
+        let values: Vec<f64> = footages
+            .iter()
+            .filter_map(|f| f["params"][key].as_f64())
+            .collect();
+        if values.len() != footages.len() {
+            return Err(format!("{key}: a footage without it: {entry}"));
+        }
+        if values
+            .iter()
+            .any(|v| (v - before).abs() > 0.5 * before.abs())
+        {
+            return Err(format!("{key}: a footage fit far from {before}: {entry}"));
+        }
+        if values.windows(2).any(|w| w[0] == w[1]) {
+            return Err(format!("{key}: two footages, one value: {entry}"));
+        }
+        let Some(before_sd) = b["params_std_before"][key].as_f64() else {
+            if stated != before || !b["bias_corrected"][key].is_null() {
+                return Err(format!("{key}: undetermined, yet changed: {entry}"));
+            }
+            continue;
+        };
+        let n = values.len() as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let widened = before_sd.max(sd);
+        let (spread, bias, bias_std) = (
+            num(b, "footage_std", key)?,
+            num(b, "bias", key)?,
+            num(b, "bias_std", key)?,
+        );
+        let corrected = b["bias_corrected"][key]
+            .as_bool()
+            .ok_or_else(|| format!("{key}: no bias_corrected: {entry}"))?;
+        let stated_sd = num(entry, "params_std", key)?;
+        let (want, want_sd) = if corrected {
+            (before - bias, widened.hypot(bias_std))
+        } else {
+            (before, widened)
+        };
+        let ok = close(spread, sd)
+            && close(bias, mean - before)
+            && close(bias_std, sd / n.sqrt())
+            && (!corrected || num(b, "bias_p", key)? < 0.05)
+            && close(stated, want)
+            && close(stated_sd, want_sd);
+        if !ok {
+            return Err(format!(
+                "{key}: stated {stated} ± {stated_sd}, recomputed {want} ± {want_sd} (footage \
+                 sd {sd}, bias {}): {entry}",
+                mean - before
+            ));
+        }
+    }
+    Ok(footages.len())
+}

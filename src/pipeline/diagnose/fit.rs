@@ -7,7 +7,9 @@
 use super::camera_warp;
 use super::nominal::Aligned;
 use super::pose_tilt::PoseTilt;
-use super::simulate::{trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial};
+use super::simulate::{
+    simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
+};
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::cells::{CellKey, Cells};
@@ -521,6 +523,55 @@ impl<'a> Fitter<'a> {
             }
         }
         (Ok(refitted), self.simulations() - before)
+    }
+
+    /// The aligned nominal's cells on each evaluation seed (empty in a fork).
+    pub fn nominal_sims(&self) -> &[Cells] {
+        &self.nominal_sims
+    }
+
+    /// A candidate fitted, as the diagnosis fitted it on the real footage, on a footage
+    /// simulated at `truth` on the data seed `footage_seed` and measured as real footage: the
+    /// parametric bootstrap of the footage's own noise ([`crate::diagnose::fit_noise`]). The
+    /// footage's nominal gap (where the fits take their starts) is against `nominal_sims`, the
+    /// main fitter's ([`Self::nominal_sims`]); the fit seeds, the runout form and phase and
+    /// the camera tilt's start are this fitter's (read off the real footage). Consumes the
+    /// fitter, as [`Self::refit_on_seeds`]. Returns the fits and the simulations run, the
+    /// footage's included.
+    pub fn fit_on_simulated_footage(
+        self,
+        nominal_sims: &[Cells],
+        truth: &[(Effect, Vec<f64>)],
+        footage_seed: u64,
+    ) -> (Result<Vec<Fitted>, DiagnoseError>, usize) {
+        if nominal_sims.is_empty() {
+            return (
+                Err(DiagnoseError::Internal(
+                    "a footage fit needs the main fitter's nominal simulations",
+                )),
+                0,
+            );
+        }
+        let footage = match self.trial_with(truth).and_then(|trial| {
+            *self.simulations.borrow_mut() += 1;
+            simulated_footage(&self.ctx, &trial, footage_seed)
+        }) {
+            Ok(f) => f,
+            Err(e) => return (Err(e), self.simulations()),
+        };
+        let on_footage = Fitter {
+            real_cells: &footage.cells,
+            real_t_s: &footage.t_s,
+            real_theta_det: (&footage.t_det_s, &footage.theta_det_rad),
+            real_theta_residual: &footage.theta_residual,
+            real_theta_peak_hz: footage.theta_peak_hz,
+            nominal_gap: compare(&footage.cells, nominal_sims, self.gap_options),
+            ..self.fork()
+        };
+        let effects: Vec<Effect> = truth.iter().map(|(e, _)| *e).collect();
+        let seeds = self.fit_seeds.clone();
+        let (fits, simulations) = on_footage.refit_on_seeds(&effects, &seeds);
+        (fits, self.simulations() + simulations)
     }
 
     /// One candidate alone: fitted, then judged on the evaluation seeds, with the simulations

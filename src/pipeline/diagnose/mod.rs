@@ -206,6 +206,11 @@ pub struct DiagnoseOptions {
     /// all its fits, with the seed noise their spread shows ([`crate::diagnose::fit_noise`]);
     /// at 0 its values and ± are the first fit's, and the ± do not hold the fit seeds' noise.
     pub refits: usize,
+    /// Footages simulated at the best candidate's stated values on this many fresh data
+    /// seeds, each fitted as the real one was: their spread measures the footage's own noise,
+    /// which widens the stated ± where the fit's curvature undercounts it
+    /// ([`crate::diagnose::fit_noise::from_footage_fits`]); each costs about one fit. 0: off.
+    pub bootstrap: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -219,6 +224,7 @@ impl Default for DiagnoseOptions {
             gap: GapOptions::default(),
             pairs: true,
             refits: REFITS,
+            bootstrap: 0,
         }
     }
 }
@@ -265,6 +271,35 @@ pub struct Ranked {
     /// The second fit on fresh seeds that measured the fit's own noise (the best candidate
     /// only, single or pair; its stated ± include it).
     pub refit: Option<Refit>,
+    /// The footages simulated at its stated values that measured the footage's own noise (the
+    /// best candidate only; its stated ± include it).
+    pub bootstrap: Option<Bootstrap>,
+}
+
+/// The best candidate fitted on footages simulated at its stated values on fresh data seeds,
+/// each measured and fitted as the real footage was (on the same fit seeds): the parametric
+/// bootstrap of the footage's own noise ([`crate::diagnose::fit_noise::from_footage_fits`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Bootstrap {
+    /// At least two footages fitted: their data seeds and values (one list per effect, in
+    /// [`Effect::params`] order, per footage); per parameter what they show (`None` where
+    /// nothing is stated: an undetermined parameter, fewer than two finite fits); and the
+    /// values and ± before they changed them.
+    Done {
+        seeds: Vec<u64>,
+        values: Vec<Vec<Vec<f64>>>,
+        found: Vec<Vec<Option<crate::diagnose::fit_noise::FootageFits>>>,
+        values_before: Vec<Vec<f64>>,
+        stds_before: Vec<Vec<f64>>,
+        /// Why fewer footages than asked were fitted (the time cap, a failed fit), if so.
+        short: Option<String>,
+    },
+    /// Not run: the time cap (`--max-minutes`) was reached first.
+    TimeCap,
+    /// Not run: switched off (`--bootstrap 0`).
+    Off,
+    /// Fewer than two footages could be fitted: the ± stand without it.
+    Failed(String),
 }
 
 /// A candidate fitted again on sets of fit seeds disjoint from the first fit's and from each
@@ -761,6 +796,19 @@ pub fn diagnose_with(
         };
         candidate_simulations += simulations;
         ranking[b].refit = Some(refit);
+        let (bootstrap, simulations) = if options.bootstrap == 0 {
+            (Bootstrap::Off, 0)
+        } else if capped() {
+            (Bootstrap::TimeCap, 0)
+        } else {
+            let plan = BootstrapPlan {
+                nominal_seed: nominal.seed,
+                footages: options.bootstrap,
+            };
+            bootstrap_footage(&fitter, &mut ranking[b], &plan, capped, progress)
+        };
+        candidate_simulations += simulations;
+        ranking[b].bootstrap = Some(bootstrap);
     }
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
@@ -884,6 +932,154 @@ fn refit_on_fresh_seeds(
     (pool_refits(&mut best.evaluated, runs, short), simulations)
 }
 
+/// Data seeds of the bootstrap footages: nominal seed + this + k, clear of the evaluation
+/// (1000 + k), fit (2000 + k) and refit (3000 + k) seeds.
+const BOOTSTRAP_SEED_OFFSET: u64 = 5000;
+
+/// The bootstrap footages of one diagnosis.
+struct BootstrapPlan {
+    nominal_seed: u64,
+    footages: usize,
+}
+
+impl BootstrapPlan {
+    fn seed(&self, k: usize) -> u64 {
+        self.nominal_seed
+            .wrapping_add(BOOTSTRAP_SEED_OFFSET + k as u64)
+    }
+}
+
+/// Fits `best` on `plan.footages` footages simulated at its stated values
+/// ([`Fitter::fit_on_simulated_footage`]) and widens its ± by the spread they show where the
+/// fits' curvature undercounts it ([`crate::diagnose::fit_noise::from_footage_fits`]).
+/// Returns what they found and the simulations they ran. A failure is reported, not raised;
+/// with fewer than two footages fitted the ± stand. [`CONCURRENT_FITS`] at a time; `capped`
+/// is asked before every wave after the first.
+fn bootstrap_footage(
+    fitter: &Fitter,
+    best: &mut Ranked,
+    plan: &BootstrapPlan,
+    capped: impl Fn() -> bool,
+    progress: &Progress<'_>,
+) -> (Bootstrap, usize) {
+    let name = candidate_name(&best.evaluated);
+    let truth: Vec<(Effect, Vec<f64>)> = best
+        .evaluated
+        .effects
+        .iter()
+        .map(|f| (f.effect, f.values.clone()))
+        .collect();
+    let nominal_sims = fitter.nominal_sims();
+    let mut done: Vec<(u64, Vec<fit::Fitted>)> = Vec::with_capacity(plan.footages);
+    let mut simulations = 0;
+    let mut short = None;
+    let all: Vec<usize> = (0..plan.footages).collect();
+    'waves: for wave in all.chunks(CONCURRENT_FITS) {
+        let first = wave[0];
+        if first > 0 && capped() {
+            short = Some(format!(
+                "the time cap (--max-minutes) was reached after {first} of {} footages",
+                plan.footages
+            ));
+            break;
+        }
+        progress(
+            &format!(
+                "fitting {name} on footages simulated at its values (the footage's own noise)"
+            ),
+            first,
+            plan.footages,
+        );
+        let seeds: Vec<u64> = wave.iter().map(|&k| plan.seed(k)).collect();
+        let fits = fitter.on_forks(&seeds, |fork, &seed| {
+            fork.fit_on_simulated_footage(nominal_sims, &truth, seed)
+        });
+        simulations += fits.iter().map(|(_, sims)| sims).sum::<usize>();
+        for (&seed, (fits, _)) in seeds.iter().zip(fits) {
+            match fits {
+                Ok(fits) => done.push((seed, fits)),
+                Err(err) => {
+                    short = Some(format!("the footage of data seed {seed} failed: {err}"));
+                    break 'waves;
+                }
+            }
+        }
+    }
+    if done.len() < 2 {
+        let why = short.unwrap_or_else(|| "fewer than two footages asked".to_string());
+        return (Bootstrap::Failed(why), simulations);
+    }
+    (widen_by_footages(best, done, short), simulations)
+}
+
+/// Widens each stated ± of `best` by the spread of its fits on the bootstrap footages
+/// (`done`, at least two), takes a significant bias they show off its value, and returns what
+/// they found ([`crate::diagnose::fit_noise::from_footage_fits`]).
+fn widen_by_footages(
+    best: &mut Ranked,
+    done: Vec<(u64, Vec<fit::Fitted>)>,
+    short: Option<String>,
+) -> Bootstrap {
+    let values_before: Vec<Vec<f64>> = best
+        .evaluated
+        .effects
+        .iter()
+        .map(|f| f.values.clone())
+        .collect();
+    let stds_before: Vec<Vec<f64>> = best
+        .evaluated
+        .effects
+        .iter()
+        .map(|f| f.stds.clone())
+        .collect();
+    let mut found = Vec::with_capacity(stds_before.len());
+    for (i, f) in best.evaluated.effects.iter_mut().enumerate() {
+        let mut of_effect = Vec::with_capacity(f.values.len());
+        for (j, (value, std)) in f.values.iter_mut().zip(f.stds.iter_mut()).enumerate() {
+            // The σ pooled into the stated one: the first fit's and each refit's.
+            let curvature: Vec<f64> = match &best.refit {
+                Some(Refit::Done {
+                    runs, stds_before, ..
+                }) => std::iter::once(stds_before.get(i).and_then(|v| v.get(j)))
+                    .chain(runs.iter().map(|r| r.stds.get(i).and_then(|v| v.get(j))))
+                    .flatten()
+                    .copied()
+                    .collect(),
+                _ => vec![*std],
+            };
+            let values: Vec<f64> = done
+                .iter()
+                .filter_map(|(_, fits)| fits.get(i).and_then(|g| g.values.get(j)).copied())
+                .collect();
+            let valid = f
+                .effect
+                .params()
+                .get(j)
+                .map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.valid);
+            let fits = crate::diagnose::fit_noise::from_footage_fits(
+                *value, *std, &curvature, &values, valid,
+            );
+            if let Some(fits) = fits {
+                *value = fits.value;
+                *std = fits.std;
+            }
+            of_effect.push(fits);
+        }
+        found.push(of_effect);
+    }
+    Bootstrap::Done {
+        seeds: done.iter().map(|(seed, _)| *seed).collect(),
+        values: done
+            .into_iter()
+            .map(|(_, fits)| fits.into_iter().map(|f| f.values).collect())
+            .collect(),
+        found,
+        values_before,
+        stds_before,
+        short,
+    }
+}
+
 /// Pools each effect's values and ± of `first` with the same candidate's refits on other
 /// seeds (`runs`, at least one; [`crate::diagnose::fit_noise::pooled`]), and returns what the
 /// refits found.
@@ -940,6 +1136,7 @@ fn ranked(nominal_gap: &GapMap, evaluated: Evaluated) -> Ranked {
         group: Vec::new(),
         cell_shrink: fit::cell_shrink(nominal_gap, &evaluated.gap),
         refit: None,
+        bootstrap: None,
         evaluated,
     }
 }

@@ -668,7 +668,7 @@ impl SelfCheck {
         }
         inputs.insert(
             "options".into(),
-            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "refits": options.refits, "escalate_seeds": options.escalate_seeds, "pairs": options.pairs}),
+            serde_json::json!({"seeds": options.seeds, "fit_seeds": options.fit_seeds, "refits": options.refits, "bootstrap": options.bootstrap, "escalate_seeds": options.escalate_seeds, "pairs": options.pairs}),
         );
         let manifest = Manifest::new("diagnosis-selfcheck", cases.len(), inputs);
         Self {
@@ -969,7 +969,7 @@ impl SuitePlan {
             "Plan: {} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s), {} null case(s), {} flicker \
              case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
              diagnosis with {} evaluation seeds (raised to {} when a cell misses significance only \
-             for lack of seeds) and {} fit seeds, {}{}.",
+             for lack of seeds) and {} fit seeds, {}{}{}.",
             self.effects.len(),
             self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
             self.levels.len(),
@@ -1005,8 +1005,15 @@ impl SuitePlan {
             match options.refits {
                 0 => "the best candidate stated as its first fit (no refit)".to_string(),
                 r => format!(
-                    "the best candidate refitted on {r} more set(s) of them and stated as the \
-                     pool of its fits"
+                    "the best candidate refitted on {r} more set(s) of them and stated as \
+                     the pool of its fits"
+                ),
+            },
+            match options.bootstrap {
+                0 => String::new(),
+                b => format!(
+                    ", its ± widened and a significant bias taken off by its fits on {b} \
+                     footage(s) simulated at its stated values"
                 ),
             },
             options
@@ -1071,30 +1078,43 @@ mod tests {
         assert!((first - (1.0 / fps + 0.3 * (0.055 - 1.0 / fps))).abs() < 1e-12);
     }
 
-    /// The refits of each case's best are in the plan's words and in the suite's fingerprint: a
-    /// suite resumed with other refits is another suite (its stated ± and values differ).
+    /// The refits and bootstrap footages of each case's best are in the plan's words and in the
+    /// suite's fingerprint: a suite resumed with other ones is another suite (its stated ± and
+    /// values differ).
     #[test]
     fn a_suites_refits_are_stated_and_fingerprinted() -> Result<(), DiagnoseError> {
         let base = suite_base(3.0)?;
         let plan = SuitePlan::quick(Effect::PixelNoise);
-        let suite = |refits| {
+        let suite = |refits, bootstrap| {
             let options = DiagnoseOptions {
                 refits,
+                bootstrap,
                 ..Default::default()
             };
             let text = plan.describe(&base, &options);
             let check = SelfCheck::new(cases(&base, &plan, &[]), options, text.clone());
             (text, check.manifest.fingerprint)
         };
-        let (two, two_print) = suite(2);
-        let (none, none_print) = suite(0);
+        let (two, two_print) = suite(2, 0);
+        let (none, none_print) = suite(0, 0);
         assert!(two.contains("refitted on 2 more set(s)"), "{two}");
+        assert!(!two.contains("footage(s) simulated"), "{two}");
         assert!(
             none.contains("stated as its first fit (no refit)"),
             "{none}"
         );
         assert_ne!(two_print, none_print);
-        assert_eq!(suite(2).1, two_print);
+        assert_eq!(suite(2, 0).1, two_print);
+        // So are the footages that measure the footage's own noise.
+        let (boot, boot_print) = suite(0, 3);
+        assert!(
+            boot.contains(
+                "first fit (no refit), its ± widened and a significant bias taken off \
+                           by its fits on 3 footage(s)"
+            ),
+            "{boot}"
+        );
+        assert_ne!(boot_print, none_print);
         Ok(())
     }
 

@@ -6,7 +6,9 @@
 use super::image::{frame_image, measures_image};
 use super::nominal::{motion_reference, Aligned};
 use super::DiagnoseError;
-use crate::diagnose::cells::{image_cells, residual, timing_cells, track_cells, Cells};
+use crate::diagnose::cells::{
+    image_cells, residual, residual_peak, timing_cells, track_cells, Cells, MotionReference,
+};
 use crate::diagnose::record::{FrameRecord, Record};
 use crate::estimate::{estimate, Estimate};
 use crate::imagestats::MarkerLayout;
@@ -127,7 +129,17 @@ pub fn measurement_cells(
 ) -> Result<Cells, DiagnoseError> {
     let est = estimate_record(scenario, record)?;
     let (reference, _) = motion_reference(&ctx.aligned.reference, record, &est);
-    let mut cells = track_cells(record, &est, &reference, ctx.nyquist_hz, ctx.height_px);
+    Ok(cells_of(ctx, record, &est, &reference))
+}
+
+/// Track and image cells of a record, its estimate and the motion reference it is read against.
+fn cells_of(
+    ctx: &SimContext<'_>,
+    record: &Record,
+    est: &Estimate,
+    reference: &MotionReference,
+) -> Cells {
+    let mut cells = track_cells(record, est, reference, ctx.nyquist_hz, ctx.height_px);
     cells.extend(image_cells(
         record,
         ctx.aligned.geometry.rotation_centre_px,
@@ -135,7 +147,7 @@ pub fn measurement_cells(
         ctx.nyquist_hz,
         ctx.height_px,
     ));
-    Ok(cells)
+    cells
 }
 
 /// Draws the sub-pixel placement of the marker for one seed: the rotation centre moves by up to
@@ -173,6 +185,53 @@ fn trial_record(
         }
     }
     Ok((s, record))
+}
+
+/// A simulated footage measured as the real one is ([`super::real`] and the diagnosis's
+/// prefix): its cells, frame times, the angle of its detected frames and its angle residual
+/// after the aligned nominal motion, with that residual's spectral peak.
+pub struct SimulatedFootage {
+    pub cells: Cells,
+    pub t_s: Vec<f64>,
+    pub t_det_s: Vec<f64>,
+    pub theta_det_rad: Vec<f64>,
+    pub theta_residual: Vec<f64>,
+    pub theta_peak_hz: Option<f64>,
+}
+
+/// `trial` on one data `seed`, measured as real footage: the cells are exactly
+/// [`trial_cells`]'s for that seed, the residual [`trial_theta_residuals`]'s.
+pub fn simulated_footage(
+    ctx: &SimContext<'_>,
+    trial: &Trial,
+    seed: u64,
+) -> Result<SimulatedFootage, DiagnoseError> {
+    let (s, record) = trial_record(ctx, trial, seed, true)?;
+    let est = estimate_record(&s, &record)?;
+    let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
+    let mut cells = cells_of(ctx, &record, &est, &reference);
+    if let Some(t) = trial.timing.times(seed) {
+        cells.extend(timing_cells(&t));
+    }
+    let t_s = record.t_s();
+    let theta = &est.primary_series().theta_rad;
+    let theta_residual = residual(theta, &reference.theta_rad);
+    let theta_peak_hz =
+        residual_peak(&t_s, &theta_residual, ctx.nyquist_hz).map(|p| p.frequency_hz);
+    let (t_det_s, theta_det_rad) = t_s
+        .iter()
+        .zip(theta)
+        .filter(|(_, th)| th.is_finite())
+        .map(|(t, th)| (*t, *th))
+        .unzip();
+    Ok(SimulatedFootage {
+        cells,
+        t_s,
+        t_det_s,
+        theta_det_rad,
+        theta_residual,
+        theta_peak_hz,
+    })
 }
 
 /// Cells of `trial` for each of `seeds` (simulated one after the other; frames in parallel).
