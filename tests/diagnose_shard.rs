@@ -5,11 +5,12 @@
 //! and writes no report. The footage is the self-check's withheld strong pixel noise, 3 s, 2
 //! seeds, diagnosed without pixel noise among the candidates (lighting, compression, optical
 //! blur), so no single candidate explains it and the pair stage runs, at merge time, as do the
-//! best candidate's refits on fresh seeds.
+//! best candidate's refits on fresh seeds and its fits on two footages simulated at its stated
+//! values (the bootstrap of the footage's own noise).
 //!
 //! The one-machine run is made on one thread, the shards and the merge on all: the fits that
-//! run concurrently (shards' candidates; the merge's pairs and refits, a wave at a time) must
-//! give the report of fits run one after another, byte for byte.
+//! run concurrently (shards' candidates; the merge's pairs, refits and bootstrap footages, a
+//! wave at a time) must give the report of fits run one after another, byte for byte.
 
 #![cfg(feature = "opencv-detector")]
 
@@ -63,6 +64,7 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
             Effect::Compression,
             Effect::OpticalBlur,
         ]),
+        bootstrap: 2,
         ..Default::default()
     };
     let run = |out: &Path, mode: Mode| {
@@ -158,6 +160,9 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
         let again = best["refit"]["runs"][run]["params"].as_object().unwrap();
         assert_eq!(own, again.keys().collect::<Vec<_>>(), "{best}");
     }
+    // Then on two footages simulated at the pooled values, which widened the pool's ± (and
+    // took off a significant bias) as recomputed here from the JSON.
+    assert_eq!(common::check_bootstrap(best), Ok(2), "{best}");
 
     // Shards of other inputs are refused, naming the change.
     let other = DiagnoseOptions {

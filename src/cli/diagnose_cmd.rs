@@ -52,7 +52,7 @@ pub struct DiagnoseArgs {
     /// noise, widens its ± where the fit's curvature undercounts it (a random camera shake's
     /// stated value spread 2.3× its ± over four footages). Each costs about one fit; 3 or more
     /// when the best candidate is a random process (shake, vibration, noise, timing jitter).
-    #[arg(long, default_value_t = DiagnoseOptions::default().bootstrap)]
+    #[arg(long, default_value_t = DiagnoseOptions::default().bootstrap, value_parser = parse_bootstrap)]
     bootstrap: usize,
     /// Cap on the candidate search, minutes; what was not tried is reported. It is checked
     /// before each candidate joins a wave of fits (two at a time), once before the pair stage
@@ -203,9 +203,30 @@ pub(super) fn parse_fit_seeds(text: &str) -> Result<usize, String> {
     }
 }
 
+/// `--bootstrap`: 0 (off) or at least 2 footages (one footage's fit has no spread to measure).
+pub(super) fn parse_bootstrap(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(1) => Err(
+            "1 bootstrap footage: the footage's own noise is the spread of at least 2 footage fits \
+             (3 or more to pin it; 0 turns the bootstrap off)"
+                .to_string(),
+        ),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("`{text}` is not a whole number of footages")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::parse_fit_seeds;
+    use super::{parse_bootstrap, parse_fit_seeds};
+
+    #[test]
+    fn one_bootstrap_footage_is_refused() {
+        assert_eq!(parse_bootstrap("0"), Ok(0));
+        assert_eq!(parse_bootstrap("4"), Ok(4));
+        assert!(parse_bootstrap("1").unwrap_err().contains("at least 2"));
+        assert!(parse_bootstrap("-2").is_err());
+    }
 
     #[test]
     fn fit_seeds_below_two_are_refused() {

@@ -72,7 +72,7 @@ pub struct SelfCheckArgs {
     refits: usize,
     /// Footages simulated at each case's best candidate's stated values, fitted to measure
     /// the footage's own noise (`geneva diagnose --bootstrap`; 0: off).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::diagnose_cmd::parse_bootstrap)]
     bootstrap: usize,
     /// Renderer of the footage: `own`, or `independent` (a second renderer that differs from
     /// the nominal's simulations in anti-aliasing, compositing, blur kernel and noise).

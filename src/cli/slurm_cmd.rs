@@ -49,7 +49,7 @@ pub struct ScriptArgs {
     pub no_refit: bool,
     /// Footages simulated at the best candidate's values, fitted at merge time to measure the
     /// footage's own noise (`geneva diagnose --bootstrap`).
-    #[arg(long, requires = "diagnose")]
+    #[arg(long, requires = "diagnose", value_parser = super::diagnose_cmd::parse_bootstrap)]
     pub bootstrap: Option<usize>,
     /// Output folder of the sweep (shared by all nodes).
     #[arg(long)]
@@ -446,8 +446,10 @@ mod tests {
             job.study,
             format!("diagnose --scenario 'fast' --tracks '{t}' --bootstrap 3")
         );
-        // One fit seed is refused here, as `geneva diagnose` refuses it.
+        // One fit seed, or one bootstrap footage, is refused here, as `geneva diagnose`
+        // refuses it.
         assert!(try_parse(&["--tracks", t, "--fit-seeds", "1"]).is_err());
+        assert!(try_parse(&["--tracks", t, "--bootstrap", "1"]).is_err());
         // Footage that is not there fails here, not on the cluster.
         let a = try_parse(&["--tracks", "/no/such.csv"])?;
         let e = diagnose_job(&a, "'/d'").err().unwrap().to_string();

@@ -21,7 +21,9 @@ pub fn stderr(o: &Output) -> String {
 /// parameter's stated value and ± are the pool of the first fit's and the refits' (the mean of
 /// the fits, σ = √(mean σᵢ² + sample variance / n); `diagnose::fit_noise`), recomputed here
 /// from the JSON alone. A parameter the first fit left undetermined (± null) must keep its
-/// first value. Returns the number of refits.
+/// first value. When the bootstrap of the footage's noise ran after the refits, the pool is
+/// its value before (`bootstrap.params_before`, `params_std_before`; [`check_bootstrap`] checks
+/// what it made of them). Returns the number of refits.
 pub fn check_pooled_refit(entry: &serde_json::Value) -> Result<usize, String> {
     let refit = &entry["refit"];
     if refit["status"] != "done" {
@@ -33,11 +35,21 @@ pub fn check_pooled_refit(entry: &serde_json::Value) -> Result<usize, String> {
     let params = entry["params"]
         .as_object()
         .ok_or_else(|| format!("no params: {entry}"))?;
-    for (key, stated) in params {
-        let stated = stated.as_f64().ok_or_else(|| format!("{key}: {entry}"))?;
+    let (pooled, pooled_std) = if entry["bootstrap"]["status"] == "done" {
+        (
+            &entry["bootstrap"]["params_before"],
+            &entry["bootstrap"]["params_std_before"],
+        )
+    } else {
+        (&entry["params"], &entry["params_std"])
+    };
+    for key in params.keys() {
+        let stated = pooled[key]
+            .as_f64()
+            .ok_or_else(|| format!("{key}: {entry}"))?;
         let first = refit["params_first_fit"][key].as_f64();
         let Some(first_sd) = refit["params_std_first_fit"][key].as_f64() else {
-            if first != Some(stated) || !entry["params_std"][key].is_null() {
+            if first != Some(stated) || !pooled_std[key].is_null() {
                 return Err(format!("{key}: undetermined, yet pooled: {entry}"));
             }
             continue;
@@ -59,7 +71,7 @@ pub fn check_pooled_refit(entry: &serde_json::Value) -> Result<usize, String> {
             let var = fits.iter().map(|f| (f.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
             (fits.iter().map(|f| f.1 * f.1).sum::<f64>() / n + var / n).sqrt()
         };
-        let stated_sd = entry["params_std"][key]
+        let stated_sd = pooled_std[key]
             .as_f64()
             .ok_or_else(|| format!("{key}: no ±: {entry}"))?;
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
@@ -73,10 +85,11 @@ pub fn check_pooled_refit(entry: &serde_json::Value) -> Result<usize, String> {
 }
 
 /// Checks a ranked entry of `diagnosis.json` whose fits on footages simulated at its stated
-/// values were done, with no refit (`--refits 0`, so the ± before is the first fit's
-/// curvature), recomputing from the JSON alone (`diagnose::fit_noise::from_footage_fits`): per
-/// parameter, `footage_std` is the sample sd s of the footages' fitted values, `bias` their
-/// mean less the value before, `bias_std` s/√B; the ± widened is max(± before, s); when the bias
+/// values were done, recomputing from the JSON alone (`diagnose::fit_noise::from_footage_fits`):
+/// per parameter, `footage_std` is the sample sd s of the footages' fitted values, `bias` their
+/// mean less the value before, `bias_std` s/√B; the ± widened is √(± before² + max(0, s² − c²)),
+/// c² the mean curvature variance of the fits pooled into the ± before (the first fit's and the
+/// refits' ±, or the ± before itself with no refit, which makes it max(± before, s)); when the bias
 /// was taken off (only at p < 0.05) the stated value is the value before less the bias and its
 /// ± √(widened² + bias_std²), else the value before and the widened ±. Each footage fit lies
 /// within 50 % of the value it was simulated at (a footage that is not the effect's would not),
@@ -126,7 +139,20 @@ pub fn check_bootstrap(entry: &serde_json::Value) -> Result<usize, String> {
         let n = values.len() as f64;
         let mean = values.iter().sum::<f64>() / n;
         let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        let widened = before_sd.max(sd);
+        let curvature: Vec<f64> = if entry["refit"]["status"] == "done" {
+            let runs = entry["refit"]["runs"]
+                .as_array()
+                .cloned()
+                .unwrap_or_default();
+            std::iter::once(&entry["refit"]["params_std_first_fit"])
+                .chain(runs.iter().map(|r| &r["params_std"]))
+                .filter_map(|v| v[key].as_f64())
+                .collect()
+        } else {
+            vec![before_sd]
+        };
+        let c2 = curvature.iter().map(|c| c * c).sum::<f64>() / curvature.len().max(1) as f64;
+        let widened = (before_sd * before_sd + (sd * sd - c2).max(0.0)).sqrt();
         let (spread, bias, bias_std) = (
             num(b, "footage_std", key)?,
             num(b, "bias", key)?,

@@ -513,13 +513,9 @@ pub fn diagnose_with(
         ctx.height_px,
     ));
     real_cells.extend(timing_cells(&t_all));
-    let real_theta_residual = crate::diagnose::cells::residual(
-        &real.estimate.primary_series().theta_rad,
-        &reference.theta_rad,
-    );
-    let theta_peak_hz =
-        crate::diagnose::cells::residual_peak(&t_all, &real_theta_residual, nyquist_hz)
-            .map(|p| p.frequency_hz);
+    let primary = &real.estimate.primary_series().theta_rad;
+    let real_angle =
+        crate::diagnose::cells::angle_residual(&t_all, primary, &reference.theta_rad, nyquist_hz);
 
     // What the runout and tilt candidates start from, read off the real track: only when they
     // are candidates (each costs a fit over every detected frame).
@@ -535,13 +531,7 @@ pub fn diagnose_with(
     let pose_tilt = is_candidate(Effect::PerspectiveTilt)
         .then(|| pose_tilt::pose_tilt(&aligned.scenario, &real.record))
         .flatten();
-    let primary = &real.estimate.primary_series().theta_rad;
-    let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
-        .iter()
-        .zip(primary)
-        .filter(|(_, th)| th.is_finite())
-        .map(|(t, th)| (*t, *th))
-        .unzip();
+    let (t_det, th_det) = crate::diagnose::cells::detected_angle(&t_all, primary);
     let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
     let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
@@ -556,8 +546,8 @@ pub fn diagnose_with(
             cells: &real_cells,
             t_s: &t_all,
             theta_det: (&t_det, &th_det),
-            theta_residual: &real_theta_residual,
-            theta_peak_hz,
+            theta_residual: &real_angle.residual_rad,
+            theta_peak_hz: real_angle.peak_hz,
             runout_form,
             pose_tilt,
         },

@@ -120,12 +120,7 @@ pub fn align(
     let sign = screen_sign(&scene_of(nominal)?);
     let t_all = record.t_s();
     let primary = est.primary_series();
-    let (t_det, th_det): (Vec<f64>, Vec<f64>) = t_all
-        .iter()
-        .zip(&primary.theta_rad)
-        .filter(|(_, th)| th.is_finite())
-        .map(|(t, th)| (*t, *th))
-        .unzip();
+    let (t_det, th_det) = crate::diagnose::cells::detected_angle(&t_all, &primary.theta_rad);
     let mut motion =
         align_motion(nominal, &t_det, &th_det, sign).map_err(DiagnoseError::AlignMotion)?;
     let mut s = apply_motion(nominal, &motion);

@@ -7,7 +7,8 @@ use super::image::{frame_image, measures_image};
 use super::nominal::{motion_reference, Aligned};
 use super::DiagnoseError;
 use crate::diagnose::cells::{
-    image_cells, residual, residual_peak, timing_cells, track_cells, Cells, MotionReference,
+    angle_residual, detected_angle, image_cells, residual, timing_cells, track_cells, Cells,
+    MotionReference,
 };
 use crate::diagnose::record::{FrameRecord, Record};
 use crate::estimate::{estimate, Estimate};
@@ -215,22 +216,15 @@ pub fn simulated_footage(
     }
     let t_s = record.t_s();
     let theta = &est.primary_series().theta_rad;
-    let theta_residual = residual(theta, &reference.theta_rad);
-    let theta_peak_hz =
-        residual_peak(&t_s, &theta_residual, ctx.nyquist_hz).map(|p| p.frequency_hz);
-    let (t_det_s, theta_det_rad) = t_s
-        .iter()
-        .zip(theta)
-        .filter(|(_, th)| th.is_finite())
-        .map(|(t, th)| (*t, *th))
-        .unzip();
+    let angle = angle_residual(&t_s, theta, &reference.theta_rad, ctx.nyquist_hz);
+    let (t_det_s, theta_det_rad) = detected_angle(&t_s, theta);
     Ok(SimulatedFootage {
         cells,
         t_s,
         t_det_s,
         theta_det_rad,
-        theta_residual,
-        theta_peak_hz,
+        theta_residual: angle.residual_rad,
+        theta_peak_hz: angle.peak_hz,
     })
 }
 
