@@ -160,8 +160,9 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
         let again = best["refit"]["runs"][run]["params"].as_object().unwrap();
         assert_eq!(own, again.keys().collect::<Vec<_>>(), "{best}");
     }
-    // Then on two footages simulated at the pooled values, which widened the pool's ± (and
-    // took off a significant bias) as recomputed here from the JSON.
+    // Then on two footages simulated at the pooled values: their spread widens the pool's ±
+    // and a bias they show is taken off only if significant (rare on one degree of freedom),
+    // either way as recomputed here from the JSON.
     assert_eq!(common::check_bootstrap(best), Ok(2), "{best}");
 
     // Shards of other inputs are refused, naming the change.

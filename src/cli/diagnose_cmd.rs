@@ -52,6 +52,7 @@ pub struct DiagnoseArgs {
     /// noise, widens its ± where the fit's curvature undercounts it (a random camera shake's
     /// stated value spread 2.3× its ± over four footages). Each costs about one fit; 3 or more
     /// when the best candidate is a random process (shake, vibration, noise, timing jitter).
+    /// 0 (the default) is off; 1 is refused (one fit has no spread).
     #[arg(long, default_value_t = DiagnoseOptions::default().bootstrap, value_parser = parse_bootstrap)]
     bootstrap: usize,
     /// Cap on the candidate search, minutes; what was not tried is reported. It is checked
