@@ -86,6 +86,13 @@ pub struct FootageFits {
 /// at B = 2, 3.2 at B = 4), so only a bias well beyond their spread moves a value.
 pub const BIAS_P: f64 = 0.05;
 
+/// Footage fits within this fraction of |value| + σ of each other and of the value reproduced
+/// it: they differ by the floating-point rounding of the fit, not by any noise of the footage.
+/// A parameter fitted from data every simulated footage shares with the real one (the frame
+/// timing, from the timestamps at which every footage is simulated) comes back so, and a t
+/// test on rounding calls it biased (7e-18 over a spread of 4e-18: p 0.001).
+pub const REPRODUCED_REL: f64 = 1e-9;
+
 /// A stated value and σ once B fits of footages simulated at that value (`footage_values`, on
 /// fresh data seeds, the same fit seeds) are known. Their sample variance s_b² (B − 1 degrees
 /// of freedom) is the footage's noise of one fit, which the stated σ held as the fits' mean
@@ -95,8 +102,10 @@ pub const BIAS_P: f64 = 0.05;
 /// value is the fit's bias there (the bootstrap's bias estimate); when a t test finds it at
 /// p < [`BIAS_P`], the value stated is the bias-corrected one, value − bias, with the bias's
 /// standard error s_b/√B added to σ' in quadrature, unless the corrected value leaves `valid`
-/// (the values the parameter can take). `None` when fewer than two footage values are finite
-/// or the value or σ is not (a parameter the fit did not determine).
+/// (the values the parameter can take). Footages that reproduce the value to rounding
+/// ([`REPRODUCED_REL`]) state a spread and a bias of exactly 0: nothing to widen, no bias to
+/// test. `None` when fewer than two footage values are finite or the value or σ is not (a
+/// parameter the fit did not determine).
 pub fn from_footage_fits(
     value: f64,
     stated_std: f64,
@@ -117,7 +126,13 @@ pub fn from_footage_fits(
     }
     let n = values.len() as f64;
     let mean = values.iter().sum::<f64>() / n;
+    let rounding = REPRODUCED_REL * (value.abs() + stated_std);
     let footage_var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let footage_var = if footage_var.sqrt() <= rounding {
+        0.0
+    } else {
+        footage_var
+    };
     let curv: Vec<f64> = curvature_stds
         .iter()
         .copied()
@@ -129,7 +144,11 @@ pub fn from_footage_fits(
         curv.iter().map(|s| s * s).sum::<f64>() / curv.len() as f64
     };
     let widened_var = stated_std * stated_std + (footage_var - curvature_var).max(0.0);
-    let bias = mean - value;
+    let bias = if (mean - value).abs() <= rounding {
+        0.0
+    } else {
+        mean - value
+    };
     let bias_std = (footage_var / n).sqrt();
     let bias_p = if bias_std > 0.0 {
         crate::diagnose::gap::two_sided_p_student(bias / bias_std, n - 1.0)
@@ -225,6 +244,32 @@ mod tests {
         // Non-finite footage fits and curvature σ are left out.
         let f = from_footage_fits(1.1, 0.1, &[f64::INFINITY], &[1.0, f64::NAN, 1.2], ANY).unwrap();
         assert!(close(f.spread, 0.02f64.sqrt()), "{f:?}");
+    }
+
+    #[test]
+    fn footages_that_give_the_value_back_to_rounding_have_no_spread_and_no_bias() {
+        // The frame timing's fits on footages simulated at this footage's timestamps: the
+        // same value but for the last bit of some. Before, a 4e-17 bias over a 3e-17 spread
+        // was "significant" and taken off.
+        let value = 0.3f64;
+        let next = f64::from_bits(value.to_bits() + 1);
+        let f = from_footage_fits(value, 0.011, &[0.011], &[next, next, value, next], ANY).unwrap();
+        assert_eq!(
+            (f.spread, f.bias, f.bias_std, f.bias_p),
+            (0.0, 0.0, 0.0, 1.0),
+            "{f:?}"
+        );
+        assert_eq!((f.value, f.std), (value, 0.011), "{f:?}");
+        // A bias every footage shows alike is no rounding: taken off, exactly known.
+        let f = from_footage_fits(value, 0.011, &[0.011], &[0.35, 0.35, 0.35], ANY).unwrap();
+        assert_eq!((f.spread, f.bias_p), (0.0, 0.0), "{f:?}");
+        assert!(close(f.value, 0.25) && close(f.std, 0.011), "{f:?}");
+        // A real spread, however small against the value, is kept.
+        let f = from_footage_fits(1.0, 1e-6, &[1e-6], &[1.0 - 1e-6, 1.0 + 1e-6], ANY).unwrap();
+        assert!(
+            (f.spread / (2f64.sqrt() * 1e-6) - 1.0).abs() < 1e-6,
+            "{f:?}"
+        );
     }
 
     #[test]
