@@ -250,6 +250,10 @@ fn a_disc_vibration_drawn_by_another_renderer_is_fitted_at_its_amplitude() {
     assert!(o.param_rel_errors.iter().all(|e| *e < 0.15), "{o:?}");
     let entry = ranked_entry(work, &o.name, "disc_vibration");
     assert_eq!(common::check_bootstrap(&entry), Ok(2), "{entry}");
+    // Both intervals take t on the one degree of freedom of two footages wherever the
+    // footages widened the ± (no refits here), as recomputed from the JSON.
+    let widened = common::check_ci95(&entry);
+    assert!(widened.is_ok(), "{widened:?}");
 }
 
 /// An axis runout takes the form its marker-centre track shows, the phase refined by

@@ -164,6 +164,10 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
     // and a bias they show is taken off only if significant (rare on one degree of freedom),
     // either way as recomputed here from the JSON.
     assert_eq!(common::check_bootstrap(best), Ok(2), "{best}");
+    // Its 95 % intervals take t on the degrees of freedom of its refits and footages, as
+    // recomputed from the JSON.
+    let intervals = common::check_ci95(best);
+    assert!(intervals.is_ok(), "{intervals:?}");
 
     // Shards of other inputs are refused, naming the change.
     let other = DiagnoseOptions {

@@ -47,6 +47,11 @@ pub struct CaseOutcome {
     /// value and missed it (JSON null). Records of older runs have none.
     #[serde(default, deserialize_with = "infinite_if_null")]
     pub param_errors_in_sd: Vec<f64>,
+    /// Whether each of those parameters' truth lies in its stated 95 % interval (Student's t
+    /// on the ±'s degrees of freedom, `diagnosis.json`'s `params_ci95`). Records of older runs
+    /// have none.
+    #[serde(default)]
+    pub params_in_ci95: Vec<bool>,
     /// Evaluation seeds the diagnosis judged on (more than asked when it escalated); 0 when
     /// it failed. Records of older runs have none.
     #[serde(default)]
@@ -140,6 +145,9 @@ pub struct Scores {
     /// Identifiable fitted parameters within 2 standard uncertainties of the truth (strong,
     /// top-1 cases): whether the stated uncertainties can be believed.
     pub params_within_2sd_strong: Rate,
+    /// The same parameters whose truth lies in their stated 95 % interval (Student's t on the
+    /// ±'s degrees of freedom): the interval a user reads, checked.
+    pub params_within_ci95_strong: Rate,
     /// Withheld effect → (answer → count).
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
 }
@@ -248,6 +256,17 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
                 n: z.len(),
             }
         },
+        params_within_ci95_strong: {
+            let inside: Vec<bool> = outcomes
+                .iter()
+                .filter(|o| strong(o) && o.top_k(1))
+                .flat_map(|o| o.params_in_ci95.iter().copied())
+                .collect();
+            Rate {
+                k: inside.iter().filter(|i| **i).count(),
+                n: inside.len(),
+            }
+        },
         confusion,
     }
 }
@@ -273,6 +292,8 @@ mod tests {
             best_shrink: Some(shrink),
             param_rel_errors: vec![0.1],
             param_errors_in_sd: vec![1.5, 2.5],
+            // 2.5 σ lies inside an interval of k = 2.57 (t on 5 degrees of freedom).
+            params_in_ci95: vec![true, true],
             eval_seeds: 4,
         }
     }
@@ -353,6 +374,7 @@ mod tests {
         assert_eq!(s.median_param_rel_error_strong, Some(0.1));
         // The one top-1 strong case's two parameters: 1.5 σ and 2.5 σ off.
         assert_eq!(s.params_within_2sd_strong, Rate { k: 1, n: 2 });
+        assert_eq!(s.params_within_ci95_strong, Rate { k: 2, n: 2 });
         assert_eq!(s.confusion["pixel_noise (strong)"]["optical_blur"], 1);
         assert_eq!(s.confusion["null"]["unexplained (lighting)"], 1);
         assert_eq!(s.top1_form, Rate { k: 0, n: 0 });

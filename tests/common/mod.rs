@@ -183,3 +183,110 @@ pub fn check_bootstrap(entry: &serde_json::Value) -> Result<usize, String> {
     }
     Ok(footages.len())
 }
+
+/// Checks a ranked entry's 95 % intervals (`params_ci95`, `params_ci95_dof`) against what its
+/// own refits and bootstrap recorded, recomputed from the JSON alone: the refits' spread s²/n on
+/// n − 1 degrees of freedom (the first fit and the runs whose value and ± are stated), the
+/// footages' spread² where they widened the ± (it then replaced the curvature's part; plus the
+/// bias's spread²/B when the bias was taken off) on B − 1, Welch–Satterthwaite's
+/// ν = σ⁴ / Σ(uᵢ⁴/νᵢ), k = t₀.₉₇₅ on ⌊ν⌋ (1.96 with nothing estimated): each interval is value ±
+/// k·σ (none here lies near a limit of its parameter, so none is clipped), and an undetermined
+/// parameter has none. Returns how many parameters took a k above 1.96 (something estimated).
+pub fn check_ci95(entry: &serde_json::Value) -> Result<usize, String> {
+    let params = entry["params"]
+        .as_object()
+        .ok_or_else(|| format!("no params: {entry}"))?;
+    let close = |a: f64, b: f64, rel: f64| (a - b).abs() <= rel * b.abs().max(1e-300);
+    let mut estimated_any = 0;
+    for (key, value) in params {
+        let value = value.as_f64().ok_or_else(|| format!("{key}: {entry}"))?;
+        let ci = &entry["params_ci95"][key];
+        let Some(sd) = entry["params_std"][key].as_f64() else {
+            if !ci.is_null() || !entry["params_ci95_dof"][key].is_null() {
+                return Err(format!("{key}: undetermined, yet an interval: {entry}"));
+            }
+            continue;
+        };
+        let mut parts: Vec<(f64, f64)> = Vec::new();
+        let refit = &entry["refit"];
+        if refit["status"] == "done" {
+            let first = (
+                refit["params_first_fit"][key].as_f64(),
+                refit["params_std_first_fit"][key].as_f64(),
+            );
+            if let (Some(v1), Some(_)) = first {
+                let runs = refit["runs"].as_array().cloned().unwrap_or_default();
+                let fits: Vec<f64> = std::iter::once(v1)
+                    .chain(runs.iter().filter_map(|r| {
+                        r["params_std"][key].as_f64()?;
+                        r["params"][key].as_f64()
+                    }))
+                    .collect();
+                if fits.len() >= 2 {
+                    let n = fits.len() as f64;
+                    let mean = fits.iter().sum::<f64>() / n;
+                    let s2 = fits.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                    parts.push((s2 / n, n - 1.0));
+                }
+            }
+        }
+        let b = &entry["bootstrap"];
+        if b["status"] == "done" {
+            if let Some(before) = b["params_std_before"][key].as_f64() {
+                let footages = b["footages"].as_array().cloned().unwrap_or_default();
+                let count = footages
+                    .iter()
+                    .filter(|f| f["params"][key].as_f64().is_some())
+                    .count();
+                let spread = b["footage_std"][key].as_f64().unwrap_or(0.0);
+                let bias_var = if b["bias_corrected"][key] == true {
+                    b["bias_std"][key].as_f64().unwrap_or(0.0).powi(2)
+                } else {
+                    0.0
+                };
+                let widened = sd * sd - before * before - bias_var > 1e-9 * sd * sd;
+                let part = if widened { spread * spread } else { 0.0 } + bias_var;
+                if count >= 2 && part > 0.0 {
+                    parts.push((part, count as f64 - 1.0));
+                }
+            }
+        }
+        let denominator: f64 = parts
+            .iter()
+            .filter(|(u2, _)| *u2 > 0.0)
+            .map(|(u2, dof)| u2 * u2 / dof)
+            .sum();
+        let dof = if denominator > 0.0 {
+            sd.powi(4) / denominator
+        } else {
+            f64::INFINITY
+        };
+        let k = if dof.is_finite() {
+            geneva_vision::budget::montecarlo::t975(((dof * (1.0 + 1e-9)).floor() as usize).max(1))
+        } else {
+            1.959964
+        };
+        let (low, high) = (ci[0].as_f64(), ci[1].as_f64());
+        let stated_dof = entry["params_ci95_dof"][key].as_f64();
+        // Beyond a million degrees of freedom k is the normal's to 10⁻⁶: a part of σ² that
+        // is rounding here and a last bit there must not tell them apart.
+        let dof_ok = match stated_dof {
+            Some(d) => close(d, dof, 1e-6) || (d > 1e6 && dof > 1e6),
+            None => dof > 1e6,
+        };
+        let end_ok = |end: Option<f64>, want: f64| {
+            end.is_some_and(|e| (e - want).abs() <= 1e-9 * value.abs() + 1e-5 * sd)
+        };
+        let ends_ok = end_ok(low, value - k * sd) && end_ok(high, value + k * sd);
+        if !(dof_ok && ends_ok) {
+            return Err(format!(
+                "{key}: stated {ci} on ν {stated_dof:?}, recomputed {value} ± {k}·{sd} on ν {dof}: \
+                 {entry}"
+            ));
+        }
+        if k > 1.96 {
+            estimated_any += 1;
+        }
+    }
+    Ok(estimated_any)
+}

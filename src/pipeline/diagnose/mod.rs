@@ -276,6 +276,68 @@ pub struct Ranked {
     pub bootstrap: Option<Bootstrap>,
 }
 
+impl Ranked {
+    /// Each stated value's 95 % interval, one list per effect in [`Effect::params`] order
+    /// ([`crate::diagnose::fit_noise::interval95`]): its σ² holds the refits' spread (s²/n on
+    /// n − 1 degrees of freedom, `Ranked::refit`) and, where the bootstrap widened it, the
+    /// footages' spread (on B − 1, `Ranked::bootstrap`); the rest, the fits' curvature, counts
+    /// as known.
+    pub fn intervals95(&self) -> Vec<Vec<Option<crate::diagnose::fit_noise::Interval95>>> {
+        self.evaluated
+            .effects
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let pools = match &self.refit {
+                    Some(Refit::Done {
+                        runs,
+                        first_values,
+                        stds_before,
+                        ..
+                    }) => {
+                        let runs: Vec<(&[f64], &[f64])> = runs
+                            .iter()
+                            .map(|run| (of_effect(&run.values, i), of_effect(&run.stds, i)))
+                            .collect();
+                        crate::diagnose::fit_noise::pools(
+                            (of_effect(first_values, i), of_effect(stds_before, i)),
+                            &runs,
+                        )
+                    }
+                    _ => Vec::new(),
+                };
+                let found = match &self.bootstrap {
+                    Some(Bootstrap::Done { found, .. }) => {
+                        found.get(i).cloned().unwrap_or_default()
+                    }
+                    _ => Vec::new(),
+                };
+                f.effect
+                    .params()
+                    .iter()
+                    .zip(f.values.iter().zip(&f.stds))
+                    .enumerate()
+                    .map(|(j, (spec, (&value, &std)))| {
+                        let mut estimated = Vec::with_capacity(2);
+                        if let Some(pool) = pools.get(j) {
+                            estimated.push((pool.seed_var, pool.seed_dof));
+                        }
+                        if let Some(Some(fits)) = found.get(j) {
+                            estimated.push((fits.estimated_var, fits.footages.saturating_sub(1)));
+                        }
+                        crate::diagnose::fit_noise::interval95(value, std, &estimated, spec.valid)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// The `i`-th effect's list of `lists` (empty when missing).
+fn of_effect(lists: &[Vec<f64>], i: usize) -> &[f64] {
+    lists.get(i).map_or(&[], Vec::as_slice)
+}
+
 /// The best candidate fitted on footages simulated at its stated values on fresh data seeds,
 /// each measured and fitted as the real footage was (on the same fit seeds): the parametric
 /// bootstrap of the footage's own noise ([`crate::diagnose::fit_noise::from_footage_fits`]).

@@ -86,7 +86,78 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
     if let Some(bootstrap) = &r.bootstrap {
         entry["bootstrap"] = bootstrap_json(bootstrap, e);
     }
+    let (ci95, dof) = intervals_json(r);
+    entry["params_ci95"] = Value::Object(ci95);
+    entry["params_ci95_dof"] = Value::Object(dof);
     entry
+}
+
+/// [`Ranked::intervals95`] in `diagnosis.json`, keyed as `params`: `[low, high]` and the effective
+/// degrees of freedom (null where infinite, or where the parameter is undetermined).
+fn intervals_json(r: &Ranked) -> (Map<String, Value>, Map<String, Value>) {
+    let single = r.evaluated.effects.len() == 1;
+    let mut ci95 = Map::new();
+    let mut dofs = Map::new();
+    for (f, of_effect) in r.evaluated.effects.iter().zip(r.intervals95()) {
+        for (spec, interval) in f.effect.params().iter().zip(of_effect) {
+            let key = param_key(f.effect, spec.name, single);
+            ci95.insert(
+                key.clone(),
+                interval.map_or(Value::Null, |i| json!([i.low, i.high])),
+            );
+            dofs.insert(key, interval.map_or(Value::Null, |i| sd_json(i.dof)));
+        }
+    }
+    (ci95, dofs)
+}
+
+/// The best candidate's 95 % intervals in words ([`Ranked::intervals95`]), with the coverage factor
+/// each one took and why.
+fn intervals_text(r: &Ranked) -> String {
+    let single = r.evaluated.effects.len() == 1;
+    let mut parts = Vec::new();
+    let mut any_estimated = false;
+    for (f, of_effect) in r.evaluated.effects.iter().zip(r.intervals95()) {
+        for (spec, interval) in f.effect.params().iter().zip(of_effect) {
+            let Some(i) = interval else { continue };
+            let dof = if i.dof.is_finite() {
+                any_estimated = true;
+                format!("ν = {:.1}", i.dof)
+            } else {
+                "ν = ∞".to_string()
+            };
+            let clipped = if i.clipped {
+                ", cut at the values it can take"
+            } else {
+                ""
+            };
+            parts.push(format!(
+                "{} {} … {} {} (k = {:.3}, {dof}{clipped})",
+                param_key(f.effect, spec.name, single),
+                fmt(i.low),
+                fmt(i.high),
+                spec.unit,
+                i.k
+            ));
+        }
+    }
+    if parts.is_empty() {
+        return String::new();
+    }
+    let why = if any_estimated {
+        "k is Student's t on the ±'s effective degrees of freedom ν (Welch–Satterthwaite): \
+         the refits' spread counts on n − 1 and, where they widened the ±, the simulated \
+         footages' on B − 1, because a σ \
+         estimated from a few draws makes ±1.96σ cover less than 95 %"
+    } else {
+        "no part of the ± was estimated from a few draws here, so k is the normal's 1.96, and \
+         the interval holds only as far as the fit's curvature states the noise"
+    };
+    format!(
+        "95 % intervals of {}: {}. {why}.\n\n",
+        candidate_name(&r.evaluated),
+        parts.join("; ")
+    )
 }
 
 /// The fits on footages simulated at the stated values (`Ranked::bootstrap`) in
@@ -730,6 +801,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
     if let Some(b) = best {
         s.push_str(&refit_text(b));
         s.push_str(&bootstrap_text(b));
+        s.push_str(&intervals_text(b));
     }
     if !d.not_tried.is_empty() {
         s.push_str(&format!(
@@ -1147,6 +1219,90 @@ mod tests {
         );
         assert!(
             text.contains("1 value(s) above are stated with that bias taken off"),
+            "{text}"
+        );
+    }
+
+    /// A clearance pooled from three fits (0.50, 0.53, 0.47, each ± 0.01: σ² = 0.0001 +
+    /// 0.0009/3, the seed part 0.0003 on 2 degrees of freedom), then widened by eight footages
+    /// at 0.45 and 0.55 (s_b² = 0.02/7 in place of the curvature's 0.0001, on 7): its interval
+    /// takes Student's t on the Welch–Satterthwaite ν of those two parts, in the JSON and in
+    /// words. Without refits or footages, nothing is estimated: the normal's 1.96.
+    #[test]
+    fn the_best_candidates_intervals_take_t_on_the_dof_of_its_refits_and_footages() {
+        let mut best = ranked(
+            vec![fitted(Effect::Backlash, vec![0.50], vec![0.01])],
+            Refit::Off,
+        );
+        let runs: Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> = [0.53, 0.47]
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                let fits = vec![fitted(Effect::Backlash, vec![v], vec![0.01])];
+                (vec![3007 + k as u64], fits)
+            })
+            .collect();
+        best.refit = Some(super::super::pool_refits(&mut best.evaluated, runs, None));
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        assert!(close(best.evaluated.effects[0].stds[0], 0.02));
+        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..8)
+            .map(|k| {
+                let v = if k % 2 == 0 { 0.45 } else { 0.55 };
+                (
+                    5007 + k,
+                    vec![fitted(Effect::Backlash, vec![v], vec![0.01])],
+                )
+            })
+            .collect();
+        best.bootstrap = Some(super::super::widen_by_footages(&mut best, done, None));
+        // σ'² = 0.0004 − 0.0001 + s_b²: the footages' spread replaced the curvature's.
+        let footage_var = 0.02 / 7.0;
+        let var = 0.0003 + footage_var;
+        let (value, std) = (
+            best.evaluated.effects[0].values[0],
+            best.evaluated.effects[0].stds[0],
+        );
+        assert!(
+            close(value, 0.5) && close(std * std, var),
+            "{value} ± {std}"
+        );
+        let dof = var * var / (0.0003f64.powi(2) / 2.0 + footage_var * footage_var / 7.0);
+        assert_eq!(dof.floor(), 8.0, "{dof}");
+        let k = crate::budget::montecarlo::t975(8);
+        let json = ranked_json(&best, 15.0);
+        let ci = &json["params_ci95"]["clearance_mm"];
+        assert!(
+            close(ci[0].as_f64().unwrap_or(0.0), 0.5 - k * std),
+            "{json}"
+        );
+        assert!(
+            close(ci[1].as_f64().unwrap_or(0.0), 0.5 + k * std),
+            "{json}"
+        );
+        let got = json["params_ci95_dof"]["clearance_mm"].as_f64();
+        assert!(got.is_some_and(|d| close(d, dof)), "{json}");
+        let text = intervals_text(&best);
+        assert!(
+            text.starts_with("95 % intervals of backlash: clearance_mm ")
+                && text.contains("(k = 2.306, ν = 8.2)")
+                && text.contains("Welch–Satterthwaite): the refits' spread")
+                && !text.contains("  "),
+            "{text}"
+        );
+
+        let alone = ranked(
+            vec![fitted(Effect::Backlash, vec![0.50], vec![0.01])],
+            Refit::Off,
+        );
+        let json = ranked_json(&alone, 15.0);
+        assert!(json["params_ci95_dof"]["clearance_mm"].is_null(), "{json}");
+        let hi = json["params_ci95"]["clearance_mm"][1]
+            .as_f64()
+            .unwrap_or(0.0);
+        assert!(close(hi, 0.5 + 1.959964 * 0.01), "{json}");
+        let text = intervals_text(&alone);
+        assert!(
+            text.contains("(k = 1.960, ν = ∞)") && text.contains("normal's 1.96"),
             "{text}"
         );
     }

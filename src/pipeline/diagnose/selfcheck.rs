@@ -550,9 +550,17 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
     let best = d.best.map(|b| &d.ranking[b]);
     let mut param_rel_errors = Vec::new();
     let mut param_errors_in_sd = Vec::new();
+    let mut params_in_ci95 = Vec::new();
     if let (Some((effect, truth)), Some(best)) = (&case.truth, best) {
-        if let Some(f) = best.evaluated.effects.iter().find(|f| f.effect == *effect) {
-            for ((v, s), t) in f.values.iter().zip(&f.stds).zip(truth) {
+        let intervals = best.intervals95();
+        let found = best
+            .evaluated
+            .effects
+            .iter()
+            .zip(&intervals)
+            .find(|(f, _)| f.effect == *effect);
+        if let Some((f, intervals)) = found {
+            for (j, ((v, s), t)) in f.values.iter().zip(&f.stds).zip(truth).enumerate() {
                 // Only parameters the data determine (a finite uncertainty) and that are not zero.
                 if s.is_finite() && t.abs() > 0.0 {
                     param_rel_errors.push(((v - t) / t).abs());
@@ -564,6 +572,13 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
                     } else {
                         f64::INFINITY
                     });
+                    params_in_ci95.push(
+                        intervals
+                            .get(j)
+                            .copied()
+                            .flatten()
+                            .is_some_and(|i| i.low <= *t && *t <= i.high),
+                    );
                 }
             }
         }
@@ -576,6 +591,7 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
         best_shrink: best.map(|b| b.shrink),
         param_rel_errors,
         param_errors_in_sd,
+        params_in_ci95,
         eval_seeds: d.seeds.len(),
     }
 }
@@ -625,6 +641,7 @@ pub fn run_case(
                 best_shrink: None,
                 param_rel_errors: Vec::new(),
                 param_errors_in_sd: Vec::new(),
+                params_in_ci95: Vec::new(),
                 eval_seeds: 0,
             });
         }
@@ -781,6 +798,12 @@ pub fn write_summary(
             pct(&s.params_within_2sd_strong),
             "≈ 95 % (honest uncertainties)",
         ),
+        (
+            "those parameters' truth within their stated 95 % interval (Student's t on the ±'s \
+             degrees of freedom, `params_ci95`)",
+            pct(&s.params_within_ci95_strong),
+            "≈ 95 %",
+        ),
     ];
     let mut md = String::from(
         "# Diagnosis self-check\n\nFootage with a known cause rendered by the renderer the plan names, diagnosed by \
@@ -827,7 +850,7 @@ pub fn write_summary(
     }
     md.push_str("\n## Cases\n\n| case | verdict | ranking (best first) | shrink | parameter errors | in σ | evaluation seeds |\n|---|---|---|---|---|---|---|\n");
     let mut cases_csv =
-        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,eval_seeds,param_errors_in_sd\n");
+        String::from("case,expectation,verdict,ranking,best_shrink,param_rel_errors,eval_seeds,param_errors_in_sd,params_in_ci95\n");
     for o in outcomes {
         let ranking: Vec<String> = o.ranked.iter().take(4).map(|c| c.join("/")).collect();
         let errs: Vec<String> = o
@@ -864,7 +887,7 @@ pub fn write_summary(
             Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
         };
         cases_csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{}\n",
             o.name,
             kind,
             o.verdict,
@@ -879,6 +902,11 @@ pub fn write_summary(
             o.param_errors_in_sd
                 .iter()
                 .map(|z| format!("{z:.3}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            o.params_in_ci95
+                .iter()
+                .map(|i| if *i { "1" } else { "0" })
                 .collect::<Vec<_>>()
                 .join(" "),
         ));
@@ -899,6 +927,7 @@ pub fn write_summary(
         "median_shrink_strong": s.median_shrink_strong,
         "median_param_rel_error_strong": s.median_param_rel_error_strong,
         "params_within_2sd_strong": rate_json(&s.params_within_2sd_strong),
+        "params_within_ci95_strong": rate_json(&s.params_within_ci95_strong),
     });
     w("README.md", md)?;
     w("confusion.csv", csv)?;
