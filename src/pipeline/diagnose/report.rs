@@ -120,7 +120,12 @@ fn intervals_text(r: &Ranked) -> String {
     for (f, of_effect) in r.evaluated.effects.iter().zip(r.intervals95()) {
         for (spec, interval) in f.effect.params().iter().zip(of_effect) {
             let Some(i) = interval else { continue };
-            let dof = if i.dof.is_finite() {
+            // Refits that give a value back but for rounding leave a part of 10⁻³⁶ σ² and a ν
+            // of 10⁶² whose digits say nothing: k is the normal's there.
+            let dof = if i.dof > 1e6 && i.dof.is_finite() {
+                any_estimated = true;
+                "ν > 10⁶".to_string()
+            } else if i.dof.is_finite() {
                 any_estimated = true;
                 format!("ν = {:.1}", i.dof)
             } else {
@@ -1305,6 +1310,23 @@ mod tests {
             text.contains("(k = 1.960, ν = ∞)") && text.contains("normal's 1.96"),
             "{text}"
         );
+        // Refits that give the value back to the last bit: ν beyond a million, not its digits.
+        let mut back = ranked(
+            vec![fitted(Effect::Backlash, vec![0.5], vec![0.01])],
+            Refit::Off,
+        );
+        let last_bit = f64::from_bits(0.5f64.to_bits() + 1);
+        let runs: Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> = [0.5, last_bit]
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                let fits = vec![fitted(Effect::Backlash, vec![v], vec![0.01])];
+                (vec![3007 + k as u64], fits)
+            })
+            .collect();
+        back.refit = Some(super::super::pool_refits(&mut back.evaluated, runs, None));
+        let text = intervals_text(&back);
+        assert!(text.contains("(k = 1.960, ν > 10⁶)"), "{text}");
     }
 
     #[test]
