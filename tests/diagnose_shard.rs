@@ -8,7 +8,8 @@
 //! best candidate's refits on fresh seeds and its fits on two footages simulated at its stated
 //! values (the bootstrap of the footage's own noise).
 //!
-//! The one-machine run is made on one thread, the shards and the merge on all: the fits that
+//! The one-machine run is made on one thread, the shards and the merge on all, both at once (the
+//! one-thread run would otherwise leave a core idle for half of CI's longest test): the fits that
 //! run concurrently (shards' candidates; the merge's pairs, refits and bootstrap footages, a
 //! wave at a time) must give the report of fits run one after another, byte for byte.
 
@@ -17,7 +18,9 @@
 use geneva_vision::pipeline::analyze::Source;
 use geneva_vision::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, SuitePlan};
 use geneva_vision::pipeline::diagnose::shards::Mode;
-use geneva_vision::pipeline::diagnose::{diagnose_with, DiagnoseOptions, Finished};
+use geneva_vision::pipeline::diagnose::{
+    diagnose_with, DiagnoseError, DiagnoseOptions, Diagnosis, Finished,
+};
 use geneva_vision::scenario::effects::Effect;
 use geneva_vision::shard::Shard;
 use std::path::Path;
@@ -71,63 +74,30 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
         diagnose_with(&case.nominal, &source, out, &options, mode, &|_, _, _| {})
     };
 
-    let t = std::time::Instant::now();
     let whole_dir = tmp.path().join("whole");
     let one_thread = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    let whole_run = one_thread.install(|| run(&whole_dir, Mode::Whole));
+    let sharded = tmp.path().join("sharded");
+    // The one-thread run and the sharded one at the same time; neither reads a file the other
+    // writes.
+    let (whole_run, (merged, units, sharded_s)) = std::thread::scope(|scope| {
+        let whole = scope.spawn(|| {
+            let t = std::time::Instant::now();
+            let r = one_thread.install(|| run(&whole_dir, Mode::Whole));
+            (r, t.elapsed().as_secs_f64())
+        });
+        let sharded_part = shards_then_merge(&sharded, &run);
+        (whole.join().unwrap(), sharded_part)
+    });
+    let (whole_run, whole_s) = whole_run;
     let Finished::Diagnosis(whole, _) = whole_run.unwrap() else {
         panic!("a whole run writes a report")
     };
-    let whole_s = t.elapsed().as_secs_f64();
-
-    let t = std::time::Instant::now();
-    let sharded = tmp.path().join("sharded");
-    let shard = |i| Mode::Shard {
-        shard: Shard::new(i, 2).unwrap(),
-        restart: false,
-    };
-    let Finished::Shard(r0) = run(&sharded, shard(0)).unwrap() else {
-        panic!("a shard writes no report")
-    };
-    assert!(r0.complete);
-    // Shard 1 not run yet: the merge names what is missing and writes nothing final.
-    let e = match run(&sharded, Mode::Merge) {
-        Ok(_) => panic!("a merge with shard 1/2 missing succeeded"),
-        Err(e) => e.to_string(),
-    };
-    assert!(e.contains("shard 1/2 not started"), "{e}");
-    let units: Vec<String> = serde_json::from_str::<serde_json::Value>(
-        &std::fs::read_to_string(sharded.join("shards/0/manifest.json")).unwrap(),
-    )
-    .unwrap()["inputs"]["prefix"]["candidates"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap().to_string())
-        .collect();
-    assert!(units.len() >= 2, "{units:?}");
-    for name in units.iter().skip(1).step_by(2) {
-        assert!(e.contains(name.as_str()), "`{name}` named in: {e}");
-    }
-    assert!(!sharded.join("diagnosis.json").exists());
-    assert!(!sharded.join("diagnosis.md").exists());
-
-    run(&sharded, shard(1)).unwrap();
-    // Re-running a finished shard repeats nothing.
-    let Finished::Shard(again) = run(&sharded, shard(1)).unwrap() else {
-        panic!("a shard writes no report")
-    };
-    assert!(again.already_complete && again.units_run == 0);
-    let Finished::Diagnosis(merged, _) = run(&sharded, Mode::Merge).unwrap() else {
-        panic!("a merge writes a report")
-    };
-    let sharded_s = t.elapsed().as_secs_f64();
     eprintln!(
-        "whole on one thread {whole_s:.1} s; 2 shards + merge in sequence {sharded_s:.1} s; {} candidates, \
-         pair tried: {}, {} simulations",
+        "whole on one thread {whole_s:.1} s; 2 shards + merge in sequence {sharded_s:.1} s, both at \
+         once; {} candidates, pair tried: {}, {} simulations",
         units.len(),
         whole.pair_tried,
         whole.simulations
@@ -186,4 +156,54 @@ fn sharded_diagnosis_merges_into_the_one_machine_report() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("fit_seeds") && e.contains("2 → 3"), "{e}");
+}
+
+/// Shard 0, a merge refused for shard 1 missing, shard 1 (twice: the second run repeats
+/// nothing), then the merge, into `sharded`: the merged report, the candidates (units) of the
+/// shards and the wall time.
+fn shards_then_merge(
+    sharded: &Path,
+    run: &(dyn Fn(&Path, Mode) -> Result<Finished, DiagnoseError> + Sync),
+) -> (Box<Diagnosis>, Vec<String>, f64) {
+    let t = std::time::Instant::now();
+    let shard = |i| Mode::Shard {
+        shard: Shard::new(i, 2).unwrap(),
+        restart: false,
+    };
+    let Finished::Shard(r0) = run(sharded, shard(0)).unwrap() else {
+        panic!("a shard writes no report")
+    };
+    assert!(r0.complete);
+    // Shard 1 not run yet: the merge names what is missing and writes nothing final.
+    let e = match run(sharded, Mode::Merge) {
+        Ok(_) => panic!("a merge with shard 1/2 missing succeeded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("shard 1/2 not started"), "{e}");
+    let units: Vec<String> = serde_json::from_str::<serde_json::Value>(
+        &std::fs::read_to_string(sharded.join("shards/0/manifest.json")).unwrap(),
+    )
+    .unwrap()["inputs"]["prefix"]["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    assert!(units.len() >= 2, "{units:?}");
+    for name in units.iter().skip(1).step_by(2) {
+        assert!(e.contains(name.as_str()), "`{name}` named in: {e}");
+    }
+    assert!(!sharded.join("diagnosis.json").exists());
+    assert!(!sharded.join("diagnosis.md").exists());
+
+    run(sharded, shard(1)).unwrap();
+    // Re-running a finished shard repeats nothing.
+    let Finished::Shard(again) = run(sharded, shard(1)).unwrap() else {
+        panic!("a shard writes no report")
+    };
+    assert!(again.already_complete && again.units_run == 0);
+    let Finished::Diagnosis(merged, _) = run(sharded, Mode::Merge).unwrap() else {
+        panic!("a merge writes a report")
+    };
+    (merged, units, t.elapsed().as_secs_f64())
 }
