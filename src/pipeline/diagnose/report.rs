@@ -1228,6 +1228,20 @@ mod tests {
         );
     }
 
+    /// One refit per clearance, each ± 0.01 on its own seed, as `pool_refits` takes them.
+    fn backlash_refit_runs(
+        clearances_mm: &[f64],
+    ) -> Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> {
+        clearances_mm
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                let fits = vec![fitted(Effect::Backlash, vec![v], vec![0.01])];
+                (vec![3007 + k as u64], fits)
+            })
+            .collect()
+    }
+
     /// A clearance pooled from three fits (0.50, 0.53, 0.47, each ± 0.01: σ² = 0.0001 +
     /// 0.0009/3, the seed part 0.0003 on 2 degrees of freedom), then widened by eight footages
     /// at 0.45 and 0.55 (s_b² = 0.02/7 in place of the curvature's 0.0001, on 7): its interval
@@ -1239,15 +1253,11 @@ mod tests {
             vec![fitted(Effect::Backlash, vec![0.50], vec![0.01])],
             Refit::Off,
         );
-        let runs: Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> = [0.53, 0.47]
-            .iter()
-            .enumerate()
-            .map(|(k, &v)| {
-                let fits = vec![fitted(Effect::Backlash, vec![v], vec![0.01])];
-                (vec![3007 + k as u64], fits)
-            })
-            .collect();
-        best.refit = Some(super::super::pool_refits(&mut best.evaluated, runs, None));
+        best.refit = Some(super::super::pool_refits(
+            &mut best.evaluated,
+            backlash_refit_runs(&[0.53, 0.47]),
+            None,
+        ));
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
         assert!(close(best.evaluated.effects[0].stds[0], 0.02));
         let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..8)
@@ -1316,15 +1326,11 @@ mod tests {
             Refit::Off,
         );
         let last_bit = f64::from_bits(0.5f64.to_bits() + 1);
-        let runs: Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> = [0.5, last_bit]
-            .iter()
-            .enumerate()
-            .map(|(k, &v)| {
-                let fits = vec![fitted(Effect::Backlash, vec![v], vec![0.01])];
-                (vec![3007 + k as u64], fits)
-            })
-            .collect();
-        back.refit = Some(super::super::pool_refits(&mut back.evaluated, runs, None));
+        back.refit = Some(super::super::pool_refits(
+            &mut back.evaluated,
+            backlash_refit_runs(&[0.5, last_bit]),
+            None,
+        ));
         let text = intervals_text(&back);
         assert!(text.contains("(k = 1.960, ν > 10⁶)"), "{text}");
     }
