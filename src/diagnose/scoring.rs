@@ -245,29 +245,31 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
                 .flat_map(|o| o.param_rel_errors.iter().copied())
                 .collect(),
         ),
-        params_within_2sd_strong: {
-            let z: Vec<f64> = outcomes
-                .iter()
-                .filter(|o| strong(o) && o.top_k(1))
-                .flat_map(|o| o.param_errors_in_sd.iter().copied())
-                .collect();
-            Rate {
-                k: z.iter().filter(|z| **z <= 2.0).count(),
-                n: z.len(),
-            }
-        },
-        params_within_ci95_strong: {
-            let inside: Vec<bool> = outcomes
-                .iter()
-                .filter(|o| strong(o) && o.top_k(1))
-                .flat_map(|o| o.params_in_ci95.iter().copied())
-                .collect();
-            Rate {
-                k: inside.iter().filter(|i| **i).count(),
-                n: inside.len(),
-            }
-        },
+        params_within_2sd_strong: top1_strong_params_rate(outcomes, strong, |o| {
+            o.param_errors_in_sd.iter().map(|z| *z <= 2.0).collect()
+        }),
+        params_within_ci95_strong: top1_strong_params_rate(outcomes, strong, |o| {
+            o.params_in_ci95.clone()
+        }),
         confusion,
+    }
+}
+
+/// The share of the identifiable parameters of the strong cases answered top-1 for which
+/// `inside` holds (one flag per parameter).
+fn top1_strong_params_rate(
+    outcomes: &[CaseOutcome],
+    strong: impl Fn(&CaseOutcome) -> bool,
+    inside: impl Fn(&CaseOutcome) -> Vec<bool>,
+) -> Rate {
+    let flags: Vec<bool> = outcomes
+        .iter()
+        .filter(|o| strong(o) && o.top_k(1))
+        .flat_map(inside)
+        .collect();
+    Rate {
+        k: flags.iter().filter(|i| **i).count(),
+        n: flags.len(),
     }
 }
 
