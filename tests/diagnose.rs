@@ -172,6 +172,31 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
             json["run"]["seeds"].as_array().map(Vec::len),
             Some(o.eval_seeds)
         );
+        // The record's ranking as reports write it: one label per candidate of
+        // `diagnosis.json`, the pair's effects joined by `+`, its group after ` ≈ `.
+        let labels: Vec<String> = json["ranking"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .map(|r| {
+                        let names = |v: &serde_json::Value| -> Vec<String> {
+                            v.as_array()
+                                .map(|n| {
+                                    n.iter()
+                                        .filter_map(|x| x.as_str().map(str::to_string))
+                                        .collect()
+                                })
+                                .unwrap_or_default()
+                        };
+                        std::iter::once(names(&r["effects"]).join("+"))
+                            .chain(names(&r["group"]))
+                            .collect::<Vec<_>>()
+                            .join(" ≈ ")
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        assert_eq!(o.ranked_labels, labels, "{o:?}");
         if matches!(o.expectation, Expectation::Withheld { .. }) {
             // The probe's noise is read noise on a small well (185 e⁻ on 2000 e⁻): the shot
             // part is 6 % of the variance between ink and paper, and with the ink's noise cut

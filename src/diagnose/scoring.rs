@@ -37,6 +37,11 @@ pub struct CaseOutcome {
     /// Ranked candidates, best first: each the effect names of the candidate (one, or two for a
     /// pair) together with the names of the group the data cannot tell apart from it.
     pub ranked: Vec<Vec<String>>,
+    /// The same candidates as reports write them, keeping what `ranked` flattens: a pair's
+    /// effects joined by `+`, each member of its group after ` ≈ ` (`a+b ≈ c+d`). Records of
+    /// older runs have none; [`CaseOutcome::ranking_labels`] falls back on `ranked`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ranked_labels: Vec<String>,
     /// Shrink of the best candidate (1 − D_k / D₀ on fresh seeds); `None` without one.
     pub best_shrink: Option<f64>,
     /// Relative errors |fitted − true| / |true| of the withheld effect's identifiable
@@ -83,6 +88,16 @@ impl CaseOutcome {
                 self.verdict == "explained" && self.rank_of(&names).is_some_and(|r| r < k)
             }
             _ => false,
+        }
+    }
+
+    /// The ranked candidates as reports write them (see `ranked_labels`); an older record's
+    /// flattened names joined by `/`.
+    pub fn ranking_labels(&self) -> Vec<String> {
+        if self.ranked_labels.len() == self.ranked.len() {
+            self.ranked_labels.clone()
+        } else {
+            self.ranked.iter().map(|c| c.join("/")).collect()
         }
     }
 
@@ -148,6 +163,11 @@ pub struct Scores {
     /// The same parameters whose truth lies in their stated 95 % interval (Student's t on the
     /// ±'s degrees of freedom): the interval a user reads, checked.
     pub params_within_ci95_strong: Rate,
+    /// The same three figures near the detection limit (weak, top-1 cases): fewer and noisier
+    /// data, so larger errors and ± carried by few draws, where a t interval and ± 1.96 σ part.
+    pub median_param_rel_error_weak: Option<f64>,
+    pub params_within_2sd_weak: Rate,
+    pub params_within_ci95_weak: Rate,
     /// Withheld effect → (answer → count).
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
 }
@@ -238,33 +258,49 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
                 .filter_map(|o| o.best_shrink)
                 .collect(),
         ),
-        median_param_rel_error_strong: median(
-            outcomes
-                .iter()
-                .filter(|o| strong(o) && o.top_k(1))
-                .flat_map(|o| o.param_rel_errors.iter().copied())
-                .collect(),
-        ),
-        params_within_2sd_strong: top1_strong_params_rate(outcomes, strong, |o| {
-            o.param_errors_in_sd.iter().map(|z| *z <= 2.0).collect()
-        }),
-        params_within_ci95_strong: top1_strong_params_rate(outcomes, strong, |o| {
-            o.params_in_ci95.clone()
-        }),
+        median_param_rel_error_strong: top1_median_rel_error(outcomes, strong),
+        params_within_2sd_strong: top1_params_rate(outcomes, strong, within_2sd),
+        params_within_ci95_strong: top1_params_rate(outcomes, strong, in_ci95),
+        median_param_rel_error_weak: top1_median_rel_error(outcomes, weak),
+        params_within_2sd_weak: top1_params_rate(outcomes, weak, within_2sd),
+        params_within_ci95_weak: top1_params_rate(outcomes, weak, in_ci95),
         confusion,
     }
 }
 
-/// The share of the identifiable parameters of the strong cases answered top-1 for which
-/// `inside` holds (one flag per parameter).
-fn top1_strong_params_rate(
+fn within_2sd(o: &CaseOutcome) -> Vec<bool> {
+    o.param_errors_in_sd.iter().map(|z| *z <= 2.0).collect()
+}
+
+fn in_ci95(o: &CaseOutcome) -> Vec<bool> {
+    o.params_in_ci95.clone()
+}
+
+/// The median relative error of the identifiable parameters of the cases `keep` selects that
+/// were answered top-1 (a parameter of another effect is no error of the withheld one).
+fn top1_median_rel_error(
     outcomes: &[CaseOutcome],
-    strong: impl Fn(&CaseOutcome) -> bool,
+    keep: impl Fn(&CaseOutcome) -> bool,
+) -> Option<f64> {
+    median(
+        outcomes
+            .iter()
+            .filter(|o| keep(o) && o.top_k(1))
+            .flat_map(|o| o.param_rel_errors.iter().copied())
+            .collect(),
+    )
+}
+
+/// The share of the identifiable parameters of the cases `keep` selects, answered top-1, for
+/// which `inside` holds (one flag per parameter).
+fn top1_params_rate(
+    outcomes: &[CaseOutcome],
+    keep: impl Fn(&CaseOutcome) -> bool,
     inside: impl Fn(&CaseOutcome) -> Vec<bool>,
 ) -> Rate {
     let flags: Vec<bool> = outcomes
         .iter()
-        .filter(|o| strong(o) && o.top_k(1))
+        .filter(|o| keep(o) && o.top_k(1))
         .flat_map(inside)
         .collect();
     Rate {
@@ -291,6 +327,7 @@ mod tests {
                 .iter()
                 .map(|c| c.iter().map(|s| s.to_string()).collect())
                 .collect(),
+            ranked_labels: Vec::new(),
             best_shrink: Some(shrink),
             param_rel_errors: vec![0.1],
             param_errors_in_sd: vec![1.5, 2.5],
@@ -357,6 +394,17 @@ mod tests {
                 0.5,
             ),
             case(withheld("pixel_noise", false), "no_gap", &[], 0.0),
+            CaseOutcome {
+                param_rel_errors: vec![0.4, 0.2],
+                param_errors_in_sd: vec![2.3, 0.5],
+                params_in_ci95: vec![false, true],
+                ..case(
+                    withheld("lighting", false),
+                    "explained",
+                    &[&["lighting"]],
+                    0.95,
+                )
+            },
             case(Expectation::Null, "no_gap", &[], 0.0),
             case(Expectation::Null, "unexplained", &[&["lighting"]], 0.1),
             case(
@@ -369,7 +417,8 @@ mod tests {
         let s = score(&outcomes);
         assert_eq!(s.top1_strong, Rate { k: 1, n: 2 });
         assert_eq!(s.top3_strong, Rate { k: 2, n: 2 });
-        assert_eq!(s.detected_weak, Rate { k: 0, n: 1 });
+        assert_eq!(s.detected_weak, Rate { k: 1, n: 2 });
+        assert_eq!(s.top1_weak, Rate { k: 1, n: 2 });
         assert_eq!(s.false_alarms, Rate { k: 1, n: 2 });
         assert_eq!(s.unexplained_recall, Rate { k: 1, n: 1 });
         assert_eq!(s.median_shrink_strong, Some(0.7));
@@ -377,11 +426,49 @@ mod tests {
         // The one top-1 strong case's two parameters: 1.5 σ and 2.5 σ off.
         assert_eq!(s.params_within_2sd_strong, Rate { k: 1, n: 2 });
         assert_eq!(s.params_within_ci95_strong, Rate { k: 2, n: 2 });
+        // Near the limit, the one top-1 case's own parameters, not the strong cases'.
+        assert!(s
+            .median_param_rel_error_weak
+            .is_some_and(|m| (m - 0.3).abs() < 1e-12));
+        assert_eq!(s.params_within_2sd_weak, Rate { k: 1, n: 2 });
+        assert_eq!(s.params_within_ci95_weak, Rate { k: 1, n: 2 });
         assert_eq!(s.confusion["pixel_noise (strong)"]["optical_blur"], 1);
         assert_eq!(s.confusion["null"]["unexplained (lighting)"], 1);
         assert_eq!(s.top1_form, Rate { k: 0, n: 0 });
         let total: usize = s.confusion.values().flat_map(|r| r.values()).sum();
         assert_eq!(total, outcomes.len());
+    }
+
+    #[test]
+    fn ranking_labels_keep_pairs_and_groups_and_read_older_records() {
+        let mut o = case(
+            withheld("backlash", true),
+            "explained",
+            &[
+                &["drive_speed", "axis_runout", "backlash", "overrotation"],
+                &["axis_runout"],
+            ],
+            0.9,
+        );
+        assert_eq!(
+            o.ranking_labels(),
+            [
+                "drive_speed/axis_runout/backlash/overrotation",
+                "axis_runout"
+            ],
+            "a record without labels keeps the flattened names"
+        );
+        o.ranked_labels = vec![
+            "drive_speed+axis_runout ≈ backlash+overrotation".into(),
+            "axis_runout".into(),
+        ];
+        assert_eq!(o.ranking_labels(), o.ranked_labels);
+        let json = serde_json::to_string(&o).unwrap();
+        let back: CaseOutcome = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, o);
+        let old: CaseOutcome =
+            serde_json::from_str(&json.replace("\"ranked_labels\"", "\"unknown_field\"")).unwrap();
+        assert!(old.ranked_labels.is_empty(), "older records parse");
     }
 
     #[test]
