@@ -533,6 +533,16 @@ impl Effect {
         )
     }
 
+    /// Whether a diagnosis trial of the effect refits the motion nuisance (crank phase and speed,
+    /// the marker's angle, the measured rotation centre): the effects that bend the aligned angle
+    /// ([`Effect::bends_the_aligned_angle`]), and the crank speed's profile, which bends nothing
+    /// on exact corners but changes the motion the nuisance was fitted with: the nominal's
+    /// constant-speed alignment reads a crank that slows in each engagement as a slower crank at
+    /// another phase, and a profile trial that kept that motion could not match the real angle.
+    pub fn trial_refits_motion(self) -> bool {
+        self.bends_the_aligned_angle() || self == Effect::DriveSpeed
+    }
+
     /// Effects switched by the same scenario fields: switching one off switches off the other.
     pub fn shares_switch_with(self) -> &'static [Effect] {
         match self {
@@ -887,6 +897,32 @@ pub fn mean_crank_speed_rad_s(d: &DriveSpeedConfig) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The trials that refit the motion nuisance are those that bend the aligned angle and the
+    /// crank speed's profile; no image effect and no timing effect moves the crank.
+    #[test]
+    fn trials_that_refit_the_motion_are_the_bending_ones_and_the_speed_profile() {
+        let refitting: Vec<&str> = Effect::ALL
+            .iter()
+            .filter(|e| e.trial_refits_motion())
+            .map(|e| e.name())
+            .collect();
+        assert_eq!(
+            refitting,
+            [
+                "drive_speed",
+                "backlash",
+                "overrotation",
+                "axis_runout",
+                "lens_distortion",
+                "perspective_tilt"
+            ]
+        );
+        for e in Effect::ALL {
+            assert!(!(e.kind() == EffectKind::Image && e.trial_refits_motion()));
+            assert!(!e.bends_the_aligned_angle() || e.trial_refits_motion());
+        }
+    }
 
     #[test]
     fn names_round_trip_and_are_the_vocabulary() {

@@ -239,7 +239,8 @@ fn realign_with(
     Ok((out, last, wheel))
 }
 
-/// The nuisance a trial that bends the angle refits ([`bends_angle`]): `s`'s rotation centre
+/// The nuisance a trial that bends the angle ([`bends_angle`]) or varies the crank speed
+/// ([`Effect::trial_refits_motion`]) refits: `s`'s rotation centre
 /// moved to where the estimator measures `want_centre_px` ([`match_measured_centre`]), its
 /// motion and marker angle refitted to the real angle `theta_rad` ([`realign_motion`]), and the
 /// centre matched again after the motion moved it. The same as those three calls in turn, with
@@ -253,7 +254,7 @@ pub fn refit_nuisance(
 ) -> Result<Scenario, DiagnoseError> {
     let wheel = wheel_angles(s, t_s)?;
     let centred = centre_at(s, want_centre_px, t_s, &wheel, screen_sign)?;
-    if !bends_angle(&centred) {
+    if !(bends_angle(&centred) || Effect::DriveSpeed.is_on(&centred)) {
         return centre_at(&centred, want_centre_px, t_s, &wheel, screen_sign);
     }
     // The centre does not move the wheel: `wheel` is `centred`'s.
@@ -452,20 +453,27 @@ mod tests {
     }
 
     /// `truth` moved (crank start 2 rad, marker angle +4°, speed ×1.1) and measured on its exact
-    /// corners, aligned plainly and realigned through `truth`'s own bend: the plain alignment,
-    /// the realigned speed scale and scenario. The realigned scenario must reproduce the
-    /// measured angle within `worst_rad`.
-    fn realign_moved(truth: &Scenario, worst_rad: f64) -> (MotionAlignment, f64, Scenario) {
+    /// corners at `frames` frames of 30 fps: its screen sign, the frame times and the angle.
+    fn measured_moved(truth: &Scenario, frames: usize) -> (f64, Vec<f64>, Vec<f64>) {
         let sign = super::super::nominal::screen_sign(&{
             let camera = Camera::new(&truth.camera).unwrap();
             Scene::new(&truth.scene, camera).unwrap()
         });
-        let t: Vec<f64> = (0..90).map(|k| k as f64 / 30.0).collect();
+        let t: Vec<f64> = (0..frames).map(|k| k as f64 / 30.0).collect();
         let mut moving = truth.clone();
         moving.mechanism.theta1_start_rad = Some(2.0);
         moving.scene.marker.angle_on_disc_deg += 4.0;
         moving.drive_speed = crate::diagnose::align::scale_drive(&truth.drive_speed, 1.1);
         let theta = exact_view(&moving, &t, sign).unwrap().measured_rad;
+        (sign, t, theta)
+    }
+
+    /// `truth` moved (crank start 2 rad, marker angle +4°, speed ×1.1) and measured on its exact
+    /// corners, aligned plainly and realigned through `truth`'s own bend: the plain alignment,
+    /// the realigned speed scale and scenario. The realigned scenario must reproduce the
+    /// measured angle within `worst_rad`.
+    fn realign_moved(truth: &Scenario, worst_rad: f64) -> (MotionAlignment, f64, Scenario) {
+        let (sign, t, theta) = measured_moved(truth, 90);
 
         let plain = align_motion(truth, &t, &theta, sign).unwrap();
         let (realigned, refit) = realign_motion(truth, &t, &theta, sign).unwrap();
@@ -490,6 +498,44 @@ mod tests {
             .fold(0.0, f64::max);
         assert!(worst < worst_rad, "worst angle misfit {worst} rad");
         (plain, realigned_scale, realigned)
+    }
+
+    /// A crank that slows by 15 % in each engagement (the drive-speed probe), moved and measured
+    /// on exact corners: the constant-speed nominal's alignment takes the profile for another
+    /// crank speed and phase, so the profile's trial on that motion misses the real angle; the
+    /// trial's nuisance refit finds the crank and matches it.
+    #[test]
+    fn a_speed_profiles_trial_refits_the_crank_the_constant_alignment_misread() {
+        let mut truth = crate::scenario::load_any("fast").unwrap();
+        let mut nominal = truth.clone();
+        Effect::DriveSpeed.switch_off(&mut nominal);
+        Effect::DriveSpeed.apply(&mut truth, &[-0.15]);
+        let end = |s: &Scenario| crate::scenario::effects::mean_crank_speed_rad_s(&s.drive_speed);
+        let (sign, t, theta) = measured_moved(&truth, 180);
+
+        let aligned = apply_motion(&nominal, &align_motion(&nominal, &t, &theta, sign).unwrap());
+        let mut trial = aligned.clone();
+        Effect::DriveSpeed.apply(&mut trial, &[-0.15]);
+        let want = measured_centre_px(&aligned, &t, sign).unwrap();
+        let refitted = refit_nuisance(&trial, want, &t, &theta, sign).unwrap();
+        let misfit = |s: &Scenario| {
+            exact_view(s, &t, sign)
+                .unwrap()
+                .measured_rad
+                .iter()
+                .zip(&theta)
+                .map(|(a, b)| wrap(a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let (kept, refit) = (misfit(&trial), misfit(&refitted));
+        assert!(kept > 1e-2, "the kept motion should miss: {kept} rad");
+        assert!(refit < 2e-3, "refitted misfit {refit} rad (kept {kept})");
+        let speed_err = end(&refitted) / (1.1 * end(&truth)) - 1.0;
+        let kept_err = end(&trial) / (1.1 * end(&truth)) - 1.0;
+        assert!(
+            speed_err.abs() < 2e-3 && kept_err.abs() > 1e-2,
+            "crank speed off by {speed_err} refitted, {kept_err} kept"
+        );
     }
 
     /// [`refit_nuisance`] is the centre match, motion refit and centre match it replaced, bit

@@ -687,7 +687,7 @@ impl<'a> Fitter<'a> {
                 }
             }
         }
-        if applied.iter().any(|(e, _)| e.bends_the_aligned_angle()) {
+        if applied.iter().any(|(e, _)| e.trial_refits_motion()) {
             // The crank phase and speed, the marker's angle and the measured rotation centre
             // are nuisance: refit them through this camera or this wobbling axis (see
             // `camera_warp`). A lens too: the angle cells are residuals after the aligned
@@ -701,6 +701,8 @@ impl<'a> Fitter<'a> {
             // delay. (Refitted, the 0.5 mm clearance still came out 11–16 % low on three seeds
             // in `reports/diagnosis-stop37/`: the self-check's shared fit seeds, not this
             // refit; `reports/diagnosis-stop38/`.)
+            // A crank speed profile too (`Effect::trial_refits_motion`): the nominal's
+            // constant-speed alignment took the profile's slow engagements for a slower crank.
             let (td, th) = self.real_theta_det;
             let sign = aligned_of(self).screen_sign;
             let want_px = match self.base_centre_px.get() {
