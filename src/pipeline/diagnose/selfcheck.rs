@@ -529,7 +529,9 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
 
 /// What one case gave.
 pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
-    let ranked: Vec<Vec<String>> = d
+    // Each candidate as the scoring reads it (every effect it names, its group's flattened) and
+    // as reports write it (a pair joined by `+`, its group after ` ≈ `), in one walk.
+    let (ranked, ranked_labels): (Vec<Vec<String>>, Vec<String>) = d
         .ranking
         .iter()
         .map(|r| {
@@ -544,19 +546,13 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
                     .iter()
                     .flat_map(|g| g.split('+').map(str::to_string)),
             );
-            names
-        })
-        .collect();
-    let ranked_labels: Vec<String> = d
-        .ranking
-        .iter()
-        .map(|r| {
-            std::iter::once(super::candidate_name(&r.evaluated))
+            let label = std::iter::once(super::candidate_name(&r.evaluated))
                 .chain(r.group.iter().cloned())
                 .collect::<Vec<_>>()
-                .join(" ≈ ")
+                .join(" ≈ ");
+            (names, label)
         })
-        .collect();
+        .unzip();
     let best = d.best.map(|b| &d.ranking[b]);
     let mut param_rel_errors = Vec::new();
     let mut param_errors_in_sd = Vec::new();
