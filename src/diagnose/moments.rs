@@ -1,9 +1,9 @@
 //! Moment matching for the effects whose parameters map onto one statistic of the gap map
-//! (edge width, rolling-shutter readout, noise at two grey levels): the parameter is moved
-//! until the simulated statistic equals the real one, by secant steps on a coordinate in which
-//! the statistic is close to linear. Each step is one simulation on the fit seeds, so a fit
-//! costs 2–3 simulations where a bracketing search over Σ z² costs 8–9, and it lands on the
-//! solution of "simulated = real" instead of the best point of a coarse bracket.
+//! (edge width, rolling-shutter readout, noise at two grey levels, JPEG blockiness): the
+//! parameter is moved until the simulated statistic equals the real one, by secant steps on a
+//! coordinate in which the statistic is close to linear. Each step is one simulation on the fit
+//! seeds, so a fit costs 2–3 simulations where a bracketing search over Σ z² costs 8–9, and it
+//! lands on the solution of "simulated = real" instead of the best point of a coarse bracket.
 //!
 //! Pure: the caller runs the simulations and passes the resulting gap maps.
 
@@ -84,6 +84,38 @@ pub fn noise_from_linear(a: f64, b: f64) -> Option<(f64, f64)> {
     (a > 0.0 && b >= 0.0 && a.is_finite() && b.is_finite()).then(|| (1.0 / a, b.sqrt() / a))
 }
 
+/// The JPEG quantisation scale (IJG convention, percent of the base tables) of `quality`, the
+/// coordinate in which blockiness grows about linearly: the tables, and with them the blocks'
+/// steps, scale with it. `quality` is rounded and clamped to 1–100 first, as the renderer does,
+/// so the scale is the one a simulation at `quality` actually used.
+pub fn jpeg_scale_of_quality(quality: f64) -> f64 {
+    let q = quality.round().clamp(1.0, 100.0);
+    if q < 50.0 {
+        5000.0 / q
+    } else {
+        200.0 - 2.0 * q
+    }
+}
+
+/// The (continuous) quality whose [`jpeg_scale_of_quality`] is `scale`, clamped to 1–100.
+pub fn quality_of_jpeg_scale(scale: f64) -> f64 {
+    let q = if scale > 100.0 {
+        5000.0 / scale
+    } else {
+        (200.0 - scale) / 2.0
+    };
+    q.clamp(1.0, 100.0)
+}
+
+/// |d quality / d scale| at `quality` (continuous form of [`quality_of_jpeg_scale`]).
+pub fn quality_per_jpeg_scale(quality: f64) -> f64 {
+    if quality < 50.0 {
+        quality * quality / 5000.0
+    } else {
+        0.5
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,6 +140,33 @@ mod tests {
         let (x, slope) = secant_step(&h, 2.0, 1.0).unwrap();
         assert_eq!(slope, 1.0);
         assert!((x - 2.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_jpeg_scale_follows_the_ijg_tables_and_inverts() {
+        assert_eq!(jpeg_scale_of_quality(50.0), 100.0);
+        assert_eq!(jpeg_scale_of_quality(25.0), 200.0);
+        assert_eq!(jpeg_scale_of_quality(75.0), 50.0);
+        assert_eq!(jpeg_scale_of_quality(100.0), 0.0);
+        // Rounded as the renderer rounds, clamped to its range.
+        assert_eq!(jpeg_scale_of_quality(29.6), jpeg_scale_of_quality(30.0));
+        assert_eq!(jpeg_scale_of_quality(-3.0), 5000.0);
+        let mut last = f64::INFINITY;
+        for q in 1..=100 {
+            let s = jpeg_scale_of_quality(q as f64);
+            assert!(s < last, "not decreasing at {q}");
+            last = s;
+            assert!((quality_of_jpeg_scale(s) - q as f64).abs() < 1e-9, "{q}");
+            // The derivative matches a central difference of the continuous inverse.
+            let h = 1e-4;
+            let num = (quality_of_jpeg_scale(s - h) - quality_of_jpeg_scale(s + h)) / (2.0 * h);
+            if q > 1 && q != 50 && q < 100 {
+                assert!(
+                    (num - quality_per_jpeg_scale(q as f64)).abs() < 1e-6,
+                    "{q}: {num}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -219,6 +219,77 @@ pub fn with_edge_discrepancy(e: Effect, value: f64, sd: f64) -> f64 {
     }
 }
 
+/// Blockiness per percent of JPEG quantisation scale: the first step's slope of a compression
+/// match when the nominal's own blockiness gives none. Measured on the second rig's strong case
+/// (`reports/diagnosis-stop50/`: quality 30, scale 167, blockiness 3.1 against 1.0 without
+/// JPEG). Later steps take the secant.
+const BLOCKINESS_PER_JPEG_SCALE: f64 = 0.0127;
+
+/// The coordinate a one-parameter moment match steps in ([`moments`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum MomentCoord {
+    /// The parameter itself.
+    Linear,
+    /// Its square (a blur's σ or exposure, against an edge variance).
+    Squared,
+    /// A JPEG quality's quantisation scale ([`moments::jpeg_scale_of_quality`]).
+    JpegScale,
+}
+
+impl MomentCoord {
+    fn x_of(self, v: f64) -> f64 {
+        match self {
+            Self::Linear => v,
+            Self::Squared => v * v,
+            Self::JpegScale => moments::jpeg_scale_of_quality(v),
+        }
+    }
+
+    fn value_of(self, x: f64) -> f64 {
+        match self {
+            Self::Linear => x,
+            Self::Squared => x.max(0.0).sqrt(),
+            Self::JpegScale => moments::quality_of_jpeg_scale(x),
+        }
+    }
+
+    /// |dv/dx| at `v`, to carry an uncertainty in x over to the parameter.
+    fn dv_dx(self, v: f64) -> f64 {
+        match self {
+            Self::Linear => 1.0,
+            Self::Squared => 1.0 / (2.0 * v.max(1e-12)),
+            Self::JpegScale => moments::quality_per_jpeg_scale(v),
+        }
+    }
+}
+
+/// The part of a moment's uncertainty that is not sampling: how differently another honest
+/// renderer may draw the same statistic. For the compression's blockiness, the gap map's own
+/// tolerance of that channel (what the comparison already forgives between renderers), so a
+/// quality is never claimed closer than the statistic it rests on can be trusted; the blurs
+/// carry theirs on the parameter ([`with_edge_discrepancy`]), the others none.
+fn moment_render_tolerance(e: Effect, moment: f64) -> f64 {
+    match e {
+        Effect::Compression => crate::diagnose::cells::channel("blockiness")
+            .map_or(0.0, |c| c.tol_abs + c.tol_rel * moment.abs()),
+        _ => 0.0,
+    }
+}
+
+/// The frequency a disc-vibration fit starts from: the peak of the angle residual after the
+/// aligned nominal motion (`residual_peak_hz`, clamped to the search range `search_hz`), or,
+/// only when that residual shows none, the peak above a smooth trend (`trend_peak_hz`).
+fn vibration_start_hz(
+    residual_peak_hz: Option<f64>,
+    search_hz: (f64, f64),
+    trend_peak_hz: impl FnOnce() -> Option<f64>,
+) -> Option<f64> {
+    match residual_peak_hz {
+        Some(f) if f.is_finite() => Some(f.clamp(search_hz.0, search_hz.1)),
+        _ => trend_peak_hz(),
+    }
+}
+
 /// What a moment match gives: the fit (values, stds, method, as in [`Fitted`]), or a search of
 /// Σ z² instead, with the reason when the match ran and was set aside (for the method's words).
 enum MomentFit {
@@ -1300,8 +1371,17 @@ impl<'a> Fitter<'a> {
             }
             _ => {
                 if e == Effect::DiscVibration {
-                    let nyq = self.ctx.nyquist_hz;
-                    if let Some((f, _)) = self.theta_peak_hz(nyq) {
+                    // The frequency is the peak of the angle residual after the aligned nominal
+                    // motion (the start already holds it, as the `theta_peak` cell and the
+                    // sinusoid read it); the peak above a smooth trend only when that residual
+                    // shows none. A trend keeps the motion's own harmonics above its cutoff
+                    // (Nyquist / 10): on an external drive filmed at 60 fps they outgrew a 7 Hz
+                    // vibration at 3.2 Hz, and the sinusoid found nothing there.
+                    let peak_hz =
+                        vibration_start_hz(self.real_theta_peak_hz, specs[1].search, || {
+                            self.theta_peak_hz(self.ctx.nyquist_hz).map(|(f, _)| f)
+                        });
+                    if let Some(f) = peak_hz {
                         values[1] = f;
                         stds[1] = 0.05;
                     }
@@ -1558,8 +1638,9 @@ impl<'a> Fitter<'a> {
     /// Fits `e` by moment matching ([`moments`]) when one statistic of the gap map carries its
     /// parameter: optical blur (edge width along the motion, on σ²), motion blur (extra edge
     /// variance across the motion during the drive, on T²), rolling shutter (the readout implied
-    /// by stretch against velocity) and pixel noise (noise at the ink and paper levels, on the
-    /// coordinates where the variance is linear). [`MomentFit::Search`] for other effects, or
+    /// by stretch against velocity), compression (8-px grid blockiness, on the JPEG quantisation
+    /// scale) and pixel noise (noise at the ink and paper levels, on the coordinates where the
+    /// variance is linear). [`MomentFit::Search`] for other effects, or
     /// when the data do not give the statistic (the caller then searches Σ z²).
     fn fit_by_moments(
         &self,
@@ -1577,14 +1658,23 @@ impl<'a> Fitter<'a> {
         // One-parameter effects: coordinate x = T(v), moment m(gap) → (real target, simulated,
         // the target's standard error), model slope dm/dx.
         let speed = self.drive_speed_px_s();
-        let (squared, slope0, what): (bool, f64, &str) = match e {
-            Effect::OpticalBlur => (true, 1.0, "edge width² along the motion"),
+        let (coord, slope0, what): (MomentCoord, f64, &str) = match e {
+            Effect::OpticalBlur => (MomentCoord::Squared, 1.0, "edge width² along the motion"),
             Effect::MotionBlur => (
-                true,
+                MomentCoord::Squared,
                 (speed * speed / 12.0).max(1e-9),
                 "extra edge variance across the motion during the drive",
             ),
-            Effect::RollingShutter => (false, 1.0, "rolling-shutter readout implied by stretch"),
+            Effect::RollingShutter => (
+                MomentCoord::Linear,
+                1.0,
+                "rolling-shutter readout implied by stretch",
+            ),
+            Effect::Compression => (
+                MomentCoord::JpegScale,
+                BLOCKINESS_PER_JPEG_SCALE,
+                "8-px grid blockiness (on the JPEG quantisation scale)",
+            ),
             _ => return Ok(MomentFit::Search(None)),
         };
         let moment = |g: &GapMap| -> Option<(f64, f64, f64)> {
@@ -1607,6 +1697,10 @@ impl<'a> Fitter<'a> {
                             .sqrt(),
                     ))
                 }
+                Effect::Compression => {
+                    let c = moments::channel_means(g, "blockiness", &motion)?;
+                    Some((c.real, c.sim, c.real_std))
+                }
                 _ => {
                     // The sub-pixel shape's readout when the frames were seen, the corner
                     // track's otherwise (a tracks CSV).
@@ -1616,31 +1710,60 @@ impl<'a> Fitter<'a> {
                 }
             }
         };
+        // The compression's blockiness at the nominal's own quality (none when it compresses
+        // nothing), read off the nominal's simulations: with the first simulation it gives the
+        // slope of this footage's blockiness against the scale, which depends on its content
+        // and noise, so the model slope serves only when the two coincide.
+        let anchor = (e == Effect::Compression)
+            .then(|| {
+                let s = &aligned_of(self).scenario;
+                let x = if e.is_on(s) {
+                    coord.x_of(e.values(s)[0])
+                } else {
+                    0.0
+                };
+                moments::channel_means(&self.nominal_gap, "blockiness", &motion).map(|c| (x, c.sim))
+            })
+            .flatten();
+        let mut slope0 = slope0;
         let spec = e.params()[0];
-        let to_x = |v: f64| if squared { v * v } else { v };
-        let from_x = |x: f64| if squared { x.max(0.0).sqrt() } else { x };
-        let (x_lo, x_hi) = (to_x(spec.search.0), to_x(spec.search.1));
+        let (x_lo, x_hi) = {
+            let (a, b) = (coord.x_of(spec.search.0), coord.x_of(spec.search.1));
+            (a.min(b), a.max(b))
+        };
         let mut v = start.to_vec();
         let mut history: Vec<(f64, f64)> = Vec::new();
         for k in 0..MOMENT_SIMULATIONS {
-            let x = to_x(v[0]);
+            let x = coord.x_of(v[0]);
             let Some((target, m, m_std)) = moment(&gap_at(&v)?) else {
                 return Ok(MomentFit::Search(None));
             };
+            if let (0, Some((xa, ma))) = (k, anchor) {
+                let s = (m - ma) / (x - xa);
+                if s.is_finite() && s > 0.0 && (x - xa).abs() > 1.0 {
+                    slope0 = s;
+                }
+            }
             history.push((x, m));
             let Some((x1, slope)) = moments::secant_step(&history, target, slope0) else {
                 return Ok(MomentFit::Search(None));
             };
-            let x1 = x1.clamp(x_lo, x_hi);
+            let clamped = x1.clamp(x_lo, x_hi);
+            if e == Effect::Compression && clamped != x1 {
+                // The blockiness asks for a quality beyond the search range: its gap is not
+                // this effect's map (as the noise's match, `noise_by_moments`), and Σ z² over
+                // the whole signature judges it instead.
+                return Ok(MomentFit::Search(Some(format!(
+                    "; searched, not matched: the blockiness asked for a quality beyond {:.0}–{:.0}",
+                    spec.search.0, spec.search.1
+                ))));
+            }
+            let x1 = clamped;
             let done = (m - target).abs() < 0.25 * m_std || k + 1 == MOMENT_SIMULATIONS;
-            v[0] = from_x(x1);
+            v[0] = coord.value_of(x1);
             if done {
-                let sd_x = m_std * sims_factor / slope.abs();
-                let sd_v = if squared {
-                    sd_x / (2.0 * v[0].max(1e-12))
-                } else {
-                    sd_x
-                };
+                let sd_m = (m_std * sims_factor).hypot(moment_render_tolerance(e, target));
+                let sd_v = coord.dv_dx(v[0]) * sd_m / slope.abs();
                 let mut sd = vec![f64::INFINITY; v.len()];
                 sd[0] = if sd_v.is_finite() {
                     with_edge_discrepancy(e, v[0], sd_v)
@@ -1864,6 +1987,59 @@ fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_vibrations_frequency_starts_at_the_residuals_peak_not_the_trends() {
+        // The trend's peak (the motion's harmonics above its cutoff) is read only when the
+        // residual after the aligned motion has no peak.
+        let trend_called = std::cell::Cell::new(false);
+        let trend = || {
+            trend_called.set(true);
+            Some(3.2)
+        };
+        assert_eq!(
+            vibration_start_hz(Some(7.0), (0.2, 200.0), trend),
+            Some(7.0)
+        );
+        assert!(!trend_called.get());
+        assert_eq!(
+            vibration_start_hz(Some(500.0), (0.2, 200.0), || None),
+            Some(200.0)
+        );
+        assert_eq!(
+            vibration_start_hz(None, (0.2, 200.0), || Some(3.2)),
+            Some(3.2)
+        );
+        assert_eq!(
+            vibration_start_hz(Some(f64::NAN), (0.2, 200.0), || Some(3.2)),
+            Some(3.2)
+        );
+        assert_eq!(vibration_start_hz(None, (0.2, 200.0), || None), None);
+    }
+
+    #[test]
+    fn a_compression_is_matched_on_the_jpeg_scale_within_the_blockinesss_tolerance() {
+        let c = MomentCoord::JpegScale;
+        for q in [5.0, 30.0, 49.0, 60.0, 98.0] {
+            assert!((c.value_of(c.x_of(q)) - q).abs() < 1e-9, "{q}");
+        }
+        // Blockiness grows with the scale, so a lower quality is a larger x.
+        assert!(c.x_of(30.0) > c.x_of(60.0));
+        // An uncertainty in the scale carries over with |dq/dx|: a central difference.
+        let (q, h) = (30.0, 1e-3);
+        let x = 5000.0 / q;
+        let num = (c.value_of(x - h) - c.value_of(x + h)) / (2.0 * h);
+        assert!((num - c.dv_dx(q)).abs() < 1e-6, "{num} vs {}", c.dv_dx(q));
+        assert_eq!(MomentCoord::Squared.dv_dx(2.0), 0.25);
+        assert_eq!(MomentCoord::Linear.x_of(3.0), 3.0);
+        // The compression's quality is never stated closer than the blockiness channel's own
+        // tolerance between renderers; the other moments carry none here.
+        let spec = crate::diagnose::cells::channel("blockiness").unwrap();
+        let tol = moment_render_tolerance(Effect::Compression, 3.0);
+        assert!((tol - (spec.tol_abs + 3.0 * spec.tol_rel)).abs() < 1e-12 && tol > 0.0);
+        assert_eq!(moment_render_tolerance(Effect::RollingShutter, 3.0), 0.0);
+        assert_eq!(moment_render_tolerance(Effect::OpticalBlur, 3.0), 0.0);
+    }
 
     #[test]
     fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {
