@@ -290,6 +290,16 @@ fn vibration_start_hz(
     }
 }
 
+/// Where a moment match's step `x1` goes within the search range `x_range` of its coordinate:
+/// clamped into it, or `None` for a compression whose blockiness asks for a quality beyond it.
+/// Such a blockiness is not this effect's map (as the noise's match, `noise_by_moments`), and
+/// Σ z² over the whole signature judges it instead; on pixel-noise footage every compression
+/// match otherwise stopped at the bound.
+fn moment_step_in_range(e: Effect, x1: f64, x_range: (f64, f64)) -> Option<f64> {
+    let clamped = x1.clamp(x_range.0, x_range.1);
+    (e != Effect::Compression || clamped == x1).then_some(clamped)
+}
+
 /// What a moment match gives: the fit (values, stds, method, as in [`Fitted`]), or a search of
 /// Σ z² instead, with the reason when the match ran and was set aside (for the method's words).
 enum MomentFit {
@@ -1057,8 +1067,12 @@ impl<'a> Fitter<'a> {
             Effect::DiscVibration => {
                 let (r, n) = self.banded_pair("theta", &[0, 1, 2]).unwrap_or((1e-3, 0.0));
                 v[0] = (2.0f64.sqrt() * (r * r - n * n).max(1e-10).sqrt()).clamp(1e-5, 1e-2);
-                if let Some(f) = self.real_theta_peak_hz {
-                    v[1] = f.clamp(0.2, 200.0);
+                // The trend's peak, the fallback, needs the gap; `fit` reads it when this holds
+                // none.
+                if let Some(f) =
+                    vibration_start_hz(self.real_theta_peak_hz, e.params()[1].search, || None)
+                {
+                    v[1] = f;
                 }
             }
             Effect::AxisRunout => {
@@ -1748,17 +1762,12 @@ impl<'a> Fitter<'a> {
             let Some((x1, slope)) = moments::secant_step(&history, target, slope0) else {
                 return Ok(MomentFit::Search(None));
             };
-            let clamped = x1.clamp(x_lo, x_hi);
-            if e == Effect::Compression && clamped != x1 {
-                // The blockiness asks for a quality beyond the search range: its gap is not
-                // this effect's map (as the noise's match, `noise_by_moments`), and Σ z² over
-                // the whole signature judges it instead.
+            let Some(x1) = moment_step_in_range(e, x1, (x_lo, x_hi)) else {
                 return Ok(MomentFit::Search(Some(format!(
                     "; searched, not matched: the blockiness asked for a quality beyond {:.0}–{:.0}",
                     spec.search.0, spec.search.1
                 ))));
-            }
-            let x1 = clamped;
+            };
             let done = (m - target).abs() < 0.25 * m_std || k + 1 == MOMENT_SIMULATIONS;
             v[0] = coord.value_of(x1);
             if done {
@@ -2015,6 +2024,35 @@ mod tests {
             Some(3.2)
         );
         assert_eq!(vibration_start_hz(None, (0.2, 200.0), || None), None);
+    }
+
+    #[test]
+    fn a_compression_match_beyond_its_quality_range_is_handed_to_the_search() {
+        let c = MomentCoord::JpegScale;
+        let (a, b) = (c.x_of(5.0), c.x_of(98.0));
+        let range = (a.min(b), a.max(b));
+        let inside = c.x_of(40.0);
+        assert_eq!(
+            moment_step_in_range(Effect::Compression, inside, range),
+            Some(inside)
+        );
+        // Quality 99.5 and 2 lie beyond 5–98 on either side of the scale.
+        for q in [99.5, 2.0] {
+            assert_eq!(
+                moment_step_in_range(Effect::Compression, c.x_of(q), range),
+                None,
+                "q {q}"
+            );
+        }
+        // The blurs and the readout keep the bound: their step is clamped, not handed over.
+        assert_eq!(
+            moment_step_in_range(Effect::OpticalBlur, 9.0, (0.0, 4.0)),
+            Some(4.0)
+        );
+        assert_eq!(
+            moment_step_in_range(Effect::RollingShutter, -1.0, (0.0, 0.05)),
+            Some(0.0)
+        );
     }
 
     #[test]
