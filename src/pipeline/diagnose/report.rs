@@ -750,9 +750,10 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
              and no significant cell left. ± is one standard uncertainty of the fit on this \
              footage: the footage's and the seeds' scatter (for a searched parameter also each \
              channel's renderer tolerance, counted once per channel, and for the noise the \
-             noise channels'; for a blur matched on edge widths also {:.0} % of its value, as two \
-             renderers' blurs differed); otherwise it does not hold how differently the \
-             footage's camera draws edges from the simulation's renderer, which the self-check \
+             noise channels'; for a compression matched on its blockiness, that channel's \
+             tolerance; for a blur or a rolling shutter matched on edges also {:.0} % of its \
+             value, as two renderers' edges differed); otherwise it does not hold how \
+             differently the footage's camera draws edges from the simulation's renderer, which the self-check \
              measures (`reports/diagnosis-independent/`: parameters within 2 ± of the truth).\n\n",
             crate::diagnose::verdict::PENALTY_PER_PARAM,
             crate::diagnose::verdict::EXPLAINED_SHRINK,

@@ -81,31 +81,54 @@ pub struct Case {
 /// probe, or, near the limit, 0.3 of the way from the value at which the parameter does nothing
 /// ([`neutral_value`]) to the probe, log-spaced where the parameter is.
 ///
-/// The timebase's parameter is the rate the footage is stamped at, the nominal's own at both
-/// levels: its strength is how far the schedule the frames were taken on strays from that rate
-/// ([`timebase_schedule`]). (A weak level on the stamp rate itself, 30^0.3 ≈ 2.8 fps for frames
-/// taken at 30, is no camera's clock and no detection limit.)
+/// The timebase's parameter is the rate the footage is stamped at, the rig's own `fps_hz` at
+/// every level: its strength is how far the schedule the frames were taken on strays from that
+/// rate ([`timebase_schedule`]). (A weak level on the stamp rate itself, 30^0.3 ≈ 2.8 fps for
+/// frames taken at 30, is no camera's clock and no detection limit; and the registry's probe,
+/// 30 fps, stamped a second rig's 60 fps frames at half their rate, a time scale of 2 that the
+/// case did not mean to test.)
 pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
+    if effect == Effect::Timebase {
+        return vec![fps_hz; effect.params().len()];
+    }
     effect
         .params()
         .iter()
         .enumerate()
-        .map(|(i, p)| match level {
-            Level::Strong | Level::OtherForm => p.probe,
-            Level::Weak if effect == Effect::Timebase => p.probe,
-            Level::Weak => {
-                let Some(from) = neutral_value(effect, i, fps_hz) else {
-                    return p.probe;
-                };
-                let to = p.probe;
-                if p.log_scale && from > 0.0 && to > 0.0 {
-                    from * (to / from).powf(0.3)
-                } else {
-                    from + 0.3 * (to - from)
-                }
+        .map(|(i, p)| {
+            let probe = probe_on_rig(effect, p.probe, fps_hz);
+            let from = match level {
+                Level::Strong | Level::OtherForm => return probe,
+                Level::Weak => match neutral_value(effect, i, fps_hz) {
+                    Some(from) => from,
+                    None => return probe,
+                },
+            };
+            if p.log_scale && from > 0.0 && probe > 0.0 {
+                from * (probe / from).powf(0.3)
+            } else {
+                from + 0.3 * (probe - from)
             }
         })
         .collect()
+}
+
+/// Share of a frame interval that a video frame's exposure or rolling-shutter readout may take
+/// in a strong case: both happen within one frame interval, less the sensor's blanking.
+pub const MAX_FRAME_INTERVAL_SHARE: f64 = 0.9;
+
+/// The registry's strong `probe` of `effect` as a rig filmed at `fps_hz` can have it: an
+/// exposure or a readout longer than [`MAX_FRAME_INTERVAL_SHARE`] of a frame interval is cut
+/// to it. The probes (20 ms, 30 ms) fit the 30 fps rigs they were set on; a second rig at
+/// 60 fps took 20 ms exposures 16.7 ms apart, which no video camera does, and half the frames
+/// of its drive were lost.
+fn probe_on_rig(effect: Effect, probe: f64, fps_hz: f64) -> f64 {
+    match effect {
+        Effect::MotionBlur | Effect::RollingShutter if fps_hz > 0.0 => {
+            probe.min(MAX_FRAME_INTERVAL_SHARE / fps_hz)
+        }
+        _ => probe,
+    }
 }
 
 /// The value at which parameter `index` of `effect` does nothing, on a rig filmed at `fps_hz`
@@ -1167,6 +1190,35 @@ mod tests {
         assert_eq!(summary["params_within_2sd_weak"]["k"], 0);
         assert_eq!(summary["params_within_ci95_weak"]["k"], 1);
         assert_eq!(summary["params_within_ci95_strong"]["n"], 1);
+    }
+
+    /// A strong exposure or readout fits in the rig's frame interval: the 30 fps probes stand,
+    /// a 60 fps rig gets 15 ms, and the weak level lies below the cut probe.
+    #[test]
+    fn exposure_and_readout_probes_fit_the_frame_interval() {
+        for e in [Effect::MotionBlur, Effect::RollingShutter] {
+            let registry = e.params()[0].probe;
+            assert_eq!(level_values(e, Level::Strong, 30.0), vec![registry]);
+            let at_60 = level_values(e, Level::Strong, 60.0)[0];
+            assert!((at_60 - 0.015).abs() < 1e-12, "{}: {at_60}", e.name());
+            let weak = level_values(e, Level::Weak, 60.0)[0];
+            assert!(weak < at_60 && weak > 0.0, "{}: weak {weak}", e.name());
+        }
+        assert_eq!(
+            level_values(Effect::OpticalBlur, Level::Strong, 240.0),
+            vec![Effect::OpticalBlur.params()[0].probe]
+        );
+    }
+
+    /// A withheld timebase stamps the footage at the rig's own rate, whatever that rate: at 60 fps
+    /// the registry's 30 fps probe stamped the frames at half their rate.
+    #[test]
+    fn a_withheld_timebase_stamps_at_the_rigs_own_rate() {
+        for fps in [24.0, 30.0, 60.0, 240.0] {
+            for level in [Level::Strong, Level::Weak, Level::OtherForm] {
+                assert_eq!(level_values(Effect::Timebase, level, fps), vec![fps]);
+            }
+        }
     }
 
     /// "Near the limit" is weaker than strong: every strength parameter of every withheld effect
