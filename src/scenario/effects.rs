@@ -574,6 +574,24 @@ impl Effect {
         }
     }
 
+    /// Whether `values` hold the effect where it does nothing on a rig filmed at `fps_hz`: it has
+    /// a parameter whose neutral is an end of its search (a blur's, a noise's, a JPEG quality's),
+    /// and every parameter with a neutral sits at it (the forms are free). A fit clamped there
+    /// found the data asking for less of the effect than the search allows.
+    pub fn does_nothing_at(self, values: &[f64], fps_hz: f64) -> bool {
+        let params = self.params();
+        let has_search_end = params
+            .iter()
+            .any(|p| matches!(p.neutral, Neutral::SearchLow | Neutral::SearchHigh));
+        has_search_end
+            && values.len() == params.len()
+            && params.iter().zip(values).all(|(p, &v)| {
+                p.neutral.value(p, fps_hz).is_none_or(|n| {
+                    (v - n).abs() <= 1e-9 * (p.search.1 - p.search.0).abs().max(f64::MIN_POSITIVE)
+                })
+            })
+    }
+
     /// Whether the effect is on in `s`.
     pub fn is_on(self, s: &Scenario) -> bool {
         let fx = &s.effects;
@@ -1110,5 +1128,24 @@ mod tests {
         s.dynamics.axis_runout.frequency_hz = 0.5;
         Effect::AxisRunout.apply(&mut s, &[2e-4]);
         assert_eq!(s.dynamics.axis_runout.cycles_per_wheel_rev, 1.0);
+    }
+
+    #[test]
+    fn an_effect_does_nothing_only_where_every_neutral_holds() {
+        // A JPEG quality clamped at the search's top: no compression worth the name.
+        assert!(Effect::Compression.does_nothing_at(&[98.0], 30.0));
+        assert!(!Effect::Compression.does_nothing_at(&[74.1], 30.0));
+        // A blur at its search's lower end; a vibration's amplitude there, whatever its form.
+        let (lo, _) = Effect::MotionBlur.params()[0].search;
+        assert!(Effect::MotionBlur.does_nothing_at(&[lo], 30.0));
+        let (a_lo, _) = Effect::DiscVibration.params()[0].search;
+        assert!(Effect::DiscVibration.does_nothing_at(&[a_lo, 7.0], 30.0));
+        assert!(!Effect::DiscVibration.does_nothing_at(&[2e-3, 7.0], 30.0));
+        // Neutrals that are no search end: a timebase at the footage's own rate still changes the
+        // schedule, and a lens at k1 = 0 is a fitted value, not a clamp.
+        assert!(!Effect::Timebase.does_nothing_at(&[30.0], 30.0));
+        assert!(!Effect::LensDistortion.does_nothing_at(&[0.0], 30.0));
+        // The wrong number of values is never "nothing".
+        assert!(!Effect::Compression.does_nothing_at(&[], 30.0));
     }
 }

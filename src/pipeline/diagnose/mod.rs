@@ -796,15 +796,25 @@ pub fn diagnose_with(
                         .iter()
                         .map(|e| format!("{} + {}", first.effect.name(), e.name()));
                     progress(&fitting(names), k * CONCURRENT_FITS, others.len());
+                    // A second effect fitted where it does nothing is no second cause: the
+                    // pair would be the single under another name, and its evaluation differs
+                    // from the single's by seed noise alone (a motion blur and a JPEG quality
+                    // clamped at 98 "closed" the single's one cell left).
+                    let fps_hz = nominal.frame_timing.fps;
                     let fits = fitter.on_forks(wave, |fork, &e| {
-                        let evaluated = fork
-                            .fit(e, &prior)
-                            .and_then(|second| fork.evaluate(vec![first.clone(), second]));
+                        let evaluated = fork.fit(e, &prior).and_then(|second| {
+                            if second.effect.does_nothing_at(&second.values, fps_hz) {
+                                return Ok(None);
+                            }
+                            fork.evaluate(vec![first.clone(), second]).map(Some)
+                        });
                         (evaluated, fork.simulations())
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
-                        ranking.push(ranked(nominal_gap, evaluated?));
+                        if let Some(evaluated) = evaluated? {
+                            ranking.push(ranked(nominal_gap, evaluated));
+                        }
                     }
                 }
                 sort_ranking(d0, &mut ranking);
