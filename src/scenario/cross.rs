@@ -7,6 +7,7 @@
 use super::Scenario;
 use crate::detect::parse_dictionary;
 use crate::marker::Dictionary;
+use crate::timing::TimingModel;
 use crate::validation::{short, Problems};
 
 /// Largest image radius of the disc, px: its outline is tessellated to a thousandth of a pixel,
@@ -109,6 +110,7 @@ pub fn check(s: &Scenario, problems: &mut Problems) {
             );
         }
     }
+    times_inside_one_frame(s, problems);
     if let Ok(camera) = crate::camera::Camera::new(&s.camera) {
         let r_px = s.scene.disc_radius_mm / camera.image_scale_mm_per_px();
         if r_px.is_nan() || r_px > MAX_DISC_RADIUS_PX {
@@ -119,6 +121,52 @@ pub fn check(s: &Scenario, problems: &mut Problems) {
                     short(r_px),
                     short(camera.image_scale_mm_per_px()),
                     short(MAX_DISC_RADIUS_PX)
+                ),
+            );
+        }
+    }
+}
+
+/// The frame interval the camera's clock runs at, s: the variable-rate model's actual rate, the
+/// nominal otherwise (a timing log is read after validation; `geneva calibrate` writes its rate).
+pub fn frame_interval_s(s: &Scenario) -> f64 {
+    let fps = match &s.frame_timing.model {
+        TimingModel::Vfr(v) => v.actual_fps(s.frame_timing.fps),
+        TimingModel::Constant | TimingModel::Log(_) => s.frame_timing.fps,
+    };
+    1.0 / fps
+}
+
+/// An exposure and a rolling-shutter readout each happen inside one frame interval: a camera
+/// cannot expose a frame for longer than the time between two frames, nor take longer to read
+/// it out, and a render that did would draw a frame no camera gives.
+fn times_inside_one_frame(s: &Scenario, problems: &mut Problems) {
+    let interval_s = frame_interval_s(s);
+    let fx = &s.effects;
+    for (on, value_s, field, what) in [
+        (
+            fx.motion_blur.enabled,
+            fx.motion_blur.exposure_s,
+            "effects.motion_blur.exposure_s",
+            "exposes a frame",
+        ),
+        (
+            fx.rolling_shutter.enabled,
+            fx.rolling_shutter.readout_s,
+            "effects.rolling_shutter.readout_s",
+            "reads a frame out",
+        ),
+    ] {
+        if on && value_s > interval_s * (1.0 + 1e-9) {
+            problems.push(
+                field,
+                format!(
+                    "{} s is longer than one frame interval ({} s at frame_timing.fps = {}): no \
+                     camera {what} for longer than the time between two frames; shorten it or \
+                     lower the frame rate",
+                    short(value_s),
+                    short(interval_s),
+                    short(s.frame_timing.fps)
                 ),
             );
         }

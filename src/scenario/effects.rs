@@ -70,6 +70,10 @@ pub struct ParamSpec {
     /// The value at which this parameter does nothing (the self-check's weak level is measured
     /// from it).
     pub neutral: Neutral,
+    /// A time spent inside one frame (an exposure, a rolling-shutter readout): no camera takes
+    /// longer than its frame interval, so the search ends there ([`ParamSpec::search_on`]) and
+    /// the scenario validator refuses more (`scenario::cross`).
+    pub within_frame_interval: bool,
 }
 
 /// Where a parameter does nothing. Not always the search's lower end: a full well or a JPEG
@@ -123,6 +127,7 @@ const fn param(
         log_scale,
         probe,
         neutral: Neutral::SearchLow,
+        within_frame_interval: false,
     }
 }
 
@@ -130,6 +135,29 @@ impl ParamSpec {
     /// The same parameter, doing nothing at `neutral` instead of the search's lower end.
     const fn neutral_at(self, neutral: Neutral) -> ParamSpec {
         ParamSpec { neutral, ..self }
+    }
+
+    /// The same parameter, a time spent inside one frame ([`ParamSpec::within_frame_interval`]).
+    const fn inside_one_frame(self) -> ParamSpec {
+        ParamSpec {
+            within_frame_interval: true,
+            ..self
+        }
+    }
+
+    /// The range a fit searches on footage filmed at `fps_hz`: the registry's, its upper end cut
+    /// to one frame interval for a time spent inside one frame (a 60 fps rig's exposure cannot
+    /// reach the registry's 40 ms). Unchanged when the rate is not positive or the interval
+    /// falls at or below the lower end.
+    pub fn search_on(&self, fps_hz: f64) -> (f64, f64) {
+        let (lo, hi) = self.search;
+        if self.within_frame_interval && fps_hz > 0.0 {
+            let interval_s = 1.0 / fps_hz;
+            if interval_s > lo {
+                return (lo, hi.min(interval_s));
+            }
+        }
+        (lo, hi)
     }
 }
 
@@ -307,7 +335,8 @@ const MOTION_BLUR: &[ParamSpec] = &[param(
     (1e-4, 0.04),
     true,
     0.02,
-)];
+)
+.inside_one_frame()];
 const ROLLING_SHUTTER: &[ParamSpec] = &[param(
     "readout_s",
     "effects.rolling_shutter.readout_s",
@@ -316,7 +345,8 @@ const ROLLING_SHUTTER: &[ParamSpec] = &[param(
     (5e-4, 0.05),
     true,
     0.03,
-)];
+)
+.inside_one_frame()];
 const LENS_DISTORTION: &[ParamSpec] = &[param(
     "k1",
     "camera.lens_distortion.k1",
@@ -552,6 +582,18 @@ impl Effect {
         }
     }
 
+    /// The fitted parameters as a fit on footage filmed at `fps_hz` searches them: the registry's
+    /// with [`ParamSpec::search_on`]'s range.
+    pub fn params_on(self, fps_hz: f64) -> Vec<ParamSpec> {
+        self.params()
+            .iter()
+            .map(|p| ParamSpec {
+                search: p.search_on(fps_hz),
+                ..*p
+            })
+            .collect()
+    }
+
     /// The fitted parameters.
     pub fn params(self) -> &'static [ParamSpec] {
         match self {
@@ -579,7 +621,7 @@ impl Effect {
     /// and every parameter with a neutral sits at it (the forms are free). A fit clamped there
     /// found the data asking for less of the effect than the search allows.
     pub fn does_nothing_at(self, values: &[f64], fps_hz: f64) -> bool {
-        let params = self.params();
+        let params = self.params_on(fps_hz);
         let has_search_end = params
             .iter()
             .any(|p| matches!(p.neutral, Neutral::SearchLow | Neutral::SearchHigh));
@@ -1147,5 +1189,31 @@ mod tests {
         assert!(!Effect::LensDistortion.does_nothing_at(&[0.0], 30.0));
         // The wrong number of values is never "nothing".
         assert!(!Effect::Compression.does_nothing_at(&[], 30.0));
+    }
+
+    #[test]
+    fn a_time_inside_one_frame_is_searched_up_to_the_frame_interval_only() {
+        let exposure = Effect::MotionBlur.params()[0];
+        let readout = Effect::RollingShutter.params()[0];
+        // A 60 fps rig: 16.7 ms, below the registry's 40 ms and 50 ms.
+        for p in [exposure, readout] {
+            let (lo, hi) = p.search_on(60.0);
+            assert_eq!(lo, p.search.0);
+            assert!((hi - 1.0 / 60.0).abs() < 1e-15, "{}: {hi}", p.name);
+        }
+        // A 24 fps rig's 41.7 ms: the exposure keeps its 40 ms, the readout is cut.
+        assert_eq!(exposure.search_on(24.0), exposure.search);
+        assert!((readout.search_on(24.0).1 - 1.0 / 24.0).abs() < 1e-15);
+        // No rate, or an interval at the lower end: the registry's range.
+        assert_eq!(exposure.search_on(0.0), exposure.search);
+        assert_eq!(exposure.search_on(1e5), exposure.search);
+        // Parameters that are no time inside a frame keep theirs at any rate.
+        for e in Effect::ALL {
+            for p in e.params_on(60.0).iter().zip(e.params()) {
+                if !p.1.within_frame_interval {
+                    assert_eq!(p.0.search, p.1.search, "{}", p.1.name);
+                }
+            }
+        }
     }
 }

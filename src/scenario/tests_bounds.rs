@@ -221,3 +221,49 @@ fn combinations_that_make_a_run_impossible_are_check_errors() {
         "{p:?}"
     );
 }
+
+#[test]
+fn an_exposure_or_a_readout_longer_than_a_frame_interval_is_a_check_error() {
+    // The self-check's registry probes (20 ms, 30 ms) on a 60 fps rig: each fine alone, but no
+    // camera exposes or reads out a frame for longer than the 16.7 ms between two frames.
+    let p = problems_of(
+        "extend = \"fast\"\nframe_timing.fps = 60.0\neffects.motion_blur.enabled = true\neffects.motion_blur.exposure_s = 0.02\n\
+         effects.rolling_shutter.enabled = true\neffects.rolling_shutter.readout_s = 0.03\n",
+    );
+    assert_eq!(p.len(), 2, "{p:?}");
+    assert!(
+        p[0].starts_with("effects.motion_blur.exposure_s: 0.02 s is longer than one frame")
+            && p[0].contains("frame_timing.fps = 60"),
+        "{p:?}"
+    );
+    assert!(
+        p[1].starts_with("effects.rolling_shutter.readout_s: 0.03 s"),
+        "{p:?}"
+    );
+    // The same values at 30 fps (33.3 ms), an exposure of exactly one interval, and a readout
+    // that is switched off are all possible.
+    assert!(problems_of(
+        "extend = \"fast\"\neffects.motion_blur.enabled = true\neffects.motion_blur.exposure_s = 0.02\n\
+         effects.rolling_shutter.enabled = true\neffects.rolling_shutter.readout_s = 0.03\n"
+    )
+    .is_empty());
+    assert!(problems_of(
+        "extend = \"fast\"\nframe_timing.fps = 50.0\neffects.motion_blur.enabled = true\neffects.motion_blur.exposure_s = 0.02\n"
+    )
+    .is_empty());
+    assert!(problems_of(
+        "extend = \"fast\"\nframe_timing.fps = 60.0\neffects.rolling_shutter.enabled = false\n\
+         effects.rolling_shutter.readout_s = 0.03\n"
+    )
+    .is_empty());
+    // A variable frame rate's clock runs at its actual rate: +10 % makes 20 ms too long at 50 fps.
+    let p = problems_of(
+        "extend = \"fast\"\nframe_timing.fps = 50.0\neffects.motion_blur.enabled = true\neffects.motion_blur.exposure_s = 0.02\n\
+         [frame_timing.model]\nkind = \"vfr\"\nrate_error_ppm = 100000.0\n",
+    );
+    assert!(
+        p.iter()
+            .any(|m| m.starts_with("effects.motion_blur.exposure_s")),
+        "{p:?}"
+    );
+}

@@ -25,7 +25,7 @@ use crate::diagnose::search::{
 };
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
-use crate::scenario::effects::Effect;
+use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
 use std::cell::{OnceCell, RefCell};
@@ -697,6 +697,17 @@ impl<'a> Fitter<'a> {
         d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
     }
 
+    /// The footage's own frame rate, from its median frame interval, fps.
+    pub fn footage_fps_hz(&self) -> f64 {
+        1.0 / self.median_interval_s()
+    }
+
+    /// The parameters of `e` as this footage's fit searches them: a time inside one frame (an
+    /// exposure, a readout) up to the footage's median frame interval ([`Effect::params_on`]).
+    fn specs(&self, e: Effect) -> Vec<ParamSpec> {
+        e.params_on(self.footage_fps_hz())
+    }
+
     /// The trial with `applied` effects switched on at their values.
     pub fn trial_with(&self, applied: &[(Effect, Vec<f64>)]) -> Result<Trial, DiagnoseError> {
         self.trial_with_form(applied, self.fitted_runout_form())
@@ -1147,8 +1158,9 @@ impl<'a> Fitter<'a> {
                     self.channel_pair("edge_along", &["drive"]),
                 ) {
                     let extra = (ra * ra - rl * rl) - (sa * sa - sl * sl);
+                    let (lo, hi) = self.specs(e)[0].search;
                     v[0] = plan::guess_exposure_s(extra, self.drive_speed_px_s(), nominal)
-                        .clamp(1e-4, 0.04);
+                        .clamp(lo, hi);
                 } else {
                     v[0] = 0.01;
                 }
@@ -1163,7 +1175,8 @@ impl<'a> Fitter<'a> {
                     .channel_pair("rs_fine", &["all"])
                     .or_else(|| self.channel_pair("rs_readout", &["all"]))
                 {
-                    v[0] = (nominal + r - sim).clamp(5e-4, 0.05);
+                    let (lo, hi) = self.specs(e)[0].search;
+                    v[0] = (nominal + r - sim).clamp(lo, hi);
                 } else {
                     v[0] = 0.01;
                 }
@@ -1258,7 +1271,7 @@ impl<'a> Fitter<'a> {
     /// Fits `e` on top of `prior` (already fitted effects, kept fixed).
     pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, DiagnoseError> {
         let before = *self.simulations.borrow();
-        let specs = e.params();
+        let specs = self.specs(e);
         let mut values = self.start_values(e);
         let mut stds = vec![f64::INFINITY; specs.len()];
         let fitted = |(values, stds, method): (Vec<f64>, Vec<f64>, String)| Fitted {
@@ -1747,7 +1760,7 @@ impl<'a> Fitter<'a> {
             })
             .flatten();
         let mut slope0 = slope0;
-        let spec = e.params()[0];
+        let spec = self.specs(e)[0];
         let (x_lo, x_hi) = {
             let (a, b) = (coord.x_of(spec.search.0), coord.x_of(spec.search.1));
             (a.min(b), a.max(b))

@@ -393,6 +393,16 @@ pub struct RefitRun {
     pub stds: Vec<Vec<f64>>,
 }
 
+/// A pair fitted and set aside: its second effect's fitted `values` do nothing, so the pair
+/// would be the single `first` under another name, judged on re-rolled seed noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkippedPair {
+    pub first: Effect,
+    pub second: Effect,
+    /// The second effect's fitted values, in [`Effect::params`] order.
+    pub values: Vec<f64>,
+}
+
 /// Everything a diagnosis found.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
@@ -415,6 +425,9 @@ pub struct Diagnosis {
     /// Candidates that cannot be judged from the input (image effects from a corner track).
     pub not_judged: Vec<Effect>,
     pub pair_tried: bool,
+    /// Pairs the pair stage fitted and set aside because their second effect came out where it
+    /// does nothing ([`Effect::does_nothing_at`]).
+    pub skipped_pairs: Vec<SkippedPair>,
     /// Set when the evaluation seeds were raised before judging.
     pub escalation: Option<SeedEscalation>,
     pub seeds: Vec<u64>,
@@ -719,6 +732,7 @@ pub fn diagnose_with(
     let mut not_tried = Vec::new();
     let mut ranking: Vec<Ranked> = Vec::new();
     let mut pair_tried = false;
+    let mut skipped_pairs = Vec::new();
     if nominal_gap.n_significant() > 0 {
         let deadline = options.max_minutes.map(|m| m * 60.0);
         let total = screened.len();
@@ -791,29 +805,46 @@ pub fn diagnose_with(
                     .filter(|e| !first.effect.shares_switch_with().contains(e))
                     .take(3)
                     .collect();
+                // A second effect fitted where it does nothing is no second cause: the pair
+                // would be the single under another name, and its evaluation differs from the
+                // single's by seed noise alone (a motion blur and a JPEG quality clamped at 98
+                // "closed" the single's one cell left).
+                let fps_hz = fitter.footage_fps_hz();
                 for (k, wave) in others.chunks(CONCURRENT_FITS).enumerate() {
                     let names = wave
                         .iter()
                         .map(|e| format!("{} + {}", first.effect.name(), e.name()));
                     progress(&fitting(names), k * CONCURRENT_FITS, others.len());
-                    // A second effect fitted where it does nothing is no second cause: the
-                    // pair would be the single under another name, and its evaluation differs
-                    // from the single's by seed noise alone (a motion blur and a JPEG quality
-                    // clamped at 98 "closed" the single's one cell left).
-                    let fps_hz = nominal.frame_timing.fps;
                     let fits = fitter.on_forks(wave, |fork, &e| {
                         let evaluated = fork.fit(e, &prior).and_then(|second| {
                             if second.effect.does_nothing_at(&second.values, fps_hz) {
-                                return Ok(None);
+                                return Ok(Err(SkippedPair {
+                                    first: first.effect,
+                                    second: second.effect,
+                                    values: second.values,
+                                }));
                             }
-                            fork.evaluate(vec![first.clone(), second]).map(Some)
+                            fork.evaluate(vec![first.clone(), second]).map(Ok)
                         });
                         (evaluated, fork.simulations())
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
-                        if let Some(evaluated) = evaluated? {
-                            ranking.push(ranked(nominal_gap, evaluated));
+                        match evaluated? {
+                            Ok(evaluated) => ranking.push(ranked(nominal_gap, evaluated)),
+                            Err(skipped) => {
+                                progress(
+                                    &format!(
+                                        "{} + {}: set aside, the second fitted where it does \
+                                         nothing",
+                                        skipped.first.name(),
+                                        skipped.second.name()
+                                    ),
+                                    k * CONCURRENT_FITS,
+                                    others.len(),
+                                );
+                                skipped_pairs.push(skipped);
+                            }
                         }
                     }
                 }
@@ -891,6 +922,7 @@ pub fn diagnose_with(
         not_tried,
         not_judged,
         pair_tried,
+        skipped_pairs,
         escalation,
         seeds,
         fit_seeds,

@@ -6,7 +6,9 @@
 use super::fit::{Evaluated, Fitter};
 use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
-use super::{candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, Ranked, Refit};
+use super::{
+    candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, Ranked, Refit, SkippedPair,
+};
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::fit_noise::FootageFits;
@@ -44,6 +46,50 @@ fn cell_json(c: &CellGap, nyquist_hz: f64) -> Value {
         "p": c.p,
         "significant": c.significant,
     })
+}
+
+/// A pair set aside, with its second effect's fitted values and why.
+fn skipped_pair_json(p: &SkippedPair) -> Value {
+    let second: Map<String, Value> = p
+        .second
+        .params()
+        .iter()
+        .zip(&p.values)
+        .map(|(spec, v)| (spec.name.to_string(), json!(v)))
+        .collect();
+    json!({
+        "effects": [p.first.name(), p.second.name()],
+        "second_params": second,
+        "reason": SKIPPED_PAIR_REASON,
+    })
+}
+
+/// Why the pair stage sets a pair aside, in `diagnosis.json` and `diagnosis.md`.
+const SKIPPED_PAIR_REASON: &str = "the second effect was fitted where it does nothing (every \
+     parameter with a neutral at it, one of them its search's end): the pair would be the single \
+     under another name";
+
+/// `diagnosis.md`'s line on the pairs set aside; empty when there are none.
+fn skipped_pairs_text(pairs: &[SkippedPair]) -> String {
+    if pairs.is_empty() {
+        return String::new();
+    }
+    let listed = pairs
+        .iter()
+        .map(|p| {
+            let values = p
+                .second
+                .params()
+                .iter()
+                .zip(&p.values)
+                .map(|(spec, v)| format!("{} = {} {}", spec.name, fmt(*v), spec.unit))
+                .collect::<Vec<_>>()
+                .join(", ");
+            format!("`{} + {}` ({values})", p.first.name(), p.second.name())
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    format!("Pairs set aside ({SKIPPED_PAIR_REASON}): {listed}.\n\n")
 }
 
 fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
@@ -551,6 +597,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "not_tried": d.not_tried.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "pair_tried": d.pair_tried,
+        "skipped_pairs": d.skipped_pairs.iter().map(skipped_pair_json).collect::<Vec<_>>(),
         "seed_limited": d.seed_limited().iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
         "thresholds": {
             "explained_shrink": crate::diagnose::verdict::EXPLAINED_SHRINK,
@@ -798,6 +845,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
                 .join(", ")
         ));
     }
+    s.push_str(&skipped_pairs_text(&d.skipped_pairs));
     if !d.not_judged.is_empty() {
         s.push_str(&format!(
             "Not judged: {} act on the pixels and cannot be judged from a corner track.\n\n",
@@ -1083,6 +1131,29 @@ mod tests {
     use super::*;
     use crate::pipeline::diagnose::tests::{evaluated, fitted};
     use crate::pipeline::diagnose::RefitRun;
+
+    #[test]
+    fn a_pair_set_aside_is_listed_with_its_second_effects_values_and_why() {
+        let pair = SkippedPair {
+            first: Effect::MotionBlur,
+            second: Effect::Compression,
+            values: vec![98.0],
+        };
+        let j = skipped_pair_json(&pair);
+        assert_eq!(j["effects"], json!(["motion_blur", "compression"]));
+        assert_eq!(j["second_params"], json!({"quality": 98.0}));
+        assert!(j["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("does nothing")));
+        let text = skipped_pairs_text(std::slice::from_ref(&pair));
+        assert!(
+            text.starts_with("Pairs set aside (")
+                && text.contains("`motion_blur + compression` (quality = 98")
+                && text.ends_with(".\n\n"),
+            "{text}"
+        );
+        assert_eq!(skipped_pairs_text(&[]), "");
+    }
 
     fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
         Ranked {

@@ -26,7 +26,7 @@ use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate};
 use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
-use crate::scenario::effects::Effect;
+use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
 use crate::shard::{Manifest, Study, UnitDirs};
 use crate::timing::{LogModel, TimingModel};
@@ -96,7 +96,7 @@ pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let probe = probe_on_rig(effect, p.probe, fps_hz);
+            let probe = probe_on_rig(p, fps_hz);
             let from = match level {
                 Level::Strong | Level::OtherForm => return probe,
                 Level::Weak => match neutral_value(effect, i, fps_hz) {
@@ -117,17 +117,17 @@ pub fn level_values(effect: Effect, level: Level, fps_hz: f64) -> Vec<f64> {
 /// in a strong case: both happen within one frame interval, less the sensor's blanking.
 pub const MAX_FRAME_INTERVAL_SHARE: f64 = 0.9;
 
-/// The registry's strong `probe` of `effect` as a rig filmed at `fps_hz` can have it: an
-/// exposure or a readout longer than [`MAX_FRAME_INTERVAL_SHARE`] of a frame interval is cut
-/// to it. The probes (20 ms, 30 ms) fit the 30 fps rigs they were set on; a second rig at
-/// 60 fps took 20 ms exposures 16.7 ms apart, which no video camera does, and half the frames
-/// of its drive were lost.
-fn probe_on_rig(effect: Effect, probe: f64, fps_hz: f64) -> f64 {
-    match effect {
-        Effect::MotionBlur | Effect::RollingShutter if fps_hz > 0.0 => {
-            probe.min(MAX_FRAME_INTERVAL_SHARE / fps_hz)
-        }
-        _ => probe,
+/// The registry's strong probe of parameter `p` as a rig filmed at `fps_hz` can have it: a time
+/// inside one frame ([`ParamSpec::within_frame_interval`], an exposure or a readout) longer than
+/// [`MAX_FRAME_INTERVAL_SHARE`] of a frame interval is cut to it. The probes (20 ms, 30 ms) fit
+/// the 30 fps rigs they were set on; a second rig at 60 fps took 20 ms exposures 16.7 ms apart,
+/// which no video camera does (the scenario validator now refuses it), and half the frames of
+/// its drive were lost.
+fn probe_on_rig(p: &ParamSpec, fps_hz: f64) -> f64 {
+    if p.within_frame_interval && fps_hz > 0.0 {
+        p.probe.min(MAX_FRAME_INTERVAL_SHARE / fps_hz)
+    } else {
+        p.probe
     }
 }
 
