@@ -44,6 +44,10 @@ for root in sys.argv[1:]:
         zs = [float(x) for x in u['param_errors_in_sd'].split()]
         keys = [k for k in ORDER.get(r['effect'], list(r['params_std']))
                 if r['params_std'][k] is not None]
+        # A pair keys its parameters `effect.name`; cases.csv scores the withheld effect's.
+        withheld = u['expectation'].split()[1] if u['expectation'].startswith('withheld') else None
+        if len(r.get('effects', [])) > 1 and withheld:
+            keys = [k for k in keys if k.startswith(withheld + '.')]
         print(f"{root.rstrip('/').split('/')[-1]}/{u['case']}: {d['verdict']}, best {r['effect']}")
         for k, z in zip(keys, zs):
             sd = r['params_std'][k]
