@@ -1003,9 +1003,11 @@ mod tests {
         for base in ["fast", "seed-internal-4k", "seed-external-4k"] {
             let s0 = crate::scenario::load_any(base).unwrap();
             for e in Effect::ALL {
+                // The ranges a fit on this rig's footage searches: every value it can reach
+                // must give a valid scenario (an exposure past the frame interval would not).
                 for pick in [0.0, 0.5, 1.0] {
                     let values: Vec<f64> = e
-                        .params()
+                        .params_on(s0.frame_timing.fps)
                         .iter()
                         .map(|p| {
                             let (lo, hi) = p.search;
