@@ -543,28 +543,40 @@ pub fn track_cells(
         }
     }
 
+    let missing: Vec<bool> = record
+        .frames
+        .iter()
+        .map(|f| f.corners_px.is_none())
+        .collect();
+    cells.extend(missing_cells(&missing, &reference.phase));
+    let _ = est;
+    cells.retain(|key, _| !still_quantisation_cell(key));
+    cells
+}
+
+/// The `missing` cells: per phase, the fraction of its frames flagged in `missing` (frames
+/// without a detection).
+pub fn missing_cells(missing: &[bool], phases: &[Phase]) -> Cells {
+    let mut cells = Cells::new();
     for p in [Phase::Dwell, Phase::Entry, Phase::Drive, Phase::Exit] {
-        let in_phase: Vec<bool> = record
-            .frames
+        let in_phase: Vec<bool> = missing
             .iter()
-            .zip(&reference.phase)
+            .zip(phases)
             .filter(|(_, q)| **q == p)
-            .map(|(f, _)| f.corners_px.is_none())
+            .map(|(m, _)| *m)
             .collect();
         if in_phase.len() >= MIN_FRAMES {
-            let missing = in_phase.iter().filter(|m| **m).count() as f64 / in_phase.len() as f64;
+            let share = in_phase.iter().filter(|m| **m).count() as f64 / in_phase.len() as f64;
             cells.insert(
                 CellKey {
                     channel: "missing",
                     phase: phase_name(p),
                     band: None,
                 },
-                missing,
+                share,
             );
         }
     }
-    let _ = est;
-    cells.retain(|key, _| !still_quantisation_cell(key));
     cells
 }
 
@@ -774,6 +786,35 @@ pub fn timing_cells(t_s: &[f64]) -> Cells {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn missing_cells_count_each_phases_frames_without_a_detection() {
+        let phases: Vec<Phase> = [Phase::Dwell; 10]
+            .into_iter()
+            .chain([Phase::Drive; 20])
+            .chain([Phase::Exit; 2])
+            .collect();
+        let mut missing = vec![false; 32];
+        missing[3] = true;
+        for m in &mut missing[10..15] {
+            *m = true;
+        }
+        let cells = missing_cells(&missing, &phases);
+        let get = |phase: &'static str| {
+            cells
+                .get(&CellKey {
+                    channel: "missing",
+                    phase,
+                    band: None,
+                })
+                .copied()
+        };
+        assert_eq!(get("dwell"), Some(0.1));
+        assert_eq!(get("drive"), Some(0.25));
+        // Too few frames in a phase for a share.
+        assert_eq!(get("exit"), None);
+        assert_eq!(get("entry"), None);
+    }
 
     #[test]
     fn the_angle_residual_skips_undetected_frames_and_finds_a_vibration() {

@@ -40,7 +40,7 @@ use crate::scenario::Scenario;
 use fit::{Evaluated, Fitter, RealSide};
 use nominal::Aligned;
 use shards::{CandidateStudy, Mode};
-use simulate::SimContext;
+use simulate::{RealFrames, SimContext};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -564,12 +564,22 @@ pub fn diagnose_with(
         d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
     };
     let nyquist_hz = 0.5 / median_dt;
+    let real_missing: Vec<bool> = real
+        .record
+        .frames
+        .iter()
+        .map(|f| f.corners_px.is_none())
+        .collect();
     let ctx = SimContext {
         aligned: &aligned,
         layout: &layout,
         with_images: real.record.has_images,
         nyquist_hz,
         height_px: nominal.camera.height_px as f64,
+        real_frames: Some(RealFrames {
+            t_s: &t_all,
+            missing: &real_missing,
+        }),
     };
     let (reference, real_time_shift_s) =
         nominal::motion_reference(&aligned.reference, &real.record, &real.estimate);
