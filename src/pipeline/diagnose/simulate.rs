@@ -17,6 +17,7 @@ use crate::pipeline::frames::{detect_and_inspect_frames, FrameLoopOptions};
 use crate::pipeline::rig::Rig;
 use crate::scenario::Scenario;
 use crate::timing::{FrameTimingConfig, Timestamps};
+use std::borrow::Cow;
 
 /// Where a configuration's footage timestamps come from (the timing channels).
 #[derive(Debug, Clone)]
@@ -95,7 +96,9 @@ pub fn lost_like_real(sim_t_s: &[f64], real: RealFrames<'_>, median_dt_s: f64) -
                 .flatten()
                 .filter(|&k| k < real.t_s.len())
                 .min_by(|&a, &b| (real.t_s[a] - t).abs().total_cmp(&(real.t_s[b] - t).abs()));
-            nearest.is_some_and(|k| (real.t_s[k] - t).abs() < tol_s && real.missing[k])
+            nearest.is_some_and(|k| {
+                (real.t_s[k] - t).abs() < tol_s && real.missing.get(k).copied().unwrap_or(false)
+            })
         })
         .collect()
 }
@@ -162,12 +165,15 @@ pub fn measurement_cells(
     let est = estimate_record(scenario, &record)?;
     let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
     let mut cells = cells_of(ctx, &record, &est, &reference);
-    cells.extend(missing_cells(&own_missing, &reference.phase));
+    if let Some(own) = own_missing {
+        cells.extend(missing_cells(&own, &reference.phase));
+    }
     Ok(cells)
 }
 
 /// `record` with the frames the real footage lost taken out too ([`lost_like_real`]), and its
-/// own frames without a detection before that.
+/// own frames without a detection before that; the record itself, and no list, when the
+/// footage lost no frame (nothing to take out, and its `missing` cells are already its own).
 ///
 /// A detector loses the frames it cannot read, and which those are depends on how the footage
 /// was drawn: heavy smear on another renderer lost 8 of the 9 frames at each drive's peak speed
@@ -175,25 +181,29 @@ pub fn measurement_cells(
 /// but the frame selection differs: ω and α differentiated across the footage's gaps, edge
 /// widths read on its slower frames (the exposure fitted 17 % low). Measured on the same
 /// frames they compare like with like; the `missing` cells keep each side's own losses.
-fn masked_like_real(ctx: &SimContext<'_>, record: &Record) -> (Record, Vec<bool>) {
+fn masked_like_real<'r>(
+    ctx: &SimContext<'_>,
+    record: &'r Record,
+) -> (Cow<'r, Record>, Option<Vec<bool>>) {
+    let Some(real) = ctx.real_frames.filter(|r| r.missing.iter().any(|&m| m)) else {
+        return (Cow::Borrowed(record), None);
+    };
     let own: Vec<bool> = record
         .frames
         .iter()
         .map(|f| f.corners_px.is_none())
         .collect();
     let mut out = record.clone();
-    if let Some(real) = ctx.real_frames.filter(|r| r.missing.iter().any(|&m| m)) {
-        let lost = lost_like_real(&record.t_s(), real, 0.5 / ctx.nyquist_hz);
-        for (f, lost) in out.frames.iter_mut().zip(lost) {
-            // The moving marker's corners and the image statistics read around them; a static
-            // reference marker is found or lost on its own, as the footage's was.
-            if lost {
-                f.corners_px = None;
-                f.image = None;
-            }
+    let lost = lost_like_real(&record.t_s(), real, 0.5 / ctx.nyquist_hz);
+    for (f, lost) in out.frames.iter_mut().zip(lost) {
+        // The moving marker's corners and the image statistics read around them; a static
+        // reference marker is found or lost on its own, as the footage's was.
+        if lost {
+            f.corners_px = None;
+            f.image = None;
         }
     }
-    (out, own)
+    (Cow::Owned(out), Some(own))
 }
 
 /// Track and image cells of a record, its estimate and the motion reference it is read against.
@@ -275,7 +285,9 @@ pub fn simulated_footage(
     let est = estimate_record(&s, &record)?;
     let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
     let mut cells = cells_of(ctx, &record, &est, &reference);
-    cells.extend(missing_cells(&own_missing, &reference.phase));
+    if let Some(own) = own_missing {
+        cells.extend(missing_cells(&own, &reference.phase));
+    }
     if let Some(t) = trial.timing.times(seed) {
         cells.extend(timing_cells(&t));
     }
@@ -361,5 +373,11 @@ mod tests {
         // A real frame exactly half an interval away is not the same frame.
         assert_eq!(lost_like_real(&[1.5], real, 1.0), vec![false]);
         assert!(lost_like_real(&[], real, 1.0).is_empty());
+        // A loss list shorter than the times (no caller builds one) counts the rest as kept.
+        let short = RealFrames {
+            t_s: &real_t,
+            missing: &missing[..2],
+        };
+        assert_eq!(lost_like_real(&[1.0, 3.0], short, 1.0), vec![true, false]);
     }
 }
