@@ -83,18 +83,7 @@ pub struct Resolvable {
     pub band_limited_alpha2_rad_s2: Vec<f64>,
 }
 
-/// Median of the positive intervals between consecutive times (NaN for fewer than 2 times).
-pub fn median_interval_s(times_s: &[f64]) -> f64 {
-    let d: Vec<f64> = times_s
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .collect();
-    if d.is_empty() {
-        return f64::NAN;
-    }
-    crate::timing::stats::median(&d)
-}
+pub use crate::timing::median_interval_s;
 
 /// sin(a·u)/(π·u) and its first two derivatives (Taylor series near 0).
 fn sinc_derivatives(a: f64, u: f64) -> [f64; 3] {

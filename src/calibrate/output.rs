@@ -82,6 +82,65 @@ fn ov(path: &str, value: Value, comment: impl Into<String>) -> Override {
     }
 }
 
+/// A time inside one frame that the base states longer than the footage allows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CappedTime {
+    /// The scenario field (`effects.motion_blur.exposure_s`, `effects.rolling_shutter.readout_s`).
+    pub field: &'static str,
+    /// The base's value, s.
+    pub base_s: f64,
+    /// The value written: one frame interval at the footage's rate, rounded down to a
+    /// microsecond so that the written number never exceeds it.
+    pub capped_s: f64,
+}
+
+/// The exposure and readout the base has on and states longer than one frame interval at the
+/// footage's `fps`, capped there. No camera exposes or reads a frame out for longer than the
+/// time between two frames, and the scenario validator refuses it: a base that keeps the
+/// default 4 ms exposure cannot describe footage filmed at more than 250 fps as it is.
+pub fn capped_to_frame_interval(base: &Scenario, fps: f64) -> Vec<CappedTime> {
+    if !(fps.is_finite() && fps > 0.0) {
+        return Vec::new();
+    }
+    let interval_s = 1.0 / fps;
+    let capped_s = (interval_s * 1e6).floor() / 1e6;
+    let fx = &base.effects;
+    [
+        (
+            fx.motion_blur.enabled,
+            fx.motion_blur.exposure_s,
+            "effects.motion_blur.exposure_s",
+        ),
+        (
+            fx.rolling_shutter.enabled,
+            fx.rolling_shutter.readout_s,
+            "effects.rolling_shutter.readout_s",
+        ),
+    ]
+    .into_iter()
+    .filter(|&(on, base_s, _)| on && base_s > interval_s)
+    .map(|(_, base_s, field)| CappedTime {
+        field,
+        base_s,
+        capped_s,
+    })
+    .collect()
+}
+
+/// The note a capped time leaves in `calibration.md` and beside the field.
+pub fn capped_time_note(c: &CappedTime, fps: f64) -> String {
+    format!(
+        "the base's {} = {} s is longer than one frame interval of the footage ({:.6} s at {:.3} \
+         fps): capped at {} s, an upper bound (no camera takes longer than its frame interval); \
+         `geneva diagnose` fits the real value",
+        c.field,
+        c.base_s,
+        1.0 / fps,
+        fps,
+        c.capped_s
+    )
+}
+
 /// The scenario fields the calibration sets.
 pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec<Override> {
     let g = &cal.geometry;
@@ -305,6 +364,11 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
             Value::String("frames_csv".into()),
             "",
         ));
+    }
+    if ctx.timestamps_file.is_some() {
+        for c in capped_to_frame_interval(base, fps) {
+            o.push(ov(c.field, num(c.capped_s, 6), capped_time_note(&c, fps)));
+        }
     }
     o.push(ov("effects.lighting.enabled", Value::Boolean(true), ""));
     o.push(ov(

@@ -258,3 +258,41 @@ fn fitted_intervals_print_two_significant_digits_and_map_through_functions() {
     let g = Fitted::new(2.0, 0.1).map(|x| x * x);
     assert!((g.value - 4.0).abs() < 1e-12 && (g.u95 - 0.41).abs() < 1e-9);
 }
+
+#[test]
+fn a_base_time_longer_than_the_footages_frame_interval_is_capped_there() {
+    use super::output::{capped_time_note, capped_to_frame_interval};
+    let mut base = Scenario::default();
+    assert!(base.effects.motion_blur.enabled && base.effects.motion_blur.exposure_s == 0.004);
+    // 30 fps footage: the default 4 ms exposure fits.
+    assert!(capped_to_frame_interval(&base, 30.0).is_empty());
+    // 480 fps slow motion: 2.083 ms between frames.
+    let capped = capped_to_frame_interval(&base, 480.0);
+    assert_eq!(capped.len(), 1);
+    assert_eq!(capped[0].field, "effects.motion_blur.exposure_s");
+    assert_eq!((capped[0].base_s, capped[0].capped_s), (0.004, 0.002083));
+    let note = capped_time_note(&capped[0], 480.0);
+    assert!(
+        note.contains("0.004 s") && note.contains("capped at 0.002083 s"),
+        "{note}"
+    );
+    // A readout is capped only when it is on; a rate that is no rate caps nothing.
+    base.effects.rolling_shutter.readout_s = 0.03;
+    assert_eq!(capped_to_frame_interval(&base, 60.0).len(), 0);
+    base.effects.rolling_shutter.enabled = true;
+    let capped = capped_to_frame_interval(&base, 60.0);
+    assert_eq!(capped.len(), 1);
+    assert_eq!(capped[0].field, "effects.rolling_shutter.readout_s");
+    assert_eq!(capped[0].capped_s, 0.016666);
+    assert!(capped_to_frame_interval(&base, 0.0).is_empty());
+    assert!(capped_to_frame_interval(&base, f64::NAN).is_empty());
+    // What is written passes the validator at that rate; the base's values did not.
+    base.frame_timing.fps = 480.0;
+    base.effects.rolling_shutter.enabled = false;
+    assert!(!base.validate().is_empty());
+    for c in capped_to_frame_interval(&base, 480.0) {
+        base.effects.motion_blur.exposure_s = c.capped_s;
+    }
+    let problems = base.validate();
+    assert!(problems.is_empty(), "{problems:?}");
+}

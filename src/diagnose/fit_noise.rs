@@ -118,6 +118,11 @@ pub struct FootageFits {
     pub estimated_var: f64,
     /// The finite footage fits it stands on, B.
     pub footages: usize,
+    /// How many of them stopped at an end of the parameter's search: a fit clamped there says
+    /// only that the footage asked for at least (or at most) that much, so their spread and
+    /// mean bound the footage's noise and the fit's bias instead of measuring them, and no
+    /// bias is taken off.
+    pub at_search_end: usize,
 }
 
 /// Significance level at which a bias the footage fits show is taken off the stated value:
@@ -141,7 +146,10 @@ pub const REPRODUCED_REL: f64 = 1e-9;
 /// value is the fit's bias there (the bootstrap's bias estimate); when a t test finds it at
 /// p < [`BIAS_P`], the value stated is the bias-corrected one, value − bias, with the bias's
 /// standard error s_b/√B added to σ' in quadrature, unless the corrected value leaves `valid`
-/// (the values the parameter can take). Footages that reproduce the value to rounding
+/// (the values the parameter can take), or a footage fit stopped at an end of `search` (the
+/// range the fit searched): three fits of a 15.9 ms exposure all clamped at a 60 fps rig's
+/// 16.7 ms frame interval gave a spread of 0 and a "bias" of 0.76 ms at p = 0, which a t test
+/// on a spread it cannot see would take off. Footages that reproduce the value to rounding
 /// ([`REPRODUCED_REL`]) state a spread and a bias of exactly 0: nothing to widen, no bias to
 /// test. `None` when fewer than two footage values are finite or the value or σ is not (a
 /// parameter the fit did not determine).
@@ -151,6 +159,7 @@ pub fn from_footage_fits(
     curvature_stds: &[f64],
     footage_values: &[f64],
     valid: (f64, f64),
+    search: (f64, f64),
 ) -> Option<FootageFits> {
     if !(stated_std.is_finite() && value.is_finite()) {
         return None;
@@ -196,7 +205,15 @@ pub fn from_footage_fits(
     } else {
         0.0
     };
-    let corrected = bias_p < BIAS_P && (valid.0..=valid.1).contains(&(value - bias));
+    let at_search_end = values
+        .iter()
+        .filter(|&&v| {
+            let tol = REPRODUCED_REL * (v.abs() + stated_std);
+            (v - search.0).abs() <= tol || (v - search.1).abs() <= tol
+        })
+        .count();
+    let corrected =
+        at_search_end == 0 && bias_p < BIAS_P && (valid.0..=valid.1).contains(&(value - bias));
     let estimated_var = if footage_var > curvature_var {
         footage_var
     } else {
@@ -215,6 +232,7 @@ pub fn from_footage_fits(
         },
         estimated_var,
         footages: values.len(),
+        at_search_end,
     })
 }
 
@@ -364,7 +382,8 @@ mod tests {
     fn a_footage_spread_beyond_the_curvature_widens_the_stated_sigma_by_the_difference() {
         // Footage fits 0.83, 1.03, 1.23 of a value 1.03: s_b² = (0.2² + 0 + 0.2²)/2 = 0.04, no
         // bias; curvature σ 0.05 and 0.05 (c² = 0.0025); stated 0.06.
-        let f = from_footage_fits(1.03, 0.06, &[0.05, 0.05], &[0.83, 1.03, 1.23], ANY).unwrap();
+        let f =
+            from_footage_fits(1.03, 0.06, &[0.05, 0.05], &[0.83, 1.03, 1.23], ANY, ANY).unwrap();
         assert!(close(f.spread, 0.2), "{f:?}");
         assert!(f.bias.abs() < 1e-12 && f.bias_p > 0.99, "{f:?}");
         assert_eq!(f.value, 1.03);
@@ -373,11 +392,12 @@ mod tests {
         // of it is their estimate.
         assert!(close(f.estimated_var, 0.04) && f.footages == 3, "{f:?}");
         // A spread below the curvature's never narrows the stated σ.
-        let f = from_footage_fits(1.005, 0.06, &[0.05], &[1.0, 1.01], ANY).unwrap();
+        let f = from_footage_fits(1.005, 0.06, &[0.05], &[1.0, 1.01], ANY, ANY).unwrap();
         assert!(f.spread < 0.05);
         assert_eq!((f.value, f.std, f.estimated_var), (1.005, 0.06, 0.0));
         // Non-finite footage fits and curvature σ are left out.
-        let f = from_footage_fits(1.1, 0.1, &[f64::INFINITY], &[1.0, f64::NAN, 1.2], ANY).unwrap();
+        let f =
+            from_footage_fits(1.1, 0.1, &[f64::INFINITY], &[1.0, f64::NAN, 1.2], ANY, ANY).unwrap();
         assert!(close(f.spread, 0.02f64.sqrt()), "{f:?}");
     }
 
@@ -388,7 +408,8 @@ mod tests {
         // was "significant" and taken off.
         let value = 0.3f64;
         let next = f64::from_bits(value.to_bits() + 1);
-        let f = from_footage_fits(value, 0.011, &[0.011], &[next, next, value, next], ANY).unwrap();
+        let f = from_footage_fits(value, 0.011, &[0.011], &[next, next, value, next], ANY, ANY)
+            .unwrap();
         assert_eq!(
             (f.spread, f.bias, f.bias_std, f.bias_p),
             (0.0, 0.0, 0.0, 1.0),
@@ -396,11 +417,46 @@ mod tests {
         );
         assert_eq!((f.value, f.std), (value, 0.011), "{f:?}");
         // A bias every footage shows alike is no rounding: taken off, exactly known.
-        let f = from_footage_fits(value, 0.011, &[0.011], &[0.35, 0.35, 0.35], ANY).unwrap();
-        assert_eq!((f.spread, f.bias_p), (0.0, 0.0), "{f:?}");
+        let f = from_footage_fits(value, 0.011, &[0.011], &[0.35, 0.35, 0.35], ANY, ANY).unwrap();
+        assert_eq!(
+            (f.spread, f.bias_p, f.at_search_end),
+            (0.0, 0.0, 0),
+            "{f:?}"
+        );
         assert!(close(f.value, 0.25) && close(f.std, 0.011), "{f:?}");
+        // The same fits stopped at the search's end bound the bias, not measure it: the value
+        // stands (stop 53: a 15.9 ms exposure's three footage fits all at a 60 fps rig's
+        // 16.7 ms frame interval).
+        let f = from_footage_fits(
+            value,
+            0.011,
+            &[0.011],
+            &[0.35, 0.35, 0.35],
+            ANY,
+            (0.01, 0.35),
+        )
+        .unwrap();
+        assert_eq!(
+            (f.at_search_end, f.value, f.std),
+            (3, value, 0.011),
+            "{f:?}"
+        );
+        let exposure = from_footage_fits(
+            0.0159,
+            0.00126,
+            &[0.00126],
+            &[1.0 / 60.0; 3],
+            (0.0, 1.0),
+            (1e-4, 1.0 / 60.0),
+        )
+        .unwrap();
+        assert_eq!((exposure.at_search_end, exposure.value), (3, 0.0159));
+        // One fit at the lower end is enough to withhold the correction.
+        let f =
+            from_footage_fits(0.3, 0.011, &[0.011], &[0.35, 0.35, 0.01], ANY, (0.01, 1.0)).unwrap();
+        assert_eq!((f.at_search_end, f.value), (1, 0.3));
         // A real spread, however small against the value, is kept.
-        let f = from_footage_fits(1.0, 1e-6, &[1e-6], &[1.0 - 1e-6, 1.0 + 1e-6], ANY).unwrap();
+        let f = from_footage_fits(1.0, 1e-6, &[1e-6], &[1.0 - 1e-6, 1.0 + 1e-6], ANY, ANY).unwrap();
         assert!(
             (f.spread / (2f64.sqrt() * 1e-6) - 1.0).abs() < 1e-6,
             "{f:?}"
@@ -412,7 +468,7 @@ mod tests {
         // Four footages simulated at 1.74 fit 1.45 ± 0.03: a bias of −0.29, t ≈ −22 on 3
         // degrees of freedom. The value stated is 1.74 + 0.29 = 2.03.
         let fits = [1.42, 1.48, 1.44, 1.46];
-        let f = from_footage_fits(1.74, 0.05, &[0.05], &fits, ANY).unwrap();
+        let f = from_footage_fits(1.74, 0.05, &[0.05], &fits, ANY, ANY).unwrap();
         let sd = ((0.03f64.powi(2) + 0.03f64.powi(2) + 0.01f64.powi(2) * 2.0) / 3.0).sqrt();
         assert!(close(f.bias, -0.29), "{f:?}");
         assert!(close(f.bias_std, sd / 2.0), "{f:?}");
@@ -425,28 +481,28 @@ mod tests {
             "{f:?}"
         );
         // The same bias from two footages that disagree is not significant: nothing moves.
-        let f = from_footage_fits(1.74, 0.05, &[0.05], &[1.30, 1.60], ANY).unwrap();
+        let f = from_footage_fits(1.74, 0.05, &[0.05], &[1.30, 1.60], ANY, ANY).unwrap();
         assert!(f.bias_p > BIAS_P, "{f:?}");
         assert_eq!(f.value, 1.74);
         // A correction that would leave the parameter's valid values is not taken.
-        let f = from_footage_fits(1.74, 0.05, &[0.05], &fits, (0.0, 2.0)).unwrap();
+        let f = from_footage_fits(1.74, 0.05, &[0.05], &fits, (0.0, 2.0), ANY).unwrap();
         assert!(f.bias_p < BIAS_P, "{f:?}");
         assert_eq!(f.value, 1.74);
     }
 
     #[test]
     fn without_two_footage_fits_or_a_determined_value_nothing_is_stated() {
-        assert_eq!(from_footage_fits(1.0, 0.1, &[0.1], &[1.0], ANY), None);
+        assert_eq!(from_footage_fits(1.0, 0.1, &[0.1], &[1.0], ANY, ANY), None);
         assert_eq!(
-            from_footage_fits(1.0, 0.1, &[0.1], &[1.0, f64::NAN], ANY),
+            from_footage_fits(1.0, 0.1, &[0.1], &[1.0, f64::NAN], ANY, ANY),
             None
         );
         assert_eq!(
-            from_footage_fits(1.0, f64::INFINITY, &[0.1], &[1.0, 2.0], ANY),
+            from_footage_fits(1.0, f64::INFINITY, &[0.1], &[1.0, 2.0], ANY, ANY),
             None
         );
         assert_eq!(
-            from_footage_fits(f64::NAN, 0.1, &[0.1], &[1.0, 2.0], ANY),
+            from_footage_fits(f64::NAN, 0.1, &[0.1], &[1.0, 2.0], ANY, ANY),
             None
         );
     }

@@ -803,6 +803,14 @@ fn write_outputs(
     let scenario_path = out_dir.join("scenario.toml");
     let mut ovs = overrides(&cal, &ctx, base);
     let mut notes = cal.notes.clone();
+    if with_times {
+        let fps = cal.timing.as_ref().map_or(base.frame_timing.fps, |t| t.fps);
+        notes.extend(
+            crate::calibrate::output::capped_to_frame_interval(base, fps)
+                .iter()
+                .map(|c| crate::calibrate::output::capped_time_note(c, fps)),
+        );
+    }
     // The base's wheel dynamics displace the wheel from the ideal kinematics: shift the marker
     // angle so the rendered marker sits where the footage shows it.
     let typed = |o: &[Override]| -> Result<Scenario, CalibrateJobError> {

@@ -130,17 +130,34 @@ pub fn check(s: &Scenario, problems: &mut Problems) {
 /// The frame interval the camera's clock runs at, s: the variable-rate model's actual rate, the
 /// nominal otherwise (a timing log is read after validation; `geneva calibrate` writes its rate).
 pub fn frame_interval_s(s: &Scenario) -> f64 {
-    let fps = match &s.frame_timing.model {
-        TimingModel::Vfr(v) => v.actual_fps(s.frame_timing.fps),
-        TimingModel::Constant | TimingModel::Log(_) => s.frame_timing.fps,
-    };
-    1.0 / fps
+    log_interval_s(s).unwrap_or_else(|| {
+        let fps = match &s.frame_timing.model {
+            TimingModel::Vfr(v) => v.actual_fps(s.frame_timing.fps),
+            TimingModel::Constant | TimingModel::Log(_) => s.frame_timing.fps,
+        };
+        1.0 / fps
+    })
+}
+
+/// The median interval of a timing log once it is read (`Scenario::timing_log`): the camera's
+/// real rate, which a stale `frame_timing.fps` need not state.
+fn log_interval_s(s: &Scenario) -> Option<f64> {
+    match (&s.frame_timing.model, &s.timing_log) {
+        (TimingModel::Log(_), Some(log)) => Some(crate::timing::median_interval_s(log.as_slice()))
+            .filter(|d| d.is_finite() && *d > 0.0),
+        _ => None,
+    }
 }
 
 /// An exposure and a rolling-shutter readout each happen inside one frame interval: a camera
 /// cannot expose a frame for longer than the time between two frames, nor take longer to read
 /// it out, and a render that did would draw a frame no camera gives.
 fn times_inside_one_frame(s: &Scenario, problems: &mut Problems) {
+    // A timing log not read yet: its rate is judged once it is (`scenario::finish` validates
+    // again), not on a `frame_timing.fps` that may be stale.
+    if matches!(s.frame_timing.model, TimingModel::Log(_)) && s.timing_log.is_none() {
+        return;
+    }
     let interval_s = frame_interval_s(s);
     let fx = &s.effects;
     for (on, value_s, field, what) in [
@@ -158,15 +175,20 @@ fn times_inside_one_frame(s: &Scenario, problems: &mut Problems) {
         ),
     ] {
         if on && value_s > interval_s * (1.0 + 1e-9) {
+            let rate = match &s.frame_timing.model {
+                TimingModel::Log(log) if log_interval_s(s).is_some() => {
+                    format!("the median interval of the timing log {}", log.file)
+                }
+                _ => format!("at frame_timing.fps = {}", short(s.frame_timing.fps)),
+            };
             problems.push(
                 field,
                 format!(
-                    "{} s is longer than one frame interval ({} s at frame_timing.fps = {}): no \
-                     camera {what} for longer than the time between two frames; shorten it or \
-                     lower the frame rate",
+                    "{} s is longer than one frame interval ({:.3} ms, {rate}): no camera {what} \
+                     for longer than the time between two frames; shorten it or lower the frame \
+                     rate",
                     short(value_s),
-                    short(interval_s),
-                    short(s.frame_timing.fps)
+                    1e3 * interval_s,
                 ),
             );
         }

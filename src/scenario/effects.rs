@@ -634,6 +634,42 @@ impl Effect {
             })
     }
 
+    /// The values at which this effect, fitted on `nominal` filmed at `fps_hz`, would leave
+    /// the nominal as it is, one per parameter in [`Self::params`] order; `None` where no single
+    /// value does. On in the nominal: its stated values (a fit that lands there restates the
+    /// nominal), forms excepted, and nothing for a frame timing the nominal takes from a log or
+    /// a constant rate (the fitted model replaces it whole). Off: each parameter's neutral (a
+    /// blur's lower end, a JPEG quality's upper end, a signed strength's zero, a first frame
+    /// interval of one interval); a form has none, nor has an effect whose switch changes the
+    /// rig whatever its values: a timebase at the footage's median rate still ignores its
+    /// stamps, and an overrotation switches on the wheel dynamics with the nominal's clearance.
+    pub fn nominal_values(self, nominal: &Scenario, fps_hz: f64) -> Vec<Option<f64>> {
+        let params = self.params_on(fps_hz);
+        if self.is_on(nominal) {
+            let restated = match self {
+                Effect::FrameTiming => matches!(nominal.frame_timing.model, TimingModel::Vfr(_)),
+                _ => true,
+            };
+            let values = self.values(nominal);
+            return params
+                .iter()
+                .zip(values.iter().map(Some).chain(std::iter::repeat(None)))
+                .map(|(p, v)| match (p.neutral, v) {
+                    (Neutral::Form, _) => None,
+                    (_, Some(&v)) if restated => Some(v),
+                    _ => None,
+                })
+                .collect();
+        }
+        params
+            .iter()
+            .map(|p| match (self, p.neutral) {
+                (Effect::Overrotation, _) | (_, Neutral::FrameRate | Neutral::Form) => None,
+                _ => p.neutral.value(p, fps_hz),
+            })
+            .collect()
+    }
+
     /// Whether the effect is on in `s`.
     pub fn is_on(self, s: &Scenario) -> bool {
         let fx = &s.effects;
@@ -1191,6 +1227,65 @@ mod tests {
         assert!(!Effect::LensDistortion.does_nothing_at(&[0.0], 30.0));
         // The wrong number of values is never "nothing".
         assert!(!Effect::Compression.does_nothing_at(&[], 30.0));
+    }
+
+    #[test]
+    fn nominal_values_are_the_stated_ones_when_on_and_the_neutral_strengths_when_off() {
+        let mut s = crate::scenario::load_any("fast").unwrap();
+        Effect::LensDistortion.switch_off(&mut s);
+        Effect::OpticalBlur.switch_off(&mut s);
+        Effect::Timebase.switch_off(&mut s);
+        Effect::FrameTiming.switch_off(&mut s);
+        Effect::DiscVibration.switch_off(&mut s);
+        // Off: a signed strength at zero, a blur at its search's lower end.
+        assert_eq!(Effect::LensDistortion.nominal_values(&s, 60.0), [Some(0.0)]);
+        let blur_lo = Effect::OpticalBlur.params()[0].search.0;
+        assert_eq!(
+            Effect::OpticalBlur.nominal_values(&s, 60.0),
+            [Some(blur_lo)]
+        );
+        // Off, with no single value that does nothing: a timebase at any rate ignores the
+        // stamps, an overrotation brings the wheel dynamics, a vibration's frequency is free.
+        assert_eq!(Effect::Timebase.nominal_values(&s, 60.0), [None]);
+        assert!(!Effect::Overrotation.is_on(&s));
+        assert_eq!(Effect::Overrotation.nominal_values(&s, 60.0), [None]);
+        // A frame timing's first interval does nothing at one frame interval.
+        let jitter_lo = Effect::FrameTiming.params()[0].search.0;
+        assert_eq!(
+            Effect::FrameTiming.nominal_values(&s, 60.0),
+            [
+                Some(jitter_lo),
+                Some(1.0 / 60.0),
+                Some(0.0),
+                Some(0.0),
+                Some(0.0)
+            ]
+        );
+        let amp_lo = Effect::DiscVibration.params()[0].search.0;
+        assert_eq!(
+            Effect::DiscVibration.nominal_values(&s, 60.0),
+            [Some(amp_lo), None]
+        );
+        // On: the nominal's stated values (a refit landing there restates the nominal).
+        Effect::OpticalBlur.apply(&mut s, &[0.7]);
+        assert_eq!(Effect::OpticalBlur.nominal_values(&s, 60.0), [Some(0.7)]);
+        Effect::PixelNoise.apply(&mut s, &[12_000.0, 120.0]);
+        assert_eq!(
+            Effect::PixelNoise.nominal_values(&s, 60.0),
+            [Some(12_000.0), Some(120.0)]
+        );
+        Effect::DiscVibration.apply(&mut s, &[2e-3, 7.0]);
+        assert_eq!(
+            Effect::DiscVibration.nominal_values(&s, 60.0),
+            [Some(2e-3), None]
+        );
+        // On from a log: the fitted model replaces it whole, so no value restates it.
+        s.frame_timing.model = TimingModel::Log(crate::timing::LogModel {
+            file: "frames.log".into(),
+            ..Default::default()
+        });
+        assert!(Effect::FrameTiming.is_on(&s));
+        assert_eq!(Effect::FrameTiming.nominal_values(&s, 60.0), [None; 5]);
     }
 
     #[test]

@@ -235,9 +235,16 @@ fn set_dotted(root: &mut Value, path: &str, v: Value) -> Result<(), String> {
 
 fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
     let mut scenario = typed::deserialize(value, file)?;
-    let problems = scenario.validate();
+    let mut problems = scenario.validate();
     if problems.is_empty() {
         external::load_external(&mut scenario, file)?;
+        // A timing log states the camera's real rate, which the checks that depend on the frame
+        // interval read once it is loaded (`cross::frame_interval_s`).
+        if scenario.timing_log.is_some() {
+            problems = scenario.validate();
+        }
+    }
+    if problems.is_empty() {
         Ok(scenario)
     } else {
         Err(ScenarioError::Invalid {

@@ -233,7 +233,7 @@ fn an_exposure_or_a_readout_longer_than_a_frame_interval_is_a_check_error() {
     assert_eq!(p.len(), 2, "{p:?}");
     assert!(
         p[0].starts_with("effects.motion_blur.exposure_s: 0.02 s is longer than one frame")
-            && p[0].contains("frame_timing.fps = 60"),
+            && p[0].contains("at frame_timing.fps = 60"),
         "{p:?}"
     );
     assert!(
@@ -266,4 +266,51 @@ fn an_exposure_or_a_readout_longer_than_a_frame_interval_is_a_check_error() {
             .any(|m| m.starts_with("effects.motion_blur.exposure_s")),
         "{p:?}"
     );
+}
+
+#[test]
+fn a_timing_logs_own_rate_bounds_the_exposure_not_a_stale_nominal_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let log_at = |name: &str, fps: f64| {
+        let t: Vec<f64> = (0..40).map(|k| k as f64 / fps).collect();
+        let ts = crate::timing::Timestamps::new(t).unwrap();
+        std::fs::write(dir.path().join(name), crate::timing::to_frames_csv(&ts)).unwrap();
+    };
+    log_at("fast.csv", 120.0);
+    log_at("slow.csv", 30.0);
+    let scenario = |log: &str, fps: f64| {
+        let path = dir.path().join(format!("{log}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "extend = \"builtin:fast\"\nframe_timing.fps = {fps:.1}\n\
+                 effects.motion_blur.enabled = true\neffects.motion_blur.exposure_s = 0.02\n\
+                 [frame_timing.model]\nkind = \"log\"\nfile = \"{log}\"\nformat = \"frames_csv\"\n"
+            ),
+        )
+        .unwrap();
+        load(&path)
+    };
+    // A 120 fps log (8.3 ms) under a stale 30 fps: the 20 ms exposure is refused, naming the
+    // field and the log.
+    match scenario("fast.csv", 30.0) {
+        Err(ScenarioError::Invalid { problems, .. }) => {
+            assert_eq!(problems.len(), 1, "{problems:?}");
+            assert_eq!(problems[0].field, "effects.motion_blur.exposure_s");
+            assert!(
+                problems[0]
+                    .message
+                    .starts_with("0.02 s is longer than one frame interval")
+                    && problems[0]
+                        .message
+                        .contains("(8.333 ms, the median interval of the timing log ")
+                    && problems[0].message.contains("fast.csv"),
+                "{problems:?}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    // A 30 fps log (33 ms) under a stale 120 fps: possible, and accepted.
+    let s = scenario("slow.csv", 120.0).unwrap();
+    assert!(s.timing_log.is_some());
 }

@@ -8,6 +8,7 @@ pub(crate) mod fit;
 mod parse;
 mod schedule;
 pub(crate) mod stats;
+pub use stats::median_interval_s;
 mod stream;
 mod timestamps;
 

@@ -57,6 +57,19 @@ pub(crate) fn sample_std(xs: &[f64]) -> f64 {
     (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt()
 }
 
+/// Median of the positive intervals between consecutive times (NaN for fewer than 2 times).
+pub fn median_interval_s(times_s: &[f64]) -> f64 {
+    let d: Vec<f64> = times_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if d.is_empty() {
+        return f64::NAN;
+    }
+    median(&d)
+}
+
 pub(crate) fn median(xs: &[f64]) -> f64 {
     let mut v = xs.to_vec();
     v.sort_by(f64::total_cmp);

@@ -697,6 +697,12 @@ impl<'a> Fitter<'a> {
         d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
     }
 
+    /// The values at which `e` would leave the aligned nominal as it is on this footage
+    /// ([`Effect::nominal_values`]).
+    pub fn nominal_values(&self, e: Effect) -> Vec<Option<f64>> {
+        e.nominal_values(&self.base.scenario, self.footage_fps_hz())
+    }
+
     /// The footage's own frame rate, from its median frame interval, fps.
     pub fn footage_fps_hz(&self) -> f64 {
         1.0 / self.median_interval_s()

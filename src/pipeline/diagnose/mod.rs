@@ -403,6 +403,62 @@ pub struct SkippedPair {
     pub values: Vec<f64>,
 }
 
+/// A candidate that closed the gap with fitted values the data cannot tell from the nominal's
+/// ([`verdict::tells_from_nominal`]): the verdict does not rest on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NotDistinct {
+    /// Index into [`Diagnosis::ranking`].
+    pub ranked: usize,
+    /// Each compared value: its effect, its parameter's name, and where it lies.
+    pub values: Vec<(Effect, &'static str, verdict::FromNominal)>,
+}
+
+/// The fitted values of `r` beside those at which each of its effects would leave the nominal
+/// as it is (forms and values with none left out), and whether they tell it from the nominal:
+/// a pair only when each of its effects does, since a second effect at its nominal values makes
+/// the pair the single under another name.
+fn from_nominal(
+    fitter: &Fitter,
+    r: &Ranked,
+) -> (
+    Vec<(Effect, &'static str, verdict::FromNominal)>,
+    Option<bool>,
+) {
+    let mut all = Vec::new();
+    let mut distinct = Some(true);
+    for f in &r.evaluated.effects {
+        let compared: Vec<(Effect, &'static str, verdict::FromNominal)> = f
+            .effect
+            .params()
+            .iter()
+            .zip(fitter.nominal_values(f.effect))
+            .zip(f.values.iter().zip(&f.stds))
+            .filter_map(|((spec, nominal), (&value, &std))| {
+                nominal.map(|nominal| {
+                    let v = verdict::FromNominal {
+                        value,
+                        std,
+                        nominal,
+                    };
+                    (f.effect, spec.name, v)
+                })
+            })
+            .collect();
+        let values: Vec<verdict::FromNominal> = compared.iter().map(|c| c.2).collect();
+        distinct = match (distinct, verdict::tells_from_nominal(&values)) {
+            (Some(false), _) | (_, Some(false)) => Some(false),
+            (Some(true), Some(true)) => Some(true),
+            _ => None,
+        };
+        all.extend(compared);
+    }
+    (all, distinct)
+}
+
+/// How many candidates after the best one, explaining the gap too, are fitted again and
+/// judged when the best one's values do not tell it from the nominal.
+const MAX_DISTINCT_TRIES: usize = 3;
+
 /// Everything a diagnosis found.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
@@ -428,6 +484,10 @@ pub struct Diagnosis {
     /// Pairs the pair stage fitted and set aside because their second effect came out where it
     /// does nothing ([`Effect::does_nothing_at`]).
     pub skipped_pairs: Vec<SkippedPair>,
+    /// Candidates that closed the gap with values the data cannot tell from the nominal's,
+    /// in the order they were judged; when the last is [`Diagnosis::best`], no candidate
+    /// explained the gap.
+    pub not_distinct: Vec<NotDistinct>,
     /// Set when the evaluation seeds were raised before judging.
     pub escalation: Option<SeedEscalation>,
     pub seeds: Vec<u64>,
@@ -868,23 +928,16 @@ pub fn diagnose_with(
         .collect();
     let order = verdict::rank(d0, &outcomes);
     let group = verdict::group_of_best(d0, &outcomes, &order);
-    let best = order.first().copied();
-    if let Some(b) = best {
-        let names: Vec<String> = group
-            .iter()
-            .filter(|&&i| i != b)
-            .map(|&i| candidate_name(&ranking[i].evaluated))
-            .collect();
-        ranking[b].group = names;
-        // The fit's own noise, measured on the candidate a user reads first: its parameters
-        // fitted again on fresh fit seeds, and stated as the mean of all its fits. The verdict
-        // and the ranking do not change (they judged the first fit's values); only the values
-        // and ± the report states do.
-        let capped = || {
-            options
-                .max_minutes
-                .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0)
-        };
+    let capped = || {
+        options
+            .max_minutes
+            .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0)
+    };
+    // The fit's own noise, measured on the candidate a user reads first: its parameters fitted
+    // again on fresh fit seeds, and stated as the mean of all its fits (the footage's noise
+    // too with `--bootstrap`). The ranking does not change (it judged the first fit's values);
+    // only the values and ± the report states do.
+    let mut settle = |r: &mut Ranked| {
         let (refit, simulations) = if options.refits == 0 {
             (Refit::Off, 0)
         } else if capped() {
@@ -895,10 +948,10 @@ pub fn diagnose_with(
                 seeds_per_run: fit_seeds.len(),
                 runs: options.refits,
             };
-            refit_on_fresh_seeds(&fitter, &mut ranking[b], &plan, capped, progress)
+            refit_on_fresh_seeds(&fitter, r, &plan, capped, progress)
         };
         candidate_simulations += simulations;
-        ranking[b].refit = Some(refit);
+        r.refit = Some(refit);
         let (bootstrap, simulations) = if options.bootstrap == 0 {
             (Bootstrap::Off, 0)
         } else if capped() {
@@ -908,15 +961,59 @@ pub fn diagnose_with(
                 nominal_seed: nominal.seed,
                 footages: options.bootstrap,
             };
-            bootstrap_footage(&fitter, &mut ranking[b], &plan, capped, progress)
+            bootstrap_footage(&fitter, r, &plan, capped, progress)
         };
         candidate_simulations += simulations;
-        ranking[b].bootstrap = Some(bootstrap);
+        r.bootstrap = Some(bootstrap);
+    };
+    let mut not_distinct = Vec::new();
+    let choice = {
+        let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
+        let mut judged = 0usize;
+        verdict::choose(
+            &order,
+            explains,
+            |i| {
+                if judged > 0 {
+                    progress(
+                        &format!(
+                            "the values fitted so far do not tell their candidate from the \
+                             nominal; judging {}",
+                            candidate_name(&ranking[i].evaluated)
+                        ),
+                        judged,
+                        MAX_DISTINCT_TRIES + 1,
+                    );
+                }
+                judged += 1;
+                settle(&mut ranking[i]);
+                let (values, tells) = from_nominal(&fitter, &ranking[i]);
+                if tells == Some(false) {
+                    not_distinct.push(NotDistinct { ranked: i, values });
+                }
+                tells
+            },
+            MAX_DISTINCT_TRIES,
+        )
+    };
+    // Every candidate judged and set aside is recorded; one that was not chosen because it did
+    // not explain the gap is not among them.
+    not_distinct.retain(|n| choice.not_distinct.contains(&n.ranked));
+    let best = choice.best;
+    if let Some(b) = best {
+        // Its group: the others the data cannot tell apart from it, less those set aside.
+        ranking[b].group = group
+            .iter()
+            .filter(|&&i| i != b && !choice.not_distinct.contains(&i))
+            .map(|&i| candidate_name(&ranking[i].evaluated))
+            .collect();
     }
+    let distinct = choice.distinct;
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
         d0,
         best.map(|b| &ranking[b].evaluated.outcome),
+        distinct,
     );
     // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
     let simulations = fitter.simulations() + candidate_simulations;
@@ -933,6 +1030,7 @@ pub fn diagnose_with(
         not_judged,
         pair_tried,
         skipped_pairs,
+        not_distinct,
         escalation,
         seeds,
         fit_seeds,
@@ -1113,7 +1211,10 @@ fn bootstrap_footage(
         let why = short.unwrap_or_else(|| "fewer than two footages asked".to_string());
         return (Bootstrap::Failed(why), simulations);
     }
-    (widen_by_footages(best, done, short), simulations)
+    (
+        widen_by_footages(best, done, short, fitter.footage_fps_hz()),
+        simulations,
+    )
 }
 
 /// Widens each stated ± of `best` by the spread of its fits on the bootstrap footages
@@ -1123,6 +1224,7 @@ fn widen_by_footages(
     best: &mut Ranked,
     done: Vec<(u64, Vec<fit::Fitted>)>,
     short: Option<String>,
+    fps_hz: f64,
 ) -> Bootstrap {
     let values_before: Vec<Vec<f64>> = best
         .evaluated
@@ -1155,13 +1257,11 @@ fn widen_by_footages(
                 .iter()
                 .filter_map(|(_, fits)| fits.get(i).and_then(|g| g.values.get(j)).copied())
                 .collect();
-            let valid = f
-                .effect
-                .params()
-                .get(j)
-                .map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.valid);
+            let spec = f.effect.params_on(fps_hz).get(j).copied();
+            let valid = spec.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.valid);
+            let search = spec.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.search);
             let fits = crate::diagnose::fit_noise::from_footage_fits(
-                *value, *std, &curvature, &values, valid,
+                *value, *std, &curvature, &values, valid, search,
             );
             if let Some(fits) = fits {
                 *value = fits.value;

@@ -7,7 +7,8 @@ use super::fit::{Evaluated, Fitter};
 use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{
-    candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, Ranked, Refit, SkippedPair,
+    candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit,
+    SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
@@ -90,6 +91,74 @@ fn skipped_pairs_text(pairs: &[SkippedPair]) -> String {
         .collect::<Vec<_>>()
         .join("; ");
     format!("Pairs set aside ({SKIPPED_PAIR_REASON}): {listed}.\n\n")
+}
+
+/// Why a candidate that closed the gap is not the explanation, in `diagnosis.json` and
+/// `diagnosis.md`.
+const NOT_DISTINCT_REASON: &str = "every fitted value lies within one standard uncertainty of \
+     the value at which the effect would leave the nominal as it is: the data cannot tell it from \
+     the nominal, so what it closed on fresh seeds was closed by those seeds, not by the effect";
+
+/// One candidate's fitted values against the nominal's, in words: `k1 = 0.006 ± 0.010 against
+/// 0 (0.6 σ)`.
+fn not_distinct_values_text(n: &NotDistinct) -> String {
+    n.values
+        .iter()
+        .map(|(_, name, v)| {
+            format!(
+                "{name} = {} ± {} against {} ({:.1} σ)",
+                fmt(v.value),
+                fmt(v.std),
+                fmt(v.nominal),
+                v.z()
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
+    json!({
+        "candidate": ranking.get(n.ranked).map(|r| candidate_name(&r.evaluated)),
+        "values": n.values.iter().map(|(e, name, v)| json!({
+            "effect": e.name(),
+            "param": name,
+            "value": v.value,
+            "std": sd_json(v.std),
+            "nominal": v.nominal,
+            "z": v.z(),
+        })).collect::<Vec<_>>(),
+        "reason": NOT_DISTINCT_REASON,
+    })
+}
+
+/// `diagnosis.md`'s line on the candidates set aside for restating the nominal; empty when
+/// there are none.
+fn not_distinct_text(not_distinct: &[NotDistinct], ranking: &[Ranked]) -> String {
+    if not_distinct.is_empty() {
+        return String::new();
+    }
+    let listed = not_distinct
+        .iter()
+        .filter_map(|n| {
+            ranking.get(n.ranked).map(|r| {
+                format!(
+                    "`{}` ({})",
+                    candidate_name(&r.evaluated),
+                    not_distinct_values_text(n)
+                )
+            })
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    format!("Closed the gap but not taken as its cause ({NOT_DISTINCT_REASON}): {listed}.\n\n")
+}
+
+/// Whether the verdict's candidate is one that did not tell itself from the nominal (then no
+/// candidate explains the gap).
+fn best_not_distinct(d: &Diagnosis) -> bool {
+    d.best
+        .is_some_and(|b| d.not_distinct.iter().any(|n| n.ranked == b))
 }
 
 fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
@@ -258,6 +327,7 @@ fn bootstrap_json(bootstrap: &Bootstrap, e: &Evaluated) -> Value {
                 "bias": keyed(&of(|f| f.bias)),
                 "bias_std": keyed(&of(|f| f.bias_std)),
                 "bias_p": keyed(&of(|f| f.bias_p)),
+                "footage_fits_at_search_end": keyed(&of(|f| f.at_search_end as f64)),
                 "bias_corrected": corrected,
                 "params_before": params_json(e, Some((values_before, values_before))).0,
                 "params_std_before": keyed(stds_before),
@@ -268,6 +338,32 @@ fn bootstrap_json(bootstrap: &Bootstrap, e: &Evaluated) -> Value {
         Bootstrap::Off => json!({"status": "not_run", "why": "switched off (--bootstrap 0)"}),
         Bootstrap::Failed(why) => json!({"status": "failed", "why": why}),
     }
+}
+
+/// The parameters of `r` whose footage fits `label` has words for: each one's key followed by
+/// those words.
+fn footage_fit_params(
+    r: &Ranked,
+    found: &[Vec<Option<FootageFits>>],
+    label: impl Fn(&FootageFits) -> Option<String>,
+) -> Vec<String> {
+    let single = r.evaluated.effects.len() == 1;
+    r.evaluated
+        .effects
+        .iter()
+        .zip(found)
+        .flat_map(|(f, of_effect)| {
+            f.effect
+                .params()
+                .iter()
+                .zip(of_effect)
+                .filter_map(|(p, fit)| {
+                    let words = fit.as_ref().and_then(&label)?;
+                    Some(format!("{}{words}", param_key(f.effect, p.name, single)))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
 
 /// What the best candidate's fits on simulated footages say, in words: what they found and
@@ -316,24 +412,9 @@ fn bootstrap_text(r: &Ranked) -> String {
                  values stand."
                     .to_string()
             };
-            let single = r.evaluated.effects.len() == 1;
-            let given_back: Vec<String> = r
-                .evaluated
-                .effects
-                .iter()
-                .zip(found)
-                .flat_map(|(f, of_effect)| {
-                    f.effect
-                        .params()
-                        .iter()
-                        .zip(of_effect)
-                        .filter(|(_, fit)| {
-                            fit.is_some_and(|fit| fit.spread == 0.0 && fit.bias == 0.0)
-                        })
-                        .map(|(p, _)| param_key(f.effect, p.name, single))
-                        .collect::<Vec<_>>()
-                })
-                .collect();
+            let given_back = footage_fit_params(r, found, |fit| {
+                (fit.spread == 0.0 && fit.bias == 0.0).then(String::new)
+            });
             let given_back = if given_back.is_empty() {
                 String::new()
             } else {
@@ -345,6 +426,21 @@ fn bootstrap_text(r: &Ranked) -> String {
                     given_back.join(", ")
                 )
             };
+            let at_end = footage_fit_params(r, found, |fit| {
+                (fit.at_search_end > 0)
+                    .then(|| format!(" ({} of {})", fit.at_search_end, fit.footages))
+            });
+            let at_end = if at_end.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " Footage fits stopped at an end of the search for {}: a fit clamped there \
+                     says only that the footage asked for at least that much (at the lower end, \
+                     at most), so their spread and mean bound the footage's noise and the fit's bias instead of measuring \
+                     them, and no bias is taken off those values.",
+                    at_end.join(", ")
+                )
+            };
             let short = short
                 .as_ref()
                 .map(|why| format!(" Fewer footages than asked: {why}."))
@@ -353,12 +449,19 @@ fn bootstrap_text(r: &Ranked) -> String {
                 "Footages simulated at {} on {} fresh data seeds, each measured and fitted as \
                  this one was, gave {}: a spread (the footage's own noise) of {}. Where it \
                  exceeds what the fit's curvature states, the ± above are widened by the \
-                 difference (before: {}).{given_back}{bias}{short}\n\n",
+                 difference (before: {}).{given_back}{at_end}{}{short}\n\n",
                 values_text(&r.evaluated, Some((values_before, &[]))),
                 values.len(),
                 fits.join("; "),
                 values_text(&r.evaluated, Some((&spread, &[]))),
                 values_text(&r.evaluated, Some((stds_before, &[]))),
+                // Fits stopped at the search's end withhold the correction: "no significant
+                // bias" would say more than they measured.
+                if corrected == 0 && !at_end.is_empty() {
+                    ""
+                } else {
+                    bias.as_str()
+                },
             )
         }
         Some(Bootstrap::TimeCap) => format!(
@@ -559,6 +662,12 @@ pub fn to_json(d: &Diagnosis) -> Value {
     });
     let best = d.best.map(|b| &d.ranking[b]);
     let remainder = match best {
+        Some(_) if best_not_distinct(d) => json!({
+            "after": Value::Null,
+            "total": d.nominal_gap.total,
+            "cells": d.nominal_gap.significant().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
+            "best_partial": d.ranking.iter().take(3).map(|r| candidate_name(&r.evaluated)).collect::<Vec<_>>(),
+        }),
         Some(r) => {
             let cells: Vec<Value> = r
                 .evaluated
@@ -598,11 +707,13 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "pair_tried": d.pair_tried,
         "skipped_pairs": d.skipped_pairs.iter().map(skipped_pair_json).collect::<Vec<_>>(),
+        "not_distinct": d.not_distinct.iter().map(|n| not_distinct_json(n, &d.ranking)).collect::<Vec<_>>(),
         "seed_limited": d.seed_limited().iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
         "thresholds": {
             "explained_shrink": crate::diagnose::verdict::EXPLAINED_SHRINK,
             "penalty_per_param": crate::diagnose::verdict::PENALTY_PER_PARAM,
             "group_margin": crate::diagnose::verdict::GROUP_MARGIN,
+            "distinct_z": crate::diagnose::verdict::DISTINCT_Z,
         },
         "run": {
             "frames": d.frames,
@@ -685,6 +796,22 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             }
             t
         }
+        (_, Some(r)) if best_not_distinct(d) => format!(
+            "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but its fitted \
+             values do not tell it from the nominal: {}. Those seeds closed the gap, not the \
+             effect, and no candidate that closes it differs from the nominal. The gap: {}.",
+            candidate_name(&r.evaluated),
+            100.0 * r.shrink,
+            d.not_distinct
+                .iter()
+                .find(|n| Some(n.ranked) == d.best)
+                .map(not_distinct_values_text)
+                .unwrap_or_default(),
+            cells_text(
+                &d.nominal_gap.significant().cloned().collect::<Vec<_>>(),
+                d.nyquist_hz
+            )
+        ),
         (_, Some(r)) => format!(
             "**Unexplained.** No candidate closes enough of the gap: the best, `{}` ({}), closes \
              {:.0} % and leaves {} significant cell(s). What is left is listed under Remainder.",
@@ -846,6 +973,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
         ));
     }
     s.push_str(&skipped_pairs_text(&d.skipped_pairs));
+    s.push_str(&not_distinct_text(&d.not_distinct, &d.ranking));
     if !d.not_judged.is_empty() {
         s.push_str(&format!(
             "Not judged: {} act on the pixels and cannot be judged from a corner track.\n\n",
@@ -1155,6 +1283,44 @@ mod tests {
         assert_eq!(skipped_pairs_text(&[]), "");
     }
 
+    #[test]
+    fn a_candidate_not_told_from_the_nominal_is_listed_with_its_values_and_why() {
+        let n = NotDistinct {
+            ranked: 0,
+            values: vec![(
+                Effect::LensDistortion,
+                "k1",
+                crate::diagnose::verdict::FromNominal {
+                    value: 0.006,
+                    std: 0.0103,
+                    nominal: 0.0,
+                },
+            )],
+        };
+        let text = not_distinct_values_text(&n);
+        assert_eq!(text, "k1 = 0.0060 ± 0.0103 against 0 (0.6 σ)");
+        let j = not_distinct_json(&n, &[]);
+        assert_eq!(j["candidate"], Value::Null);
+        assert_eq!(j["values"][0]["param"], json!("k1"));
+        assert_eq!(j["values"][0]["effect"], json!("lens_distortion"));
+        assert!((j["values"][0]["z"].as_f64().unwrap_or(0.0) - 0.006 / 0.0103).abs() < 1e-12);
+        assert!(j["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("cannot tell it from the nominal")));
+        let lens = ranked(
+            vec![fitted(Effect::LensDistortion, vec![0.006], vec![0.0103])],
+            Refit::Off,
+        );
+        let text = not_distinct_text(std::slice::from_ref(&n), std::slice::from_ref(&lens));
+        assert!(
+            text.starts_with("Closed the gap but not taken as its cause (")
+                && text
+                    .ends_with("`lens_distortion` (k1 = 0.0060 ± 0.0103 against 0 (0.6 σ)).\n\n"),
+            "{text}"
+        );
+        assert_eq!(not_distinct_text(&[], &[lens]), "");
+    }
+
     fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
         Ranked {
             evaluated: evaluated(effects),
@@ -1171,6 +1337,51 @@ mod tests {
     /// words: the clearance's footages sit 0.1 mm below the value they were simulated at with a
     /// spread far smaller (taken off, its standard error added to a ± the spread does not
     /// widen); the full well's scatter about it (no bias, kept); the read noise is undetermined.
+    /// Stop 53: a 15.9 ms exposure's three footage fits all stopped at a 60 fps rig's frame
+    /// interval, the end of the search there: a spread of 0 and a "bias" at p = 0, which is
+    /// not taken off, and the report says why.
+    #[test]
+    fn footage_fits_at_the_search_end_take_no_bias_off_and_say_so() {
+        let mut best = ranked(
+            vec![fitted(Effect::MotionBlur, vec![0.0159], vec![0.00126])],
+            Refit::Off,
+        );
+        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..3)
+            .map(|k| {
+                let fits = vec![fitted(Effect::MotionBlur, vec![1.0 / 60.0], vec![0.001])];
+                (5007 + k as u64, fits)
+            })
+            .collect();
+        let bootstrap = super::super::widen_by_footages(&mut best, done, None, 60.0);
+        assert_eq!(best.evaluated.effects[0].values[0], 0.0159);
+        let json = bootstrap_json(&bootstrap, &best.evaluated);
+        assert_eq!(json["bias_corrected"]["exposure_s"], false);
+        assert_eq!(json["footage_fits_at_search_end"]["exposure_s"], 3.0);
+        best.bootstrap = Some(bootstrap);
+        let text = bootstrap_text(&best);
+        assert!(
+            text.contains("stopped at an end of the search for exposure_s (3 of 3)")
+                && !text.contains("no significant bias")
+                && !text.contains("taken off,"),
+            "{text}"
+        );
+        // At 30 fps the same fits lie inside the search (33.3 ms): the bias is measured.
+        let mut best = ranked(
+            vec![fitted(Effect::MotionBlur, vec![0.0159], vec![0.00126])],
+            Refit::Off,
+        );
+        let done = (0..3)
+            .map(|k| {
+                let fits = vec![fitted(Effect::MotionBlur, vec![1.0 / 60.0], vec![0.001])];
+                (5007 + k as u64, fits)
+            })
+            .collect();
+        let bootstrap = super::super::widen_by_footages(&mut best, done, None, 30.0);
+        let json = bootstrap_json(&bootstrap, &best.evaluated);
+        assert_eq!(json["footage_fits_at_search_end"]["exposure_s"], 0.0);
+        assert_eq!(json["bias_corrected"]["exposure_s"], true);
+    }
+
     #[test]
     fn footage_fits_take_a_significant_bias_off_and_say_so() {
         let noise = Effect::PixelNoise;
@@ -1207,7 +1418,7 @@ mod tests {
                 (5007 + k as u64, fits)
             })
             .collect();
-        let bootstrap = super::super::widen_by_footages(&mut best, done, None);
+        let bootstrap = super::super::widen_by_footages(&mut best, done, None, 30.0);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
         // Clearance: value 0.5 − (−0.1); the spread (var 0.0001·2/3) is below the curvature's
         // (the first fit's 0.01 and the refit's 0.03), so only the bias's standard error adds.
@@ -1274,7 +1485,7 @@ mod tests {
                 (5007 + k, vec![fitted(timing, v, stds.clone())])
             })
             .collect();
-        let bootstrap = super::super::widen_by_footages(&mut best, done, None);
+        let bootstrap = super::super::widen_by_footages(&mut best, done, None, 30.0);
         assert_eq!(best.evaluated.effects[0].values[..n - 1], values[..n - 1]);
         assert_eq!(best.evaluated.effects[0].stds, stds);
         let last = best.evaluated.effects[0].values[n - 1];
@@ -1341,7 +1552,7 @@ mod tests {
                 )
             })
             .collect();
-        best.bootstrap = Some(super::super::widen_by_footages(&mut best, done, None));
+        best.bootstrap = Some(super::super::widen_by_footages(&mut best, done, None, 30.0));
         // σ'² = 0.0004 − 0.0001 + s_b²: the footages' spread replaced the curvature's.
         let footage_var = 0.02 / 7.0;
         let var = 0.0003 + footage_var;
