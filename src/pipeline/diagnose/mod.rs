@@ -1009,6 +1009,8 @@ pub fn diagnose_with(
             .collect();
     }
     let distinct = choice.distinct;
+    // `ranking` is best first: a candidate chosen over those set aside moves to the front.
+    let best = best.map(|b| to_front(&mut ranking, &mut not_distinct, b));
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
         d0,
@@ -1345,6 +1347,25 @@ fn ranked(nominal_gap: &GapMap, evaluated: Evaluated) -> Ranked {
     }
 }
 
+/// Moves `ranking[b]` to the front, the others keeping their order, and renumbers what
+/// `not_distinct` points at; returns the new index of `b`: 0 (`b` itself when it is no index
+/// of `ranking`, which is left alone).
+fn to_front<T>(ranking: &mut Vec<T>, not_distinct: &mut [NotDistinct], b: usize) -> usize {
+    if b == 0 || b >= ranking.len() {
+        return b;
+    }
+    let item = ranking.remove(b);
+    ranking.insert(0, item);
+    for n in not_distinct.iter_mut() {
+        if n.ranked < b {
+            n.ranked += 1;
+        } else if n.ranked == b {
+            n.ranked = 0;
+        }
+    }
+    0
+}
+
 fn sort_ranking(d0: f64, ranking: &mut Vec<Ranked>) {
     let outcomes: Vec<Outcome> = ranking
         .iter()
@@ -1358,6 +1379,23 @@ fn sort_ranking(d0: f64, ranking: &mut Vec<Ranked>) {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn a_candidate_chosen_over_those_set_aside_moves_to_the_front() {
+        let nd = |ranked| NotDistinct {
+            ranked,
+            values: Vec::new(),
+        };
+        let mut ranking = vec!["lens", "tilt", "blur", "noise"];
+        let mut set_aside = vec![nd(0), nd(1)];
+        assert_eq!(to_front(&mut ranking, &mut set_aside, 2), 0);
+        assert_eq!(ranking, ["blur", "lens", "tilt", "noise"]);
+        assert_eq!((set_aside[0].ranked, set_aside[1].ranked), (1, 2));
+        // The first stays where it is; an index past the end changes nothing.
+        assert_eq!(to_front(&mut ranking, &mut set_aside, 0), 0);
+        assert_eq!(to_front(&mut ranking, &mut set_aside, 9), 9);
+        assert_eq!(ranking, ["blur", "lens", "tilt", "noise"]);
+    }
 
     /// `effect` fitted at `values` ± `stds`, as a candidate's fit reports it.
     pub(crate) fn fitted(effect: Effect, values: Vec<f64>, stds: Vec<f64>) -> fit::Fitted {
