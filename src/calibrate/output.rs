@@ -31,6 +31,10 @@ pub struct OutputContext {
     pub height_px: usize,
     /// Timestamp of the last frame from the first, s.
     pub last_t_s: f64,
+    /// The footage's frame interval, s: the shorter of its median interval and its fitted mean
+    /// rate's (the validator bounds an exposure by the timing log's median interval); `None`
+    /// without timestamps.
+    pub frame_interval_s: Option<f64>,
 }
 
 /// The re-rendering check: the calibrated scenario rendered at a footage frame's instant.
@@ -94,15 +98,14 @@ pub struct CappedTime {
     pub capped_s: f64,
 }
 
-/// The exposure and readout the base has on and states longer than one frame interval at the
-/// footage's `fps`, capped there. No camera exposes or reads a frame out for longer than the
-/// time between two frames, and the scenario validator refuses it: a base that keeps the
+/// The exposure and readout the base has on and states longer than the footage's frame
+/// interval `interval_s`, capped there. No camera exposes or reads a frame out for longer than
+/// the time between two frames, and the scenario validator refuses it: a base that keeps the
 /// default 4 ms exposure cannot describe footage filmed at more than 250 fps as it is.
-pub fn capped_to_frame_interval(base: &Scenario, fps: f64) -> Vec<CappedTime> {
-    if !(fps.is_finite() && fps > 0.0) {
+pub fn capped_to_frame_interval(base: &Scenario, interval_s: f64) -> Vec<CappedTime> {
+    if !(interval_s.is_finite() && interval_s > 0.0) {
         return Vec::new();
     }
-    let interval_s = 1.0 / fps;
     let capped_s = (interval_s * 1e6).floor() / 1e6;
     let fx = &base.effects;
     [
@@ -128,17 +131,26 @@ pub fn capped_to_frame_interval(base: &Scenario, fps: f64) -> Vec<CappedTime> {
 }
 
 /// The note a capped time leaves in `calibration.md` and beside the field.
-pub fn capped_time_note(c: &CappedTime, fps: f64) -> String {
+pub fn capped_time_note(c: &CappedTime) -> String {
     format!(
-        "the base's {} = {} s is longer than one frame interval of the footage ({:.6} s at {:.3} \
-         fps): capped at {} s, an upper bound (no camera takes longer than its frame interval); \
-         `geneva diagnose` fits the real value",
-        c.field,
-        c.base_s,
-        1.0 / fps,
-        fps,
-        c.capped_s
+        "the base's {} = {} s is longer than one frame interval of the footage: capped at {} s, \
+         an upper bound (no camera takes longer than its frame interval); `geneva diagnose` fits \
+         the real value",
+        c.field, c.base_s, c.capped_s
     )
+}
+
+/// The footage's frame interval for [`capped_to_frame_interval`]: the shorter of the median
+/// interval of `times_s` and one interval at the fitted mean rate `fps`; `None` when neither is
+/// a positive number.
+pub fn footage_frame_interval_s(times_s: &[f64], fps: f64) -> Option<f64> {
+    [
+        crate::timing::median_interval_s(times_s),
+        if fps > 0.0 { 1.0 / fps } else { f64::NAN },
+    ]
+    .into_iter()
+    .filter(|d| d.is_finite() && *d > 0.0)
+    .reduce(f64::min)
 }
 
 /// The scenario fields the calibration sets.
@@ -365,9 +377,9 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
             "",
         ));
     }
-    if ctx.timestamps_file.is_some() {
-        for c in capped_to_frame_interval(base, fps) {
-            o.push(ov(c.field, num(c.capped_s, 6), capped_time_note(&c, fps)));
+    if let Some(interval_s) = ctx.frame_interval_s {
+        for c in capped_to_frame_interval(base, interval_s) {
+            o.push(ov(c.field, num(c.capped_s, 6), capped_time_note(&c)));
         }
     }
     o.push(ov("effects.lighting.enabled", Value::Boolean(true), ""));

@@ -261,38 +261,70 @@ fn fitted_intervals_print_two_significant_digits_and_map_through_functions() {
 
 #[test]
 fn a_base_time_longer_than_the_footages_frame_interval_is_capped_there() {
-    use super::output::{capped_time_note, capped_to_frame_interval};
+    use super::output::{capped_time_note, capped_to_frame_interval, footage_frame_interval_s};
     let mut base = Scenario::default();
     assert!(base.effects.motion_blur.enabled && base.effects.motion_blur.exposure_s == 0.004);
     // 30 fps footage: the default 4 ms exposure fits.
-    assert!(capped_to_frame_interval(&base, 30.0).is_empty());
+    assert!(capped_to_frame_interval(&base, 1.0 / 30.0).is_empty());
     // 480 fps slow motion: 2.083 ms between frames.
-    let capped = capped_to_frame_interval(&base, 480.0);
+    let capped = capped_to_frame_interval(&base, 1.0 / 480.0);
     assert_eq!(capped.len(), 1);
     assert_eq!(capped[0].field, "effects.motion_blur.exposure_s");
     assert_eq!((capped[0].base_s, capped[0].capped_s), (0.004, 0.002083));
-    let note = capped_time_note(&capped[0], 480.0);
+    let note = capped_time_note(&capped[0]);
     assert!(
         note.contains("0.004 s") && note.contains("capped at 0.002083 s"),
         "{note}"
     );
-    // A readout is capped only when it is on; a rate that is no rate caps nothing.
+    // A readout is capped only when it is on; an interval that is none caps nothing.
     base.effects.rolling_shutter.readout_s = 0.03;
-    assert_eq!(capped_to_frame_interval(&base, 60.0).len(), 0);
+    assert_eq!(capped_to_frame_interval(&base, 1.0 / 60.0).len(), 0);
     base.effects.rolling_shutter.enabled = true;
-    let capped = capped_to_frame_interval(&base, 60.0);
+    let capped = capped_to_frame_interval(&base, 1.0 / 60.0);
     assert_eq!(capped.len(), 1);
     assert_eq!(capped[0].field, "effects.rolling_shutter.readout_s");
     assert_eq!(capped[0].capped_s, 0.016666);
     assert!(capped_to_frame_interval(&base, 0.0).is_empty());
     assert!(capped_to_frame_interval(&base, f64::NAN).is_empty());
-    // What is written passes the validator at that rate; the base's values did not.
-    base.frame_timing.fps = 480.0;
+    // The footage's interval: the shorter of its median interval and its mean rate's. A phone's
+    // variable rate can put the median below the mean rate's interval, and the validator
+    // bounds the exposure by the log's median.
+    let times: Vec<f64> = (0..20)
+        .map(|k| k as f64 * 0.0020 + if k > 15 { 0.01 } else { 0.0 })
+        .collect();
+    let interval = footage_frame_interval_s(&times, 480.0).unwrap();
+    assert!((interval - 0.0020).abs() < 1e-12, "{interval}");
+    assert_eq!(
+        footage_frame_interval_s(&times[..1], 480.0),
+        Some(1.0 / 480.0)
+    );
+    assert_eq!(footage_frame_interval_s(&times[..1], 0.0), None);
+    // What is written passes the validator, on a timing log at that median interval; the
+    // base's values did not.
+    let dir = tempfile::tempdir().unwrap();
+    let ts = crate::timing::Timestamps::new(times.clone()).unwrap();
+    let log = dir.path().join("t.csv");
+    std::fs::write(&log, crate::timing::to_frames_csv(&ts)).unwrap();
     base.effects.rolling_shutter.enabled = false;
-    assert!(!base.validate().is_empty());
-    for c in capped_to_frame_interval(&base, 480.0) {
+    let write = |exposure_s: f64| {
+        let path = dir.path().join("s.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "name = \"s\"\nframe_timing.fps = 480.0\neffects.motion_blur.exposure_s = {exposure_s}\n\
+                 [frame_timing.model]\nkind = \"log\"\nfile = \"t.csv\"\nformat = \"frames_csv\"\n"
+            ),
+        )
+        .unwrap();
+        crate::scenario::load(&path)
+    };
+    assert!(write(0.004).is_err());
+    for c in capped_to_frame_interval(&base, interval) {
         base.effects.motion_blur.exposure_s = c.capped_s;
     }
-    let problems = base.validate();
-    assert!(problems.is_empty(), "{problems:?}");
+    assert_eq!(base.effects.motion_blur.exposure_s, 0.002);
+    let loaded = write(base.effects.motion_blur.exposure_s);
+    assert!(loaded.is_ok(), "{loaded:?}");
+    // One interval at the mean rate (2.083 ms) would have been refused against the median.
+    assert!(write(0.002083).is_err());
 }

@@ -799,16 +799,21 @@ fn write_outputs(
         width_px: stats.width_px,
         height_px: stats.height_px,
         last_t_s: times.last().copied().unwrap_or(0.0),
+        frame_interval_s: with_times
+            .then(|| {
+                let fps = cal.timing.as_ref().map_or(base.frame_timing.fps, |t| t.fps);
+                crate::calibrate::output::footage_frame_interval_s(times, fps)
+            })
+            .flatten(),
     };
     let scenario_path = out_dir.join("scenario.toml");
     let mut ovs = overrides(&cal, &ctx, base);
     let mut notes = cal.notes.clone();
-    if with_times {
-        let fps = cal.timing.as_ref().map_or(base.frame_timing.fps, |t| t.fps);
+    if let Some(interval_s) = ctx.frame_interval_s {
         notes.extend(
-            crate::calibrate::output::capped_to_frame_interval(base, fps)
+            crate::calibrate::output::capped_to_frame_interval(base, interval_s)
                 .iter()
-                .map(|c| crate::calibrate::output::capped_time_note(c, fps)),
+                .map(crate::calibrate::output::capped_time_note),
         );
     }
     // The base's wheel dynamics displace the wheel from the ideal kinematics: shift the marker
