@@ -196,17 +196,23 @@ pub fn with_overrides(
         .iter()
         .any(|(p, _)| p.starts_with("frame_timing.model"));
     let mut scenario = typed::deserialize(value, origin)?;
-    let problems = scenario.validate();
+    let mut problems = scenario.validate();
+    if problems.is_empty() {
+        if timing_changed {
+            external::load_external(&mut scenario, origin)?;
+        } else {
+            scenario.timing_log = base.timing_log.clone();
+        }
+        // As in `finish`: the checks that read the frame interval see the log's own.
+        if scenario.timing_log.is_some() {
+            problems = scenario.validate();
+        }
+    }
     if !problems.is_empty() {
         return Err(ScenarioError::Invalid {
             file: origin.to_path_buf(),
             problems: problems.0,
         });
-    }
-    if timing_changed {
-        external::load_external(&mut scenario, origin)?;
-    } else {
-        scenario.timing_log = base.timing_log.clone();
     }
     Ok(scenario)
 }

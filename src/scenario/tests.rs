@@ -196,6 +196,49 @@ fn overrides_replace_fields_and_are_validated() {
 }
 
 #[test]
+fn overrides_on_a_base_with_a_timing_log_are_checked_against_the_logs_rate() {
+    // A 120 fps log under a stale 30 fps: a sweep that sets a 20 ms exposure on it is refused
+    // (the log carries over and its 8.3 ms interval bounds the exposure), 5 ms is not.
+    let dir = tempfile::tempdir().unwrap();
+    let t: Vec<f64> = (0..40).map(|k| k as f64 / 120.0).collect();
+    let ts = crate::timing::Timestamps::new(t).unwrap();
+    std::fs::write(
+        dir.path().join("log.csv"),
+        crate::timing::to_frames_csv(&ts),
+    )
+    .unwrap();
+    let path = dir.path().join("base.toml");
+    std::fs::write(
+        &path,
+        "extend = \"builtin:fast\"\nframe_timing.fps = 30.0\n\
+         [frame_timing.model]\nkind = \"log\"\nfile = \"log.csv\"\nformat = \"frames_csv\"\n",
+    )
+    .unwrap();
+    let base = load(&path).unwrap();
+    let exposure = |s: f64| {
+        vec![
+            (
+                "effects.motion_blur.enabled".to_string(),
+                toml::Value::Boolean(true),
+            ),
+            (
+                "effects.motion_blur.exposure_s".to_string(),
+                toml::Value::Float(s),
+            ),
+        ]
+    };
+    let msg = with_overrides(&base, &exposure(0.02), Path::new("sweep.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("effects.motion_blur.exposure_s") && msg.contains("log.csv"),
+        "{msg}"
+    );
+    let s = with_overrides(&base, &exposure(0.005), Path::new("sweep.toml")).unwrap();
+    assert!(s.timing_log.is_some());
+}
+
+#[test]
 fn builtin_prefix_and_directories_never_shadow_builtins() {
     // Issue #14: `geneva run fast --out fast` failed the second time: the output folder `fast/`
     // was taken for the scenario file.
