@@ -107,27 +107,15 @@ pub fn capped_to_frame_interval(base: &Scenario, interval_s: f64) -> Vec<CappedT
         return Vec::new();
     }
     let capped_s = (interval_s * 1e6).floor() / 1e6;
-    let fx = &base.effects;
-    [
-        (
-            fx.motion_blur.enabled,
-            fx.motion_blur.exposure_s,
-            "effects.motion_blur.exposure_s",
-        ),
-        (
-            fx.rolling_shutter.enabled,
-            fx.rolling_shutter.readout_s,
-            "effects.rolling_shutter.readout_s",
-        ),
-    ]
-    .into_iter()
-    .filter(|&(on, base_s, _)| on && base_s > interval_s)
-    .map(|(_, base_s, field)| CappedTime {
-        field,
-        base_s,
-        capped_s,
-    })
-    .collect()
+    crate::scenario::times_inside_one_frame_of(base)
+        .into_iter()
+        .filter(|t| t.on && t.value_s > interval_s)
+        .map(|t| CappedTime {
+            field: t.field,
+            base_s: t.value_s,
+            capped_s,
+        })
+        .collect()
 }
 
 /// The note a capped time leaves in `calibration.md` and beside the field.

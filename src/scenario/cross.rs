@@ -149,6 +149,37 @@ fn log_interval_s(s: &Scenario) -> Option<f64> {
     }
 }
 
+/// A time a camera spends inside one frame interval, as a scenario states it.
+pub struct TimeInsideOneFrame {
+    /// Whether its effect is switched on.
+    pub on: bool,
+    pub value_s: f64,
+    /// The scenario field.
+    pub field: &'static str,
+    /// What the camera does for that long, for messages ("exposes a frame").
+    pub what: &'static str,
+}
+
+/// The exposure and the rolling-shutter readout of `s`: the times no camera spends longer than
+/// one frame interval on (checked here, capped by `geneva calibrate`).
+pub fn times_inside_one_frame_of(s: &Scenario) -> [TimeInsideOneFrame; 2] {
+    let fx = &s.effects;
+    [
+        TimeInsideOneFrame {
+            on: fx.motion_blur.enabled,
+            value_s: fx.motion_blur.exposure_s,
+            field: "effects.motion_blur.exposure_s",
+            what: "exposes a frame",
+        },
+        TimeInsideOneFrame {
+            on: fx.rolling_shutter.enabled,
+            value_s: fx.rolling_shutter.readout_s,
+            field: "effects.rolling_shutter.readout_s",
+            what: "reads a frame out",
+        },
+    ]
+}
+
 /// An exposure and a rolling-shutter readout each happen inside one frame interval: a camera
 /// cannot expose a frame for longer than the time between two frames, nor take longer to read
 /// it out, and a render that did would draw a frame no camera gives.
@@ -159,21 +190,13 @@ fn times_inside_one_frame(s: &Scenario, problems: &mut Problems) {
         return;
     }
     let interval_s = frame_interval_s(s);
-    let fx = &s.effects;
-    for (on, value_s, field, what) in [
-        (
-            fx.motion_blur.enabled,
-            fx.motion_blur.exposure_s,
-            "effects.motion_blur.exposure_s",
-            "exposes a frame",
-        ),
-        (
-            fx.rolling_shutter.enabled,
-            fx.rolling_shutter.readout_s,
-            "effects.rolling_shutter.readout_s",
-            "reads a frame out",
-        ),
-    ] {
+    for TimeInsideOneFrame {
+        on,
+        value_s,
+        field,
+        what,
+    } in times_inside_one_frame_of(s)
+    {
         if on && value_s > interval_s * (1.0 + 1e-9) {
             let rate = match &s.frame_timing.model {
                 TimingModel::Log(log) if log_interval_s(s).is_some() => {

@@ -17,6 +17,7 @@ mod merge;
 mod typed;
 
 pub use builtin::{builtin_names, builtin_text, DEFAULT_SCENARIO};
+pub use cross::{times_inside_one_frame_of, TimeInsideOneFrame};
 pub use error::ScenarioError;
 pub use external::builtin_data;
 
@@ -195,26 +196,15 @@ pub fn with_overrides(
     let timing_changed = overrides
         .iter()
         .any(|(p, _)| p.starts_with("frame_timing.model"));
-    let mut scenario = typed::deserialize(value, origin)?;
-    let mut problems = scenario.validate();
-    if problems.is_empty() {
+    let scenario = typed::deserialize(value, origin)?;
+    validated_with_data(scenario, origin, |s| {
         if timing_changed {
-            external::load_external(&mut scenario, origin)?;
+            external::load_external(s, origin)
         } else {
-            scenario.timing_log = base.timing_log.clone();
+            s.timing_log = base.timing_log.clone();
+            Ok(())
         }
-        // As in `finish`: the checks that read the frame interval see the log's own.
-        if scenario.timing_log.is_some() {
-            problems = scenario.validate();
-        }
-    }
-    if !problems.is_empty() {
-        return Err(ScenarioError::Invalid {
-            file: origin.to_path_buf(),
-            problems: problems.0,
-        });
-    }
-    Ok(scenario)
+    })
 }
 
 /// Sets `a.b.c` in a TOML table, creating intermediate tables.
@@ -240,12 +230,22 @@ fn set_dotted(root: &mut Value, path: &str, v: Value) -> Result<(), String> {
 }
 
 fn finish(value: Value, file: &Path) -> Result<Scenario, ScenarioError> {
-    let mut scenario = typed::deserialize(value, file)?;
+    let scenario = typed::deserialize(value, file)?;
+    validated_with_data(scenario, file, |s| external::load_external(s, file))
+}
+
+/// Validates `scenario`, attaches its data files (`attach`, only once it is valid) and, when
+/// that brought a timing log, validates again: the checks that depend on the frame interval
+/// read the log's own (`cross::frame_interval_s`), which the scenario's `frame_timing.fps` need
+/// not state. `file` names the scenario in the error.
+fn validated_with_data(
+    mut scenario: Scenario,
+    file: &Path,
+    attach: impl FnOnce(&mut Scenario) -> Result<(), ScenarioError>,
+) -> Result<Scenario, ScenarioError> {
     let mut problems = scenario.validate();
     if problems.is_empty() {
-        external::load_external(&mut scenario, file)?;
-        // A timing log states the camera's real rate, which the checks that depend on the frame
-        // interval read once it is loaded (`cross::frame_interval_s`).
+        attach(&mut scenario)?;
         if scenario.timing_log.is_some() {
             problems = scenario.validate();
         }

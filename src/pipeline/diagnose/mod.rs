@@ -1243,6 +1243,7 @@ fn widen_by_footages(
     let mut found = Vec::with_capacity(stds_before.len());
     for (i, f) in best.evaluated.effects.iter_mut().enumerate() {
         let mut of_effect = Vec::with_capacity(f.values.len());
+        let specs = f.effect.params_on(fps_hz);
         for (j, (value, std)) in f.values.iter_mut().zip(f.stds.iter_mut()).enumerate() {
             // The σ pooled into the stated one: the first fit's and each refit's.
             let curvature: Vec<f64> = match &best.refit {
@@ -1259,7 +1260,7 @@ fn widen_by_footages(
                 .iter()
                 .filter_map(|(_, fits)| fits.get(i).and_then(|g| g.values.get(j)).copied())
                 .collect();
-            let spec = f.effect.params_on(fps_hz).get(j).copied();
+            let spec = specs.get(j);
             let valid = spec.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.valid);
             let search = spec.map_or((f64::NEG_INFINITY, f64::INFINITY), |p| p.search);
             let fits = crate::diagnose::fit_noise::from_footage_fits(
