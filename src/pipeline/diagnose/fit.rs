@@ -12,9 +12,10 @@ use super::simulate::{
 };
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
-use crate::diagnose::cells::{CellKey, Cells};
+use crate::diagnose::cells::{CellKey, Cells, SlowShape};
 use crate::diagnose::gap::{
-    compare, compare_for_fit, excess, shared_tolerance_chi2, GapMap, GapOptions,
+    compare, compare_for_fit, compare_with_slow_shape, excess, shared_tolerance_chi2, GapMap,
+    GapOptions,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
@@ -497,7 +498,12 @@ impl<'a> Fitter<'a> {
     ) -> Result<Self, DiagnoseError> {
         let simulations = RefCell::new(0);
         let nominal_sims = simulated_cells(&ctx, &base, &eval_seeds, true, &simulations)?;
-        let nominal_gap = compare(real.cells, &nominal_sims, gap_options);
+        let nominal_gap = compare(
+            real.cells,
+            &nominal_sims,
+            gap_options,
+            SlowShape::of(&base.scenario),
+        );
         Ok(Self {
             ctx,
             nominal,
@@ -532,7 +538,12 @@ impl<'a> Fitter<'a> {
         let sims = self.cells(&self.base, more, true)?;
         self.nominal_sims.extend(sims);
         self.eval_seeds.extend_from_slice(more);
-        self.nominal_gap = compare(self.real_cells, &self.nominal_sims, self.gap_options);
+        self.nominal_gap = compare(
+            self.real_cells,
+            &self.nominal_sims,
+            self.gap_options,
+            SlowShape::of(&self.base.scenario),
+        );
         Ok(())
     }
 
@@ -653,7 +664,12 @@ impl<'a> Fitter<'a> {
             real_theta_det: (&footage.t_det_s, &footage.theta_det_rad),
             real_theta_residual: &footage.theta_residual,
             real_theta_peak_hz: footage.theta_peak_hz,
-            nominal_gap: compare(&footage.cells, nominal_sims, self.gap_options),
+            nominal_gap: compare(
+                &footage.cells,
+                nominal_sims,
+                self.gap_options,
+                SlowShape::of(&self.base.scenario),
+            ),
             ..self.fork()
         };
         let effects: Vec<Effect> = truth.iter().map(|(e, _)| *e).collect();
@@ -964,6 +980,7 @@ impl<'a> Fitter<'a> {
             self.real_cells,
             &self.cells(trial, seeds, true)?,
             self.gap_options,
+            SlowShape::of(&trial.scenario),
         ))
     }
 
@@ -1522,15 +1539,20 @@ impl<'a> Fitter<'a> {
                     // from their minimum (Σ z² within χ²₂(95 %) of it), it is the value reported.
                     //
                     // That is a test, not a fit: both sides are compared with the verdict's
-                    // tolerance ([`compare`]), which lets a cleaner renderer's footage lie below
-                    // the simulations. The fit's symmetric tolerance rejected the 20.12° pose fit
+                    // tolerance ([`compare`], with a tilt on), which lets a cleaner renderer's
+                    // footage lie below the simulations. The fit's symmetric tolerance rejected the 20.12° pose fit
                     // of a 20° tilt drawn by another renderer for the moments' 18.62°.
                     let with = |v: &[f64]| {
                         let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
                         applied.push((e, v.to_vec()));
                         let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                        self.objectives_by(&effects, &applied, compare, LensCells::All)
-                            .sum_z2
+                        self.objectives_by(
+                            &effects,
+                            &applied,
+                            compare_with_slow_shape,
+                            LensCells::All,
+                        )
+                        .sum_z2
                     };
                     let at_pose = with(&[p.tilt_x_deg, p.tilt_y_deg]);
                     let at_minimum = with(&values);
