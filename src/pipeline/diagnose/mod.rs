@@ -241,6 +241,10 @@ pub const REFITS: usize = 2;
 /// the runout benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
 pub const CONCURRENT_FITS: usize = 2;
 
+/// Second effects fitted beside the best single one when it does not explain the gap
+/// ([`plan::second_effects`]): each pair costs a fit as long as a single's.
+pub const MAX_SECOND_EFFECTS: usize = 3;
+
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
 /// strong axis runout, 4 seeds left the angle's low band at z = 4.3–4.8 short of significance on
 /// 2 of 3 seeds (`reports/diagnosis-seeds-independent/`); 12 seeds found all three, and the 4
@@ -869,12 +873,13 @@ pub fn diagnose_with(
                 pair_tried = true;
                 let first = ranking[0].evaluated.effects[0].clone();
                 let prior = vec![(first.effect, first.values.clone())];
-                let others: Vec<Effect> = ranking[1..]
-                    .iter()
-                    .map(|r| r.evaluated.effects[0].effect)
-                    .filter(|e| !first.effect.shares_switch_with().contains(e))
-                    .take(3)
-                    .collect();
+                // Chosen on what the first leaves, not on the nominal gap it dominates.
+                let others = plan::second_effects(
+                    first.effect,
+                    &units,
+                    &ranking[0].evaluated.gap,
+                    MAX_SECOND_EFFECTS,
+                );
                 // A second effect fitted where it does nothing is no second cause: the pair
                 // would be the single under another name, and its evaluation differs from the
                 // single's by seed noise alone (a motion blur and a JPEG quality clamped at 98
