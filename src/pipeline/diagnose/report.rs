@@ -962,8 +962,9 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
     }
     if !d.bounded_out.is_empty() {
         s.push_str(&format!(
-            "Not fitted (their share of the gap, an upper bound on their shrink, is below the best \
-             score by more than the group margin {}): {}.\n\n",
+            "Not fitted alone (their share of the gap, an upper bound on their shrink, is below \
+             the best score by more than the group margin {}; a pair's second effect is chosen \
+             on what the best leaves, among these too): {}.\n\n",
             crate::diagnose::verdict::GROUP_MARGIN,
             d.bounded_out
                 .iter()
