@@ -86,7 +86,7 @@ fn withheld(nominal: &Scenario, effect: Effect, values: &[f64], tmp: &Path) -> S
         nominal: nominal.clone(),
         post: PostProcess::None,
         effects: None,
-        truth: None,
+        truths: Vec::new(),
         renderer: Default::default(),
     };
     let frames = tmp.join(format!("frames-{}", effect.name()));

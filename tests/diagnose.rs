@@ -162,6 +162,7 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
                 assert!(o.param_rel_errors.iter().all(|e| *e < 0.5), "{o:?}");
             }
             Expectation::OutOfVocabulary => assert_ne!(o.verdict, "explained", "{o:?}"),
+            Expectation::WithheldPair { .. } => panic!("the quick plan has no pair: {o:?}"),
         }
         let json: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(work.join(&o.name).join("diagnosis/diagnosis.json")).unwrap(),

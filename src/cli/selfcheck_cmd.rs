@@ -1,5 +1,6 @@
 //! `geneva diagnose-selfcheck --out DIR [--base SCENARIO] [--quick] [--seeds-per-case K] [--effects a,b]
-//! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--renderer own|independent]
+//! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--pairs N]
+//! [--renderer own|independent]
 //! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
 
@@ -46,6 +47,11 @@ pub struct SelfCheckArgs {
     /// Excluded-candidate cases (default 3; 0 with --quick).
     #[arg(long)]
     excluded: Option<usize>,
+    /// Two-effect cases (default 0): pairs of effects a real rig has together, both at the
+    /// strong level (`selfcheck::withheld_pairs`, taken in order). `--seeds-per-case 0` runs
+    /// them without the single-effect cases.
+    #[arg(long)]
+    pairs: Option<usize>,
     /// Footage length, s.
     #[arg(long)]
     duration_s: Option<f64>,
@@ -122,6 +128,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     plan.null_cases = a.nulls.unwrap_or(plan.null_cases);
     plan.flicker_cases = a.flicker.unwrap_or(plan.flicker_cases);
     plan.excluded_cases = a.excluded.unwrap_or(plan.excluded_cases);
+    plan.pair_cases = a.pairs.unwrap_or(plan.pair_cases);
     if a.renderer == "independent" {
         plan.renderer = Renderer::Independent;
     }

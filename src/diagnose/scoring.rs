@@ -21,11 +21,56 @@ pub enum Expectation {
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         form: bool,
     },
+    /// Two effects of the vocabulary are on in the data and off in the nominal, as a real rig
+    /// has more than one cause at once: the answer sought is an `explained` verdict whose best
+    /// candidate names both (the pair stage of the diagnosis); an `unexplained` one is honest,
+    /// an `explained` one naming one or neither of them is a wrong account.
+    WithheldPair { members: Vec<PairMember> },
     /// Nothing is withheld: the verdict must be `no_gap`.
     Null,
     /// The cause is outside the candidates: the verdict must be `unexplained` (or `no_gap` when
     /// the perturbation is below what the footage shows, counted separately).
     OutOfVocabulary,
+}
+
+/// One effect of a two-effect case: its name and the names that count as the same answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairMember {
+    pub effect: String,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub also: Vec<String>,
+}
+
+/// A pair's effects as reports name them: `a + b`.
+pub fn pair_label(members: &[PairMember]) -> String {
+    members
+        .iter()
+        .map(|m| m.effect.as_str())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+impl PairMember {
+    fn named_by(&self, candidate: &[String]) -> bool {
+        candidate
+            .iter()
+            .any(|n| *n == self.effect || self.also.contains(n))
+    }
+}
+
+/// How a two-effect case was answered: a partition of such cases.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PairAnswer {
+    /// `explained`, the best candidate (with its group) names both effects.
+    Both,
+    /// `explained`, the best candidate names one of them: half an account stated as whole.
+    One,
+    /// `explained` by neither.
+    Neither,
+    /// `unexplained`: the gap is found and stated as not accounted for.
+    Unexplained,
+    /// `no_gap` or a failed diagnosis.
+    Missed,
 }
 
 /// One diagnosed case, as the scoring sees it.
@@ -89,6 +134,25 @@ impl CaseOutcome {
             }
             _ => false,
         }
+    }
+
+    /// How a two-effect case was answered; `None` for the other cases.
+    pub fn pair_answer(&self) -> Option<PairAnswer> {
+        let Expectation::WithheldPair { members } = &self.expectation else {
+            return None;
+        };
+        Some(match self.verdict.as_str() {
+            "explained" => {
+                let best = self.ranked.first().map(Vec::as_slice).unwrap_or_default();
+                match members.iter().filter(|m| m.named_by(best)).count() {
+                    0 => PairAnswer::Neither,
+                    n if n >= members.len() => PairAnswer::Both,
+                    _ => PairAnswer::One,
+                }
+            }
+            "unexplained" => PairAnswer::Unexplained,
+            _ => PairAnswer::Missed,
+        })
     }
 
     /// The ranked candidates as reports write them (see `ranked_labels`); an older record's
@@ -168,6 +232,17 @@ pub struct Scores {
     pub median_param_rel_error_weak: Option<f64>,
     pub params_within_2sd_weak: Rate,
     pub params_within_ci95_weak: Rate,
+    /// Two-effect cases, by answer: both named, one named, neither named (each with an
+    /// `explained` verdict), `unexplained`, and a gap found at all.
+    pub pair_both: Rate,
+    pub pair_one: Rate,
+    pub pair_neither: Rate,
+    pub pair_unexplained: Rate,
+    pub pair_detected: Rate,
+    /// The fitted parameters of two-effect cases whose best candidate names both: their median
+    /// relative error and the share whose truth lies in the stated 95 % interval.
+    pub median_param_rel_error_pair: Option<f64>,
+    pub params_within_ci95_pair: Rate,
     /// Withheld effect → (answer → count).
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
 }
@@ -217,6 +292,7 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
     let form = |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { form: true, .. });
     let weak =
         |o: &CaseOutcome| matches!(o.expectation, Expectation::Withheld { strong: false, .. });
+    let is_pair = |o: &CaseOutcome| o.pair_answer().is_some();
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     for o in outcomes {
         let row = match &o.expectation {
@@ -226,13 +302,23 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
                 form,
                 ..
             } => format!("{effect} ({})", level_name(*strong, *form)),
+            Expectation::WithheldPair { members } => format!("{} (pair)", pair_label(members)),
             Expectation::Null => "null".into(),
             Expectation::OutOfVocabulary => "out-of-vocabulary".into(),
         };
+        // A pair's answer is the whole best candidate (`a+b ≈ c`), not its first name.
+        let best = match &o.expectation {
+            Expectation::WithheldPair { .. } => o
+                .ranking_labels()
+                .first()
+                .cloned()
+                .unwrap_or_else(|| "none".into()),
+            _ => o.answer(),
+        };
         let answer = match (&o.expectation, o.verdict.as_str()) {
             (_, "no_gap") => "no_gap".to_string(),
-            (_, "unexplained") => format!("unexplained ({})", o.answer()),
-            _ => o.answer(),
+            (_, "unexplained") => format!("unexplained ({best})"),
+            _ => best,
         };
         *confusion.entry(row).or_default().entry(answer).or_default() += 1;
     }
@@ -264,6 +350,31 @@ pub fn score(outcomes: &[CaseOutcome]) -> Scores {
         median_param_rel_error_weak: top1_median_rel_error(outcomes, weak),
         params_within_2sd_weak: top1_params_rate(outcomes, weak, within_2sd),
         params_within_ci95_weak: top1_params_rate(outcomes, weak, in_ci95),
+        pair_both: rate(&is_pair, &|o| o.pair_answer() == Some(PairAnswer::Both)),
+        pair_one: rate(&is_pair, &|o| o.pair_answer() == Some(PairAnswer::One)),
+        pair_neither: rate(&is_pair, &|o| o.pair_answer() == Some(PairAnswer::Neither)),
+        pair_unexplained: rate(&is_pair, &|o| {
+            o.pair_answer() == Some(PairAnswer::Unexplained)
+        }),
+        pair_detected: rate(&is_pair, &|o| o.pair_answer() != Some(PairAnswer::Missed)),
+        median_param_rel_error_pair: median(
+            outcomes
+                .iter()
+                .filter(|o| o.pair_answer() == Some(PairAnswer::Both))
+                .flat_map(|o| o.param_rel_errors.iter().copied())
+                .collect(),
+        ),
+        params_within_ci95_pair: {
+            let flags: Vec<bool> = outcomes
+                .iter()
+                .filter(|o| o.pair_answer() == Some(PairAnswer::Both))
+                .flat_map(in_ci95)
+                .collect();
+            Rate {
+                k: flags.iter().filter(|i| **i).count(),
+                n: flags.len(),
+            }
+        },
         confusion,
     }
 }
@@ -498,6 +609,83 @@ mod tests {
         // Records of the strong and weak levels serialise as before.
         let json = serde_json::to_string(&withheld("lighting", true)).unwrap();
         assert!(!json.contains("form"), "{json}");
+    }
+
+    #[test]
+    fn a_pair_counts_as_found_when_the_best_candidate_names_both() {
+        let pair = || Expectation::WithheldPair {
+            members: vec![
+                PairMember {
+                    effect: "motion_blur".into(),
+                    also: vec![],
+                },
+                PairMember {
+                    effect: "backlash".into(),
+                    also: vec!["overrotation".into()],
+                },
+            ],
+        };
+        let both = CaseOutcome {
+            ranked_labels: vec!["motion_blur+overrotation".into(), "motion_blur".into()],
+            param_rel_errors: vec![0.1, 0.3],
+            params_in_ci95: vec![true, false],
+            ..case(
+                pair(),
+                "explained",
+                &[&["motion_blur", "overrotation"], &["motion_blur"]],
+                0.9,
+            )
+        };
+        let one = case(
+            pair(),
+            "explained",
+            &[&["motion_blur"], &["motion_blur", "backlash"]],
+            0.8,
+        );
+        let neither = case(pair(), "explained", &[&["lighting"]], 0.8);
+        let honest = case(pair(), "unexplained", &[&["motion_blur", "backlash"]], 0.9);
+        let missed = case(pair(), "no_gap", &[], 0.0);
+        let outcomes = [both, one, neither, honest, missed];
+        let answers: Vec<_> = outcomes.iter().map(|o| o.pair_answer()).collect();
+        assert_eq!(
+            answers,
+            [
+                Some(PairAnswer::Both),
+                Some(PairAnswer::One),
+                Some(PairAnswer::Neither),
+                Some(PairAnswer::Unexplained),
+                Some(PairAnswer::Missed)
+            ],
+            "an unexplained verdict names no cause, whatever it ranks first"
+        );
+        let s = score(&outcomes);
+        assert_eq!(s.pair_both, Rate { k: 1, n: 5 });
+        assert_eq!(s.pair_one, Rate { k: 1, n: 5 });
+        assert_eq!(s.pair_neither, Rate { k: 1, n: 5 });
+        assert_eq!(s.pair_unexplained, Rate { k: 1, n: 5 });
+        assert_eq!(s.pair_detected, Rate { k: 4, n: 5 });
+        // Only the case that named both gives parameter figures.
+        assert!(s
+            .median_param_rel_error_pair
+            .is_some_and(|m| (m - 0.2).abs() < 1e-12));
+        assert_eq!(s.params_within_ci95_pair, Rate { k: 1, n: 2 });
+        // Pairs are no single withheld effect: the single figures count none of them.
+        assert_eq!(s.top1_strong.n + s.top1_weak.n + s.false_alarms.n, 0);
+        assert_eq!(
+            s.confusion["motion_blur + backlash (pair)"]["motion_blur+overrotation"],
+            1
+        );
+        assert_eq!(
+            s.confusion["motion_blur + backlash (pair)"]["unexplained (motion_blur/backlash)"],
+            1
+        );
+        assert_eq!(
+            case(Expectation::Null, "no_gap", &[], 0.0).pair_answer(),
+            None
+        );
+        let json = serde_json::to_string(&outcomes[0]).unwrap();
+        let back: CaseOutcome = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, outcomes[0]);
     }
 
     #[test]

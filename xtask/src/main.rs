@@ -260,8 +260,35 @@ fn reports(extra: &[String]) -> Result<(), String> {
         "diagnose-selfcheck",
         "reports/diagnosis-forms-independent",
         &forms,
+    )?;
+    // Two causes at once, on the independent renderer's footage.
+    let pairs: Vec<String> = DIAGNOSIS_PAIRS_PLAN.iter().map(|s| s.to_string()).collect();
+    geneva(
+        "diagnose-selfcheck",
+        "reports/diagnosis-pairs-independent",
+        &pairs,
     )
 }
+
+/// Two effects withheld at once, each at the strong level: every pair of
+/// `selfcheck::withheld_pairs` × 1 seed on 6 s of footage drawn by the independent renderer, in
+/// `reports/diagnosis-pairs-independent/`, no single-effect case.
+const DIAGNOSIS_PAIRS_PLAN: &[&str] = &[
+    "--seeds-per-case",
+    "0",
+    "--nulls",
+    "0",
+    "--flicker",
+    "0",
+    "--excluded",
+    "0",
+    "--pairs",
+    "5",
+    "--duration-s",
+    "6",
+    "--renderer",
+    "independent",
+];
 
 /// The weak level ("near the detection limit": 0.3 of the way from the value at which each
 /// parameter does nothing to the strong probe, log-spaced where the parameter is;

@@ -621,7 +621,27 @@ impl<'a> Fitter<'a> {
                 Err(err) => return (Err(err), self.simulations() - before),
             }
         }
-        (Ok(refitted), self.simulations() - before)
+        let refitted = self.backfit_first(refitted);
+        (refitted, self.simulations() - before)
+    }
+
+    /// One backfitting round of a greedy fit: `fits[0]` fitted again on top of the others
+    /// (which were fitted on top of it), when there are others. Fitted alone, a pair's first
+    /// effect takes up what the second does to the cells they share: a JPEG quality matched on
+    /// the blockiness of footage whose 1.4 px optical blur the nominal put at 0.7 px came out
+    /// 42 (truth 35), and the pair kept it, fitting only the blur on top. Every pair's fit
+    /// goes through here (the pair stage, its refits on fresh seeds and its bootstrap
+    /// footages), so the values a pair states are fitted alike.
+    pub fn backfit_first(&self, mut fits: Vec<Fitted>) -> Result<Vec<Fitted>, DiagnoseError> {
+        if fits.len() < 2 {
+            return Ok(fits);
+        }
+        let others: Vec<(Effect, Vec<f64>)> = fits[1..]
+            .iter()
+            .map(|f| (f.effect, f.values.clone()))
+            .collect();
+        fits[0] = self.fit(fits[0].effect, &others)?;
+        Ok(fits)
     }
 
     /// The aligned nominal's cells on each evaluation seed (empty in a fork).

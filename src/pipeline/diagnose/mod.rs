@@ -9,8 +9,10 @@
 //! 3. The aligned nominal is simulated at the real frame times on N seeds ([`simulate`]); both
 //!    sides give the same cells ([`crate::diagnose::cells`]); the gap map compares them.
 //! 4. Candidates are screened by their signatures, fitted by simulated method of moments and
-//!    re-simulated on the evaluation seeds ([`fit`]); a greedy pair is tried when one effect is
-//!    not enough; the ranking and the verdict are pure ([`crate::diagnose::verdict`]).
+//!    re-simulated on the evaluation seeds ([`fit`]); a greedy pair (its first effect refitted
+//!    once beside its second) is tried when one effect is not enough, or when it is but leaves
+//!    more than noise leaves in another candidate's cells (a second look, [`SecondLook`]); the
+//!    ranking and the verdict are pure ([`crate::diagnose::verdict`]).
 //! 5. Outputs ([`report`]): `diagnosis.json`, `diagnosis.md`, gap-map heatmaps, a ranking
 //!    chart, before/after residual overlays; the real measurement's `tracks.csv` under `real/`.
 //! 6. Beyond one machine ([`shards`]): the single-candidate fits of step 4 as shards, merged
@@ -407,6 +409,18 @@ pub struct SkippedPair {
     pub values: Vec<f64>,
 }
 
+/// A second look for a second cause ([`plan::second_look_effects`]): the single effect that
+/// explained the gap, the remaining gap D it left (no significant cell, yet above
+/// [`plan::SECOND_LOOK_REMAINDER`]), and each second effect tried with the remaining gap of
+/// the pair and whether the pair was kept (it closed at least [`plan::SECOND_LOOK_CLOSE`] of
+/// the single's remainder; a pair not kept is not ranked).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SecondLook {
+    pub first: Effect,
+    pub remainder: f64,
+    pub tried: Vec<(Effect, f64, bool)>,
+}
+
 /// A candidate that closed the gap with fitted values the data cannot tell from the nominal's
 /// ([`verdict::tells_from_nominal`]): the verdict does not rest on it.
 #[derive(Debug, Clone, PartialEq)]
@@ -488,6 +502,9 @@ pub struct Diagnosis {
     /// Pairs the pair stage fitted and set aside because their second effect came out where it
     /// does nothing ([`Effect::does_nothing_at`]).
     pub skipped_pairs: Vec<SkippedPair>,
+    /// Set when the best single explained the gap yet left more than noise leaves, held by
+    /// other candidates' cells, and pairs were tried for a second cause.
+    pub second_look: Option<SecondLook>,
     /// Candidates that closed the gap with values the data cannot tell from the nominal's,
     /// in the order they were judged; when the last is [`Diagnosis::best`], no candidate
     /// explained the gap.
@@ -807,6 +824,7 @@ pub fn diagnose_with(
     let mut ranking: Vec<Ranked> = Vec::new();
     let mut pair_tried = false;
     let mut skipped_pairs = Vec::new();
+    let mut second_look: Option<SecondLook> = None;
     if nominal_gap.n_significant() > 0 {
         let deadline = options.max_minutes.map(|m| m * 60.0);
         let total = screened.len();
@@ -863,23 +881,45 @@ pub fn diagnose_with(
             }
         }
         sort_ranking(d0, &mut ranking);
-        // A second effect when the best single one does not explain the gap.
+        // A second effect when the best single one does not explain the gap, or when it does
+        // but leaves more than noise leaves, held by another candidate's cells (a second look).
         let best_explains = ranking
             .first()
             .is_some_and(|r| verdict::explains(d0, &r.evaluated.outcome));
-        if options.pairs && !best_explains && ranking.len() >= 2 {
+        let look = match ranking.first() {
+            Some(r) if options.pairs && best_explains && r.evaluated.effects.len() == 1 => {
+                plan::second_look_effects(
+                    r.evaluated.effects[0].effect,
+                    &units,
+                    &r.evaluated.gap,
+                    MAX_SECOND_EFFECTS,
+                )
+            }
+            _ => Vec::new(),
+        };
+        if options.pairs && (!best_explains || !look.is_empty()) && ranking.len() >= 2 {
             let deadline_hit = deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d);
             if !deadline_hit {
                 pair_tried = true;
                 let first = ranking[0].evaluated.effects[0].clone();
                 let prior = vec![(first.effect, first.values.clone())];
+                let single_remainder = ranking[0].evaluated.gap.total;
                 // Chosen on what the first leaves, not on the nominal gap it dominates.
-                let others = plan::second_effects(
-                    first.effect,
-                    &units,
-                    &ranking[0].evaluated.gap,
-                    MAX_SECOND_EFFECTS,
-                );
+                let others = if best_explains {
+                    second_look = Some(SecondLook {
+                        first: first.effect,
+                        remainder: single_remainder,
+                        tried: Vec::new(),
+                    });
+                    look
+                } else {
+                    plan::second_effects(
+                        first.effect,
+                        &units,
+                        &ranking[0].evaluated.gap,
+                        MAX_SECOND_EFFECTS,
+                    )
+                };
                 // A second effect fitted where it does nothing is no second cause: the pair
                 // would be the single under another name, and its evaluation differs from the
                 // single's by seed noise alone (a motion blur and a JPEG quality clamped at 98
@@ -899,13 +939,40 @@ pub fn diagnose_with(
                                     values: second.values,
                                 }));
                             }
-                            fork.evaluate(vec![first.clone(), second]).map(Ok)
+                            let pair = fork.backfit_first(vec![first.clone(), second])?;
+                            fork.evaluate(pair).map(Ok)
                         });
                         (evaluated, fork.simulations())
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
                         match evaluated? {
+                            // A second look keeps a pair only when it closes a good part of
+                            // what the explaining single left.
+                            Ok(evaluated) if second_look.is_some() => {
+                                let remaining = evaluated.gap.total;
+                                let kept =
+                                    remaining <= (1.0 - plan::SECOND_LOOK_CLOSE) * single_remainder;
+                                if let (Some(look), Some(second)) =
+                                    (second_look.as_mut(), evaluated.effects.get(1))
+                                {
+                                    look.tried.push((second.effect, remaining, kept));
+                                }
+                                if kept {
+                                    ranking.push(ranked(nominal_gap, evaluated));
+                                } else {
+                                    progress(
+                                        &format!(
+                                            "{}: set aside, it leaves {remaining:.1} of the \
+                                             {single_remainder:.1} {} left",
+                                            candidate_name(&evaluated),
+                                            first.effect.name()
+                                        ),
+                                        k * CONCURRENT_FITS,
+                                        others.len(),
+                                    );
+                                }
+                            }
                             Ok(evaluated) => ranking.push(ranked(nominal_gap, evaluated)),
                             Err(skipped) => {
                                 progress(
@@ -1006,10 +1073,23 @@ pub fn diagnose_with(
     not_distinct.retain(|n| choice.not_distinct.contains(&n.ranked));
     let best = choice.best;
     if let Some(b) = best {
+        // A pair a second look kept closed what its first effect alone left: that single is
+        // told apart from it, however close their scores against the whole gap.
+        let looked_single = second_look.as_ref().and_then(|look| {
+            (ranking[b].evaluated.effects.len() == 2
+                && ranking[b].evaluated.effects[0].effect == look.first)
+                .then(|| {
+                    ranking.iter().position(|r| {
+                        r.evaluated.effects.len() == 1
+                            && r.evaluated.effects[0].effect == look.first
+                    })
+                })
+                .flatten()
+        });
         // Its group: the others the data cannot tell apart from it, less those set aside.
         ranking[b].group = group
             .iter()
-            .filter(|&&i| i != b && !choice.not_distinct.contains(&i))
+            .filter(|&&i| i != b && !choice.not_distinct.contains(&i) && Some(i) != looked_single)
             .map(|&i| candidate_name(&ranking[i].evaluated))
             .collect();
     }
@@ -1037,6 +1117,7 @@ pub fn diagnose_with(
         not_judged,
         pair_tried,
         skipped_pairs,
+        second_look,
         not_distinct,
         escalation,
         seeds,

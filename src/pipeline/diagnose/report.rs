@@ -8,7 +8,7 @@ use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{
     candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit,
-    SkippedPair,
+    SecondLook, SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
@@ -91,6 +91,73 @@ fn skipped_pairs_text(pairs: &[SkippedPair]) -> String {
         .collect::<Vec<_>>()
         .join("; ");
     format!("Pairs set aside ({SKIPPED_PAIR_REASON}): {listed}.\n\n")
+}
+
+/// How the headline says a pair was found: past a single that did not explain the gap, or by
+/// a second look past one that did.
+fn pair_found_text(look: Option<&SecondLook>) -> String {
+    match look {
+        Some(look) => format!(
+            " `{}` alone closed the gap but left more than noise leaves; the second effect, \
+             fitted on top of it and it refitted on top of the second, closes what it left (the \
+             second look below).",
+            look.first.name()
+        ),
+        None => " One effect alone was not enough; the pair was found greedily (the second \
+                 effect fitted on top of the first, then the first refitted on top of it)."
+            .to_string(),
+    }
+}
+
+/// `diagnosis.json`'s record of a second look (null without one).
+fn second_look_json(look: Option<&SecondLook>) -> Value {
+    let Some(look) = look else {
+        return Value::Null;
+    };
+    json!({
+        "first": look.first.name(),
+        "remainder": look.remainder,
+        "threshold": crate::diagnose::plan::SECOND_LOOK_REMAINDER,
+        "keep_at_most": (1.0 - crate::diagnose::plan::SECOND_LOOK_CLOSE) * look.remainder,
+        "tried": look.tried.iter().map(|(e, remaining, kept)| json!({
+            "second": e.name(),
+            "remaining": remaining,
+            "kept": kept,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// `diagnosis.md`'s paragraph on a second look; empty without one.
+fn second_look_text(look: Option<&SecondLook>) -> String {
+    let Some(look) = look else {
+        return String::new();
+    };
+    let tried = if look.tried.is_empty() {
+        "no pair could be judged (each second effect was fitted where it does nothing)".to_string()
+    } else {
+        look.tried
+            .iter()
+            .map(|(e, remaining, kept)| {
+                format!(
+                    "`{} + {}` left {remaining:.1}{}",
+                    look.first.name(),
+                    e.name(),
+                    if *kept { " (kept)" } else { " (set aside)" }
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    format!(
+        "Second look: `{}` alone closed the gap with no significant cell left, yet left a \
+         remaining gap of {:.1}, above the {} that a comparison in agreement leaves (about the \
+         99.9th percentile over a hundred cells), in cells another candidate moves. Pairs were \
+         fitted for a second cause and kept only when they left at most {:.1} (half of it): {tried}.\n\n",
+        look.first.name(),
+        look.remainder,
+        crate::diagnose::plan::SECOND_LOOK_REMAINDER,
+        (1.0 - crate::diagnose::plan::SECOND_LOOK_CLOSE) * look.remainder,
+    )
 }
 
 /// Why a candidate that closed the gap is not the explanation, in `diagnosis.json` and
@@ -604,7 +671,7 @@ fn refit_text(r: &Ranked) -> String {
                 .map(|run| values_text(&r.evaluated, Some((&run.values, &[]))))
                 .collect();
             let how = if r.evaluated.effects.len() > 1 {
-                " (the first effect alone, the second beside it, as the pair was fitted)"
+                " (the first effect alone, the second beside it, then the first again beside the second, as the pair was fitted)"
             } else {
                 ""
             };
@@ -707,6 +774,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "not_judged": d.not_judged.iter().map(|e| e.name()).collect::<Vec<_>>(),
         "pair_tried": d.pair_tried,
         "skipped_pairs": d.skipped_pairs.iter().map(skipped_pair_json).collect::<Vec<_>>(),
+        "second_look": second_look_json(d.second_look.as_ref()),
         "not_distinct": d.not_distinct.iter().map(|n| not_distinct_json(n, &d.ranking)).collect::<Vec<_>>(),
         "seed_limited": d.seed_limited().iter().map(|c| cell_json(c, d.nyquist_hz)).collect::<Vec<_>>(),
         "thresholds": {
@@ -792,7 +860,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
                 ));
             }
             if r.evaluated.effects.len() > 1 {
-                t.push_str(" One effect alone was not enough; the pair was found greedily.");
+                t.push_str(&pair_found_text(d.second_look.as_ref()));
             }
             t
         }
@@ -974,6 +1042,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
         ));
     }
     s.push_str(&skipped_pairs_text(&d.skipped_pairs));
+    s.push_str(&second_look_text(d.second_look.as_ref()));
     s.push_str(&not_distinct_text(&d.not_distinct, &d.ranking));
     if !d.not_judged.is_empty() {
         s.push_str(&format!(
@@ -1282,6 +1351,37 @@ mod tests {
             "{text}"
         );
         assert_eq!(skipped_pairs_text(&[]), "");
+    }
+
+    #[test]
+    fn a_second_look_is_written_with_each_pair_tried_and_whether_it_was_kept() {
+        let look = SecondLook {
+            first: Effect::Compression,
+            remainder: 11.46,
+            tried: vec![
+                (Effect::OpticalBlur, 0.8, true),
+                (Effect::MotionBlur, 9.0, false),
+            ],
+        };
+        let j = second_look_json(Some(&look));
+        assert_eq!(j["first"], "compression");
+        assert_eq!(
+            j["tried"][0],
+            json!({"second": "optical_blur", "remaining": 0.8, "kept": true})
+        );
+        assert_eq!(j["tried"][1]["kept"], false);
+        assert!((j["keep_at_most"].as_f64().unwrap() - 5.73).abs() < 1e-9);
+        let text = second_look_text(Some(&look));
+        assert!(
+            text.contains("remaining gap of 11.5, above the 8")
+                && text.contains("`compression + optical_blur` left 0.8 (kept)")
+                && text.contains("`compression + motion_blur` left 9.0 (set aside)"),
+            "{text}"
+        );
+        assert!(pair_found_text(Some(&look)).contains("`compression` alone closed the gap"));
+        assert!(pair_found_text(None).contains("One effect alone was not enough"));
+        assert_eq!(second_look_json(None), Value::Null);
+        assert_eq!(second_look_text(None), "");
     }
 
     #[test]

@@ -9,6 +9,8 @@
 //! - **null**: nothing withheld; the data differ from the nominal only by nuisance (crank phase
 //!   and speed, rotation centre, marker angle), seeds and, in half of them, by real phone frame
 //!   timing (the seed's `showinfo` logs, which the nominal reads as the footage's own timestamps);
+//! - **two causes at once**: two effects of a fixed list of pairs a real rig has together
+//!   ([`withheld_pairs`]), both at the strong level, both off in the nominal;
 //! - **out of vocabulary**: mains-light flicker (the frame's gain modulated at the beat of 100 Hz
 //!   light with the frame rate: no effect of the vocabulary draws it), and a withheld effect that
 //!   `--effects` excludes from the candidates.
@@ -22,7 +24,7 @@
 //! `GENEVA_KEEP_FRAMES` to keep them for inspection.
 
 use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
-use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate};
+use crate::diagnose::scoring::{score, CaseOutcome, Expectation, PairMember, Rate};
 use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
@@ -71,8 +73,9 @@ pub struct Case {
     pub post: PostProcess,
     /// Candidate restriction (`--effects`).
     pub effects: Option<Vec<Effect>>,
-    /// The withheld effect and its true parameter values.
-    pub truth: Option<(Effect, Vec<f64>)>,
+    /// The withheld effects (one, or two in a pair case) and their true parameter values;
+    /// empty when the case has none the candidates parametrise.
+    pub truths: Vec<(Effect, Vec<f64>)>,
     /// Which renderer draws the footage (the nominal is always simulated by the project's own).
     pub renderer: Renderer,
 }
@@ -328,6 +331,8 @@ pub struct SuitePlan {
     pub null_cases: usize,
     pub flicker_cases: usize,
     pub excluded_cases: usize,
+    /// Two-effect cases, taking [`withheld_pairs`] in order (and round again past its end).
+    pub pair_cases: usize,
     /// Which renderer draws every case's footage: the project's own, or the independent one
     /// (`render::independent`), whose anti-aliasing, compositing, blur kernel and noise differ
     /// from the nominal's simulations like another renderer's would.
@@ -382,11 +387,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                     name: format!("withheld-{}-{level_name}-{k}", e.name()),
                     expectation: Expectation::Withheld {
                         effect: e.name().into(),
-                        also: e
-                            .shares_switch_with()
-                            .iter()
-                            .map(|o| o.name().to_string())
-                            .collect(),
+                        also: switch_mate_names(e),
                         strong: level != Level::Weak,
                         form: level == Level::OtherForm,
                     },
@@ -395,7 +396,11 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                     post,
                     effects: None,
                     // Another form's parameters are not the candidate's: no parameter error.
-                    truth: (level != Level::OtherForm).then_some((e, values)),
+                    truths: if level == Level::OtherForm {
+                        Vec::new()
+                    } else {
+                        vec![(e, values)]
+                    },
                     renderer: plan.renderer,
                 });
             }
@@ -427,7 +432,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             nominal,
             post: PostProcess::None,
             effects: None,
-            truth: None,
+            truths: Vec::new(),
             renderer: plan.renderer,
         });
     }
@@ -448,7 +453,7 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                 beat_hz: 2.5 + 0.5 * k as f64,
             },
             effects: None,
-            truth: None,
+            truths: Vec::new(),
             renderer: plan.renderer,
         });
     }
@@ -482,11 +487,83 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             nominal,
             post: PostProcess::None,
             effects: Some(candidates),
-            truth: None,
+            truths: Vec::new(),
+            renderer: plan.renderer,
+        });
+    }
+    let pairs = withheld_pairs();
+    for k in 0..plan.pair_cases {
+        let Some(&(a, b)) = pairs.get(k % pairs.len().max(1)) else {
+            break;
+        };
+        let seed = next_seed();
+        let mut nominal = base.clone();
+        for e in [a, b] {
+            e.switch_off(&mut nominal);
+            for other in e.shares_switch_with() {
+                other.switch_off(&mut nominal);
+            }
+        }
+        let mut data = nominal.clone();
+        perturb_rendering(&mut data, seed);
+        let truths: Vec<(Effect, Vec<f64>)> = [a, b]
+            .into_iter()
+            .map(|e| (e, level_values(e, Level::Strong, base.frame_timing.fps)))
+            .collect();
+        for (e, values) in &truths {
+            e.apply(&mut data, values);
+        }
+        data.seed = seed;
+        perturb_nuisance(&mut data, seed);
+        out.push(Case {
+            name: format!("pair-{}+{}-{}", a.name(), b.name(), k / pairs.len().max(1)),
+            expectation: Expectation::WithheldPair {
+                members: [a, b]
+                    .iter()
+                    .map(|e| PairMember {
+                        effect: e.name().into(),
+                        also: switch_mate_names(*e),
+                    })
+                    .collect(),
+            },
+            data,
+            nominal,
+            post: PostProcess::None,
+            effects: None,
+            truths,
             renderer: plan.renderer,
         });
     }
     out
+}
+
+/// The names that count as the same answer as `e`: the effects sharing its switch.
+fn switch_mate_names(e: Effect) -> Vec<String> {
+    e.shares_switch_with()
+        .iter()
+        .map(|o| o.name().to_string())
+        .collect()
+}
+
+/// The pairs of effects the two-cause cases withhold, in the order `--pairs N` takes them:
+/// causes a real rig has together, each pair moving different statistics so that both are
+/// findable, and each effect a one-parameter candidate or two (a pair's fit then stays small).
+/// - a motion blur with a camera shake: a phone on a light stand in dim light;
+/// - an optical blur with a JPEG compression: a defocused phone video, heavily encoded;
+/// - a rolling shutter with a lens distortion: the two every phone camera has;
+/// - a backlash with a perspective tilt: a printed drive filmed off-square;
+/// - a disc vibration with an axis runout: a printed wheel on a worn shaft.
+///
+/// The timebase is left out: its case replaces the footage's stamps, which a pair's second
+/// effect would have to share.
+pub fn withheld_pairs() -> Vec<(Effect, Effect)> {
+    vec![
+        (Effect::MotionBlur, Effect::CameraVibration),
+        (Effect::OpticalBlur, Effect::Compression),
+        (Effect::RollingShutter, Effect::LensDistortion),
+        (Effect::Backlash, Effect::PerspectiveTilt),
+        (Effect::DiscVibration, Effect::AxisRunout),
+    ]
 }
 
 /// Renders `case`'s footage into `dir` (PNG frames + `timestamps.csv`) and applies its
@@ -580,8 +657,10 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
     let mut param_rel_errors = Vec::new();
     let mut param_errors_in_sd = Vec::new();
     let mut params_in_ci95 = Vec::new();
-    if let (Some((effect, truth)), Some(best)) = (&case.truth, best) {
-        let intervals = best.intervals95();
+    // Each withheld effect the best candidate fitted (both of a pair, when it names both).
+    let intervals = best.map(|b| b.intervals95()).unwrap_or_default();
+    for (effect, truth) in &case.truths {
+        let Some(best) = best else { break };
         let found = best
             .evaluated
             .effects
@@ -820,6 +899,42 @@ pub fn write_summary(
             "≥ 80 %",
         ),
     ];
+    // Two causes at once, only when the plan had such cases.
+    let pair_rows: Vec<(String, String, &str)> = if s.pair_detected.n == 0 {
+        Vec::new()
+    } else {
+        [
+            ("`explained`, the best candidate naming both", &s.pair_both),
+            (
+                "`explained` naming one of them only (half an account stated as whole)",
+                &s.pair_one,
+            ),
+            ("`explained` naming neither", &s.pair_neither),
+            (
+                "`unexplained` (the gap found, not accounted for)",
+                &s.pair_unexplained,
+            ),
+            ("gap found", &s.pair_detected),
+        ]
+        .into_iter()
+        .map(|(name, rate)| (format!("two effects: {name}"), pct(rate), "–"))
+        .chain([
+            (
+                "two effects: median relative error of both effects' identifiable parameters \
+                 (cases naming both)"
+                    .to_string(),
+                opt(s.median_param_rel_error_pair, " %", 100.0),
+                "–",
+            ),
+            (
+                "two effects: those parameters' truth within their stated 95 % interval"
+                    .to_string(),
+                pct(&s.params_within_ci95_pair),
+                "≈ 95 %",
+            ),
+        ])
+        .collect()
+    };
     // The fitted parameters' figures, per level: the strong level carries the issue's target.
     let param_rows = |level: &str, median, within_2sd: &Rate, ci95: &Rate, target| {
         [
@@ -863,7 +978,8 @@ pub fn write_summary(
             &s.params_within_2sd_weak,
             &s.params_within_ci95_weak,
             "–",
-        ));
+        ))
+        .chain(pair_rows);
     let mut md = String::from(
         "# Diagnosis self-check\n\nFootage with a known cause rendered by the renderer the plan names, diagnosed by \
          `geneva diagnose` against a nominal without that cause (see \
@@ -874,7 +990,9 @@ pub fn write_summary(
     );
     md.push_str(plan_text);
     md.push_str("\n\n| figure | measured | target (issue #11) |\n|---|---|---|\n");
-    for (name, v, t) in targets {
+    // A figure the plan has no case for (a pairs-only plan's top-1) is left out, not listed
+    // as a dash.
+    for (name, v, t) in targets.filter(|(_, v, _)| v != "–" && !v.starts_with("– (no case)")) {
         md.push_str(&format!("| {name} | {v} | {t} |\n"));
     }
     md.push_str(
@@ -945,6 +1063,10 @@ pub fn write_summary(
             } => format!(
                 "withheld {effect} {}",
                 crate::diagnose::scoring::level_name(*strong, *form)
+            ),
+            Expectation::WithheldPair { members } => format!(
+                "withheld pair {}",
+                crate::diagnose::scoring::pair_label(members)
             ),
             Expectation::Null => "null".into(),
             Expectation::OutOfVocabulary => "out_of_vocabulary".into(),
@@ -1041,6 +1163,7 @@ impl SuitePlan {
             null_cases: 6,
             flicker_cases: 2,
             excluded_cases: 3,
+            pair_cases: 0,
             renderer: Renderer::Own,
         }
     }
@@ -1054,35 +1177,63 @@ impl SuitePlan {
             null_cases: 1,
             flicker_cases: 1,
             excluded_cases: 0,
+            pair_cases: 0,
             renderer: Renderer::Own,
         }
     }
 
     /// The plan in words, for the report.
     pub fn describe(&self, base: &Scenario, options: &DiagnoseOptions) -> String {
+        let singles =
+            if self.seeds_per_case == 0 || self.effects.is_empty() || self.levels.is_empty() {
+                "no single withheld effect".to_string()
+            } else {
+                format!(
+                    "{} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s)",
+                    self.effects.len(),
+                    self.effects
+                        .iter()
+                        .map(|e| e.name())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    self.levels.len(),
+                    self.levels
+                        .iter()
+                        .map(|l| match l {
+                            Level::Strong => "strong",
+                            Level::Weak => "near the limit",
+                            Level::OtherForm =>
+                                "another form: the strong level in a form the candidate does not \
+                             parametrise, only the effects that have one here",
+                        })
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                    self.seeds_per_case,
+                )
+            };
         format!(
-            "Plan: {} withheld effect(s) ({}) × {} level(s) ({}) × {} seed(s), {} null case(s), {} flicker \
-             case(s), {} excluded-candidate case(s); footage {}×{} px, {} fps, {} s, drawn by {}; \
+            "Plan: {singles}, {} null case(s), {} flicker \
+             case(s), {} excluded-candidate case(s), {} two-effect case(s){}; footage {}×{} px, {} fps, {} s, drawn by {}; \
              diagnosis with {} evaluation seeds (raised to {} when a cell misses significance only \
              for lack of seeds) and {} fit seeds, {}{}{}.",
-            self.effects.len(),
-            self.effects.iter().map(|e| e.name()).collect::<Vec<_>>().join(", "),
-            self.levels.len(),
-            self.levels
-                .iter()
-                .map(|l| match l {
-                    Level::Strong => "strong",
-                    Level::Weak => "near the limit",
-                    Level::OtherForm =>
-                        "another form: the strong level in a form the candidate does not \
-                         parametrise, only the effects that have one here",
-                })
-                .collect::<Vec<_>>()
-                .join("; "),
-            self.seeds_per_case,
-            self.null_cases,
+                        self.null_cases,
             self.flicker_cases,
             self.excluded_cases,
+            self.pair_cases,
+            if self.pair_cases == 0 {
+                String::new()
+            } else {
+                format!(
+                    " ({}, each effect at the strong level)",
+                    withheld_pairs()
+                        .iter()
+                        .cycle()
+                        .take(self.pair_cases)
+                        .map(|(a, b)| format!("{} + {}", a.name(), b.name()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            },
             base.camera.width_px,
             base.camera.height_px,
             base.frame_timing.fps,
@@ -1190,6 +1341,118 @@ mod tests {
         assert_eq!(summary["params_within_2sd_weak"]["k"], 0);
         assert_eq!(summary["params_within_ci95_weak"]["k"], 1);
         assert_eq!(summary["params_within_ci95_strong"]["n"], 1);
+    }
+
+    /// A two-effect case switches both effects off in the nominal and on at their strong
+    /// values in the data, states both truths, and leaves the other cases' footage as it was.
+    #[test]
+    fn pair_cases_withhold_both_effects_and_leave_the_other_cases_alone() {
+        let base = suite_base(4.0).unwrap();
+        let without = SuitePlan {
+            seeds_per_case: 1,
+            null_cases: 1,
+            flicker_cases: 1,
+            excluded_cases: 1,
+            ..SuitePlan::quick(Effect::PixelNoise)
+        };
+        let with = SuitePlan {
+            pair_cases: withheld_pairs().len() + 1,
+            ..without.clone()
+        };
+        let before = cases(&base, &without, &[]);
+        let after = cases(&base, &with, &[]);
+        assert_eq!(after.len(), before.len() + with.pair_cases);
+        for (b, a) in before.iter().zip(&after) {
+            assert_eq!((&b.name, &b.data), (&a.name, &a.data));
+        }
+        let pairs = &after[before.len()..];
+        assert_eq!(pairs[0].name, "pair-motion_blur+camera_vibration-0");
+        assert_eq!(
+            pairs.last().unwrap().name,
+            "pair-motion_blur+camera_vibration-1",
+            "past the list's end it goes round with new seeds"
+        );
+        assert_ne!(pairs[0].data.seed, pairs.last().unwrap().data.seed);
+        for (c, (a, b)) in pairs.iter().zip(withheld_pairs().into_iter().cycle()) {
+            let Expectation::WithheldPair { members } = &c.expectation else {
+                panic!("{}: {:?}", c.name, c.expectation);
+            };
+            let names: Vec<&str> = members.iter().map(|m| m.effect.as_str()).collect();
+            assert_eq!(names, [a.name(), b.name()]);
+            assert_eq!(c.truths.len(), 2);
+            for (e, values) in &c.truths {
+                assert!(!e.is_on(&c.nominal) && e.is_on(&c.data), "{}", c.name);
+                assert_eq!(
+                    *values,
+                    level_values(*e, Level::Strong, base.frame_timing.fps)
+                );
+                for other in e.shares_switch_with() {
+                    assert!(!other.is_on(&c.nominal), "{}", c.name);
+                }
+            }
+            assert!(c.effects.is_none() && c.post == PostProcess::None);
+        }
+        let backlash = &pairs[3];
+        let Expectation::WithheldPair { members } = &backlash.expectation else {
+            panic!()
+        };
+        assert_eq!(members[0].also, ["overrotation"]);
+        let text = with.describe(&base, &DiagnoseOptions::default());
+        assert!(
+            text.contains(
+                "6 two-effect case(s) (motion_blur + camera_vibration, optical_blur + compression,"
+            ),
+            "{text}"
+        );
+        let only_pairs = SuitePlan {
+            seeds_per_case: 0,
+            null_cases: 0,
+            flicker_cases: 0,
+            ..with.clone()
+        };
+        assert_eq!(cases(&base, &only_pairs, &[]).len(), with.pair_cases + 1);
+        let text = only_pairs.describe(&base, &DiagnoseOptions::default());
+        assert!(
+            text.starts_with("Plan: no single withheld effect, 0 null"),
+            "{text}"
+        );
+        // The summary states the pair figures, and only when the plan had pair cases.
+        let outcome = |c: &Case, verdict: &str, best: &[&str]| CaseOutcome {
+            name: c.name.clone(),
+            expectation: c.expectation.clone(),
+            verdict: verdict.into(),
+            ranked: vec![best.iter().map(|n| n.to_string()).collect()],
+            ranked_labels: vec![best.join("+")],
+            best_shrink: Some(0.9),
+            param_rel_errors: vec![0.1, 0.2],
+            param_errors_in_sd: vec![0.5, 1.0],
+            params_in_ci95: vec![true, true],
+            eval_seeds: 4,
+        };
+        let outcomes = [
+            outcome(&pairs[0], "explained", &["motion_blur", "camera_vibration"]),
+            outcome(&pairs[1], "explained", &["compression"]),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        write_summary(&outcomes, "Plan.", dir.path()).unwrap();
+        let md = std::fs::read_to_string(dir.path().join("README.md")).unwrap();
+        assert!(
+            md.contains("| two effects: `explained`, the best candidate naming both | 50 % (1/2;"),
+            "{md}"
+        );
+        assert!(md.contains("| optical_blur + compression (pair) |"), "{md}");
+        let csv = std::fs::read_to_string(dir.path().join("cases.csv")).unwrap();
+        assert!(
+            csv.contains("withheld pair motion_blur + camera_vibration,explained,"),
+            "{csv}"
+        );
+        assert!(
+            !md.contains("top-1, strong"),
+            "no single case, no single figure: {md}"
+        );
+        write_summary(&outcomes[..0], "Plan.", dir.path()).unwrap();
+        let md = std::fs::read_to_string(dir.path().join("README.md")).unwrap();
+        assert!(!md.contains("two effects"), "{md}");
     }
 
     /// A strong exposure or readout fits in the rig's frame interval: the 30 fps probes stand,
@@ -1345,6 +1608,7 @@ mod tests {
             null_cases: 0,
             flicker_cases: 0,
             excluded_cases: 0,
+            pair_cases: 0,
             renderer: Renderer::Own,
         };
         let all = cases(&base, &plan, &[]);
@@ -1370,7 +1634,7 @@ mod tests {
                 panic!("{}: {:?}", c.name, c.expectation);
             };
             let e = Effect::from_name(effect).unwrap();
-            assert!(c.truth.is_none(), "{}", c.name);
+            assert!(c.truths.is_empty(), "{}", c.name);
             assert!(!e.is_on(&c.nominal) && e.is_on(&c.data), "{}", c.name);
             let mut candidate = c.nominal.clone();
             e.apply(
