@@ -897,7 +897,9 @@ pub fn diagnose_with(
             }
             _ => Vec::new(),
         };
-        if options.pairs && (!best_explains || !look.is_empty()) && ranking.len() >= 2 {
+        // The second look does not need another fitted single: an explaining single that
+        // scored high bounds the others out of the single fits, the second cause among them.
+        if options.pairs && ((!best_explains && ranking.len() >= 2) || !look.is_empty()) {
             let deadline_hit = deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d);
             if !deadline_hit {
                 pair_tried = true;
