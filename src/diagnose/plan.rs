@@ -202,6 +202,31 @@ pub fn second_effects(
     shares.into_iter().take(n).map(|(e, _)| e).collect()
 }
 
+/// The runner-up single worth pairing with `first` besides those [`second_effects`] chose
+/// (`chosen`): the best-ranked of `singles` (fitted alone, best first, each with its score)
+/// that is neither `first`, a switch-mate of it, nor already chosen, and closed some of the gap
+/// alone (score > 0). None when no such single was fitted.
+///
+/// The remainder cannot always choose it: a second cause whose cells the first one's fit
+/// overlaps leaves no significant cell of its own. A disc vibration filmed with a 2 mm axis
+/// runout scored 0.675 alone, beside the runout's 0.681, yet the runout's remainder held none
+/// of its cells, and the pairs tried were the runout with a camera shake, a lens and a tilt.
+pub fn runner_up_second(
+    first: Effect,
+    singles: &[(Effect, f64)],
+    chosen: &[Effect],
+) -> Option<Effect> {
+    singles
+        .iter()
+        .find(|(e, score)| {
+            *e != first
+                && !first.shares_switch_with().contains(e)
+                && !chosen.contains(e)
+                && *score > 0.0
+        })
+        .map(|(e, _)| *e)
+}
+
 /// Remaining total gap D (units of D: Σ max(0, |z| − 2)²) above which a single effect that
 /// explains the gap gets a second look for a second cause: its remainder has no significant
 /// cell, yet sums to more than a comparison that agrees leaves.
@@ -246,6 +271,47 @@ pub fn second_look_effects(
         .collect();
     shares.sort_by(|a, b| b.1.total_cmp(&a.1));
     shares.into_iter().take(n).map(|(e, _)| e).collect()
+}
+
+/// What a second look does with a pair it fitted ([`judge_second_look_pair`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SecondLookPair {
+    /// Ranked beside the single: it closed a good part of what the single left, with a second
+    /// effect the data tell from the nominal.
+    Kept,
+    /// Set aside: it left more than (1 − [`SECOND_LOOK_CLOSE`]) of the single's remainder.
+    ClosesTooLittle,
+    /// Set aside: it closed enough, but every fitted value of its second effect lies within
+    /// [`super::verdict::DISTINCT_Z`] standard uncertainties of the nominal's, so the pair is the
+    /// single under another name and what it closed was closed by the fit seeds' luck.
+    SecondAtNominal,
+}
+
+impl SecondLookPair {
+    pub fn kept(self) -> bool {
+        self == Self::Kept
+    }
+}
+
+/// Judges a second-look pair from the remaining gap the single left (`single_remainder`), the
+/// one the pair leaves (`pair_remainder`, NaN is never kept) and whether its second effect's
+/// first-fit values tell it from the nominal ([`super::verdict::tells_from_nominal`]; `None`,
+/// a value the data do not determine, does not set it aside: the verdict's own guard judges it
+/// again on the refitted ±). The remainder rule comes first, so a pair that closes too little
+/// is reported as such whatever its values.
+pub fn judge_second_look_pair(
+    single_remainder: f64,
+    pair_remainder: f64,
+    second_tells: Option<bool>,
+) -> SecondLookPair {
+    let closes_enough = pair_remainder <= (1.0 - SECOND_LOOK_CLOSE) * single_remainder;
+    if !closes_enough {
+        SecondLookPair::ClosesTooLittle
+    } else if second_tells == Some(false) {
+        SecondLookPair::SecondAtNominal
+    } else {
+        SecondLookPair::Kept
+    }
 }
 
 /// Whether a cell `e` moves ([`in_screening`]) is significant.
@@ -493,6 +559,75 @@ mod tests {
     }
 
     #[test]
+    fn the_runner_up_single_is_paired_when_the_remainder_did_not_choose_it() {
+        // The disc vibration + runout footage: the runout first, the vibration a hair behind.
+        let singles = [
+            (Effect::AxisRunout, 0.681),
+            (Effect::DiscVibration, 0.675),
+            (Effect::Overrotation, 0.637),
+        ];
+        let chosen = [
+            Effect::CameraVibration,
+            Effect::LensDistortion,
+            Effect::PerspectiveTilt,
+        ];
+        assert_eq!(
+            runner_up_second(Effect::AxisRunout, &singles, &chosen),
+            Some(Effect::DiscVibration)
+        );
+        // Already chosen: the next one.
+        assert_eq!(
+            runner_up_second(Effect::AxisRunout, &singles, &[Effect::DiscVibration]),
+            Some(Effect::Overrotation)
+        );
+        // Only the first, or runners-up that closed nothing alone: none.
+        assert_eq!(
+            runner_up_second(Effect::AxisRunout, &singles[..1], &chosen),
+            None
+        );
+        let idle = [(Effect::AxisRunout, 0.681), (Effect::MotionBlur, -0.03)];
+        assert_eq!(runner_up_second(Effect::AxisRunout, &idle, &chosen), None);
+        // A switch-mate of the first is never its second.
+        let with_mate = [(Effect::Backlash, 0.9), (Effect::Overrotation, 0.8)];
+        assert_eq!(runner_up_second(Effect::Backlash, &with_mate, &[]), None);
+    }
+
+    #[test]
+    fn a_second_look_keeps_a_pair_that_halves_the_remainder_with_a_second_off_the_nominal() {
+        use SecondLookPair::*;
+        // Rig 2's blur + JPEG: the pair left 0.0 of 11.5 with a blur far from the nominal's.
+        assert_eq!(judge_second_look_pair(11.5, 0.0, Some(true)), Kept);
+        // The motion-blur pair tried beside it left 11.2: too little, whatever its values.
+        assert_eq!(
+            judge_second_look_pair(11.5, 11.2, Some(true)),
+            ClosesTooLittle
+        );
+        assert_eq!(
+            judge_second_look_pair(11.5, 11.2, Some(false)),
+            ClosesTooLittle
+        );
+        // The weak tilt's 27.5 closed to 3.4 by a 0.70 ms readout within 1 σ of the nominal's
+        // 0.5 ms: the single under another name.
+        assert_eq!(
+            judge_second_look_pair(27.5, 3.4, Some(false)),
+            SecondAtNominal
+        );
+        // Undetermined values are left to the verdict's guard.
+        assert_eq!(judge_second_look_pair(27.5, 3.4, None), Kept);
+        // Exactly half is kept; just above is not; NaN never is.
+        assert_eq!(judge_second_look_pair(10.0, 5.0, Some(true)), Kept);
+        assert_eq!(
+            judge_second_look_pair(10.0, 5.0 + 1e-9, Some(true)),
+            ClosesTooLittle
+        );
+        assert_eq!(
+            judge_second_look_pair(10.0, f64::NAN, Some(true)),
+            ClosesTooLittle
+        );
+        assert!(Kept.kept() && !ClosesTooLittle.kept() && !SecondAtNominal.kept());
+    }
+
+    #[test]
     fn a_second_look_tries_the_effects_that_hold_what_an_explaining_single_leaves() {
         // The optical blur + JPEG footage after the JPEG quality alone: six edge-width cells
         // at |z| ≈ 3.4, none significant, 11.5 in all; the blockiness closed.
@@ -535,9 +670,13 @@ mod tests {
             ("noise_paper", 3.4, false),
         ]);
         assert!(spread.total > SECOND_LOOK_REMAINDER);
-        for e in second_look_effects(Effect::Compression, &candidates, &spread, 3) {
-            assert!(screening_share(e, &spread) >= SECOND_LOOK_SHARE, "{e:?}");
-        }
+        // Only the motion blur's cells (the edges and the motion's) hold half of it; the
+        // optical blur's edges hold a third, the lighting's grey levels less.
+        let tried = second_look_effects(Effect::Compression, &candidates, &spread, 3);
+        assert_eq!(tried, vec![Effect::MotionBlur], "{tried:?}");
+        assert!(screening_share(Effect::MotionBlur, &spread) >= SECOND_LOOK_SHARE);
+        assert!(screening_share(Effect::OpticalBlur, &spread) < SECOND_LOOK_SHARE);
+        assert!(screening_share(Effect::Lighting, &spread) < SECOND_LOOK_SHARE);
         let nan = GapMap {
             total: f64::NAN,
             ..left.clone()

@@ -244,7 +244,8 @@ pub const REFITS: usize = 2;
 pub const CONCURRENT_FITS: usize = 2;
 
 /// Second effects fitted beside the best single one when it does not explain the gap
-/// ([`plan::second_effects`]): each pair costs a fit as long as a single's.
+/// ([`plan::second_effects`]), besides the runner-up single ([`plan::runner_up_second`]):
+/// each pair costs a fit as long as a single's.
 pub const MAX_SECOND_EFFECTS: usize = 3;
 
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
@@ -418,7 +419,25 @@ pub struct SkippedPair {
 pub struct SecondLook {
     pub first: Effect,
     pub remainder: f64,
-    pub tried: Vec<(Effect, f64, bool)>,
+    pub tried: Vec<(Effect, f64, plan::SecondLookPair)>,
+}
+
+impl SecondLook {
+    /// Whether `r` is a pair this second look kept: its first effect is the look's single.
+    fn kept_pair(&self, r: &Ranked) -> bool {
+        r.evaluated.effects.len() == 2 && r.evaluated.effects[0].effect == self.first
+    }
+
+    /// Index in `ranking` of the single this look started from, when `best` is a pair it kept:
+    /// that single is told apart from the pair, since the pair closed what it left.
+    fn single_behind(&self, ranking: &[Ranked], best: usize) -> Option<usize> {
+        if !ranking.get(best).is_some_and(|r| self.kept_pair(r)) {
+            return None;
+        }
+        ranking.iter().position(|r| {
+            r.evaluated.effects.len() == 1 && r.evaluated.effects[0].effect == self.first
+        })
+    }
 }
 
 /// A candidate that closed the gap with fitted values the data cannot tell from the nominal's
@@ -445,25 +464,8 @@ fn from_nominal(
     let mut all = Vec::new();
     let mut distinct = Some(true);
     for f in &r.evaluated.effects {
-        let compared: Vec<(Effect, &'static str, verdict::FromNominal)> = f
-            .effect
-            .params()
-            .iter()
-            .zip(fitter.nominal_values(f.effect))
-            .zip(f.values.iter().zip(&f.stds))
-            .filter_map(|((spec, nominal), (&value, &std))| {
-                nominal.map(|nominal| {
-                    let v = verdict::FromNominal {
-                        value,
-                        std,
-                        nominal,
-                    };
-                    (f.effect, spec.name, v)
-                })
-            })
-            .collect();
-        let values: Vec<verdict::FromNominal> = compared.iter().map(|c| c.2).collect();
-        distinct = match (distinct, verdict::tells_from_nominal(&values)) {
+        let (compared, tells) = fitted_from_nominal(fitter, f);
+        distinct = match (distinct, tells) {
             (Some(false), _) | (_, Some(false)) => Some(false),
             (Some(true), Some(true)) => Some(true),
             _ => None,
@@ -471,6 +473,37 @@ fn from_nominal(
         all.extend(compared);
     }
     (all, distinct)
+}
+
+/// One fitted effect's values beside those at which it would leave the nominal as it is, and
+/// whether they tell it from the nominal ([`verdict::tells_from_nominal`]).
+fn fitted_from_nominal(
+    fitter: &Fitter,
+    f: &fit::Fitted,
+) -> (
+    Vec<(Effect, &'static str, verdict::FromNominal)>,
+    Option<bool>,
+) {
+    let compared: Vec<(Effect, &'static str, verdict::FromNominal)> = f
+        .effect
+        .params()
+        .iter()
+        .zip(fitter.nominal_values(f.effect))
+        .zip(f.values.iter().zip(&f.stds))
+        .filter_map(|((spec, nominal), (&value, &std))| {
+            nominal.map(|nominal| {
+                let v = verdict::FromNominal {
+                    value,
+                    std,
+                    nominal,
+                };
+                (f.effect, spec.name, v)
+            })
+        })
+        .collect();
+    let values: Vec<verdict::FromNominal> = compared.iter().map(|c| c.2).collect();
+    let tells = verdict::tells_from_nominal(&values);
+    (compared, tells)
 }
 
 /// How many candidates after the best one, explaining the gap too, are fitted again and
@@ -915,12 +948,19 @@ pub fn diagnose_with(
                     });
                     look
                 } else {
-                    plan::second_effects(
+                    let mut chosen = plan::second_effects(
                         first.effect,
                         &units,
                         &ranking[0].evaluated.gap,
                         MAX_SECOND_EFFECTS,
-                    )
+                    );
+                    let singles: Vec<(Effect, f64)> = ranking
+                        .iter()
+                        .filter(|r| r.evaluated.effects.len() == 1)
+                        .map(|r| (r.evaluated.effects[0].effect, r.score))
+                        .collect();
+                    chosen.extend(plan::runner_up_second(first.effect, &singles, &chosen));
+                    chosen
                 };
                 // A second effect fitted where it does nothing is no second cause: the pair
                 // would be the single under another name, and its evaluation differs from the
@@ -953,26 +993,43 @@ pub fn diagnose_with(
                             // what the explaining single left.
                             Ok(evaluated) if second_look.is_some() => {
                                 let remaining = evaluated.gap.total;
-                                let kept =
-                                    remaining <= (1.0 - plan::SECOND_LOOK_CLOSE) * single_remainder;
+                                let second_tells = evaluated
+                                    .effects
+                                    .get(1)
+                                    .and_then(|second| fitted_from_nominal(&fitter, second).1);
+                                let judged = plan::judge_second_look_pair(
+                                    single_remainder,
+                                    remaining,
+                                    second_tells,
+                                );
                                 if let (Some(look), Some(second)) =
                                     (second_look.as_mut(), evaluated.effects.get(1))
                                 {
-                                    look.tried.push((second.effect, remaining, kept));
+                                    look.tried.push((second.effect, remaining, judged));
                                 }
-                                if kept {
-                                    ranking.push(ranked(nominal_gap, evaluated));
-                                } else {
-                                    progress(
+                                let why = match judged {
+                                    plan::SecondLookPair::Kept => None,
+                                    plan::SecondLookPair::ClosesTooLittle => Some(format!(
+                                        "it leaves {remaining:.1} of the {single_remainder:.1} \
+                                         {} left",
+                                        first.effect.name()
+                                    )),
+                                    plan::SecondLookPair::SecondAtNominal => Some(
+                                        "its second effect's values lie within one standard \
+                                         uncertainty of the nominal's"
+                                            .to_string(),
+                                    ),
+                                };
+                                match why {
+                                    None => ranking.push(ranked(nominal_gap, evaluated)),
+                                    Some(why) => progress(
                                         &format!(
-                                            "{}: set aside, it leaves {remaining:.1} of the \
-                                             {single_remainder:.1} {} left",
-                                            candidate_name(&evaluated),
-                                            first.effect.name()
+                                            "{}: set aside, {why}",
+                                            candidate_name(&evaluated)
                                         ),
                                         k * CONCURRENT_FITS,
                                         others.len(),
-                                    );
+                                    ),
                                 }
                             }
                             Ok(evaluated) => ranking.push(ranked(nominal_gap, evaluated)),
@@ -1077,17 +1134,9 @@ pub fn diagnose_with(
     if let Some(b) = best {
         // A pair a second look kept closed what its first effect alone left: that single is
         // told apart from it, however close their scores against the whole gap.
-        let looked_single = second_look.as_ref().and_then(|look| {
-            (ranking[b].evaluated.effects.len() == 2
-                && ranking[b].evaluated.effects[0].effect == look.first)
-                .then(|| {
-                    ranking.iter().position(|r| {
-                        r.evaluated.effects.len() == 1
-                            && r.evaluated.effects[0].effect == look.first
-                    })
-                })
-                .flatten()
-        });
+        let looked_single = second_look
+            .as_ref()
+            .and_then(|look| look.single_behind(&ranking, b));
         // Its group: the others the data cannot tell apart from it, less those set aside.
         ranking[b].group = group
             .iter()
@@ -1571,6 +1620,41 @@ pub(crate) mod tests {
         // A parameter the footage does not determine stays the first fit's, undetermined.
         assert_eq!(pixel.values[1], noise_values[1]);
         assert_eq!(pixel.stds[1], f64::INFINITY);
+    }
+
+    #[test]
+    fn a_kept_second_look_pair_tells_its_single_apart_and_nothing_else() {
+        let gap = GapMap {
+            cells: Vec::new(),
+            total: 5.0,
+            options: GapOptions::default(),
+        };
+        let of = |effects: &[Effect]| {
+            let fits = effects
+                .iter()
+                .map(|&e| fitted(e, vec![1.0; e.params().len()], vec![0.1; e.params().len()]))
+                .collect();
+            ranked(&gap, evaluated(fits))
+        };
+        let ranking = vec![
+            of(&[Effect::Compression, Effect::OpticalBlur]),
+            of(&[Effect::MotionBlur]),
+            of(&[Effect::Compression]),
+            of(&[Effect::OpticalBlur, Effect::Compression]),
+        ];
+        let look = SecondLook {
+            first: Effect::Compression,
+            remainder: 11.5,
+            tried: Vec::new(),
+        };
+        assert_eq!(look.single_behind(&ranking, 0), Some(2));
+        // A single, a pair led by another effect, or no such index: nothing told apart.
+        assert_eq!(look.single_behind(&ranking, 1), None);
+        assert_eq!(look.single_behind(&ranking, 2), None);
+        assert_eq!(look.single_behind(&ranking, 3), None);
+        assert_eq!(look.single_behind(&ranking, 9), None);
+        // The pair kept with its single not ranked (it cannot happen, but must not panic).
+        assert_eq!(look.single_behind(&ranking[..2], 0), None);
     }
 
     #[test]

@@ -14,6 +14,7 @@ use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{CellGap, GapMap};
+use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
 use crate::errors::FileError;
 use crate::io::output_dir::OutputDir;
@@ -119,12 +120,24 @@ fn second_look_json(look: Option<&SecondLook>) -> Value {
         "remainder": look.remainder,
         "threshold": crate::diagnose::plan::SECOND_LOOK_REMAINDER,
         "keep_at_most": (1.0 - crate::diagnose::plan::SECOND_LOOK_CLOSE) * look.remainder,
-        "tried": look.tried.iter().map(|(e, remaining, kept)| json!({
+        "tried": look.tried.iter().map(|(e, remaining, judged)| json!({
             "second": e.name(),
             "remaining": remaining,
-            "kept": kept,
+            "kept": judged.kept(),
+            "set_aside": set_aside_reason(*judged),
         })).collect::<Vec<_>>(),
     })
+}
+
+/// Why a second look set a pair aside, in words (None for a pair it kept).
+fn set_aside_reason(judged: SecondLookPair) -> Option<&'static str> {
+    match judged {
+        SecondLookPair::Kept => None,
+        SecondLookPair::ClosesTooLittle => Some("it left more than half"),
+        SecondLookPair::SecondAtNominal => {
+            Some("its second effect's values lie within one standard uncertainty of the nominal's")
+        }
+    }
 }
 
 /// `diagnosis.md`'s paragraph on a second look; empty without one.
@@ -137,12 +150,13 @@ fn second_look_text(look: Option<&SecondLook>) -> String {
     } else {
         look.tried
             .iter()
-            .map(|(e, remaining, kept)| {
+            .map(|(e, remaining, judged)| {
                 format!(
-                    "`{} + {}` left {remaining:.1}{}",
+                    "`{} + {}` left {remaining:.1} ({})",
                     look.first.name(),
                     e.name(),
-                    if *kept { " (kept)" } else { " (set aside)" }
+                    set_aside_reason(*judged)
+                        .map_or("kept".to_string(), |why| format!("set aside: {why}"))
                 )
             })
             .collect::<Vec<_>>()
@@ -152,7 +166,8 @@ fn second_look_text(look: Option<&SecondLook>) -> String {
         "Second look: `{}` alone closed the gap with no significant cell left, yet left a \
          remaining gap of {:.1}, above the {} that a comparison in agreement leaves (about the \
          99.9th percentile over a hundred cells), in cells another candidate moves. Pairs were \
-         fitted for a second cause and kept only when they left at most {:.1} (half of it): {tried}.\n\n",
+         fitted for a second cause and kept only when they left at most {:.1} (half of it) with a \
+         second effect the data tell from the nominal: {tried}.\n\n",
         look.first.name(),
         look.remainder,
         crate::diagnose::plan::SECOND_LOOK_REMAINDER,
@@ -1359,23 +1374,30 @@ mod tests {
             first: Effect::Compression,
             remainder: 11.46,
             tried: vec![
-                (Effect::OpticalBlur, 0.8, true),
-                (Effect::MotionBlur, 9.0, false),
+                (Effect::OpticalBlur, 0.8, SecondLookPair::Kept),
+                (Effect::MotionBlur, 9.0, SecondLookPair::ClosesTooLittle),
+                (Effect::RollingShutter, 1.2, SecondLookPair::SecondAtNominal),
             ],
         };
         let j = second_look_json(Some(&look));
         assert_eq!(j["first"], "compression");
         assert_eq!(
             j["tried"][0],
-            json!({"second": "optical_blur", "remaining": 0.8, "kept": true})
+            json!({"second": "optical_blur", "remaining": 0.8, "kept": true, "set_aside": null})
         );
         assert_eq!(j["tried"][1]["kept"], false);
+        assert_eq!(j["tried"][1]["set_aside"], "it left more than half");
+        assert_eq!(j["tried"][2]["kept"], false);
+        assert!(j["tried"][2]["set_aside"]
+            .as_str()
+            .is_some_and(|s| s.contains("nominal")));
         assert!((j["keep_at_most"].as_f64().unwrap() - 5.73).abs() < 1e-9);
         let text = second_look_text(Some(&look));
         assert!(
             text.contains("remaining gap of 11.5, above the 8")
                 && text.contains("`compression + optical_blur` left 0.8 (kept)")
-                && text.contains("`compression + motion_blur` left 9.0 (set aside)"),
+                && text.contains("`compression + motion_blur` left 9.0 (set aside: it left more than half)")
+                && text.contains("`compression + rolling_shutter` left 1.2 (set aside: its second effect's values lie within one standard uncertainty of the nominal's)"),
             "{text}"
         );
         assert!(pair_found_text(Some(&look)).contains("`compression` alone closed the gap"));
