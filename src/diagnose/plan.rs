@@ -273,6 +273,15 @@ pub fn second_look_effects(
     shares.into_iter().take(n).map(|(e, _)| e).collect()
 }
 
+/// Standard uncertainties from the nominal's value that a second-look pair's second effect
+/// must lie, on its first fit, to be kept ([`judge_second_look_pair`]); twice the verdict's
+/// [`super::verdict::DISTINCT_Z`] because a first fit's ± (two fit seeds) understates its
+/// spread: the own renderer's weak tilt, paired with a rolling shutter, fitted a readout of
+/// 1.10 ± 0.50 ms against the nominal's 0.5 ms (1.2 σ), and both refits on fresh seeds put it
+/// at 0.5 ms exactly (pooled 0.70 ± 0.69 ms, 0.3 σ). A second cause the second look found (an
+/// optical blur of 1.417 ± 0.029 px against the nominal's 0.7 px) lies tens of σ off.
+pub const SECOND_LOOK_DISTINCT_Z: f64 = 2.0;
+
 /// What a second look does with a pair it fitted ([`judge_second_look_pair`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SecondLookPair {
@@ -282,7 +291,7 @@ pub enum SecondLookPair {
     /// Set aside: it left more than (1 − [`SECOND_LOOK_CLOSE`]) of the single's remainder.
     ClosesTooLittle,
     /// Set aside: it closed enough, but every fitted value of its second effect lies within
-    /// [`super::verdict::DISTINCT_Z`] standard uncertainties of the nominal's, so the pair is the
+    /// [`SECOND_LOOK_DISTINCT_Z`] standard uncertainties of the nominal's, so the pair is the
     /// single under another name and what it closed was closed by the fit seeds' luck.
     SecondAtNominal,
 }
@@ -295,7 +304,8 @@ impl SecondLookPair {
 
 /// Judges a second-look pair from the remaining gap the single left (`single_remainder`), the
 /// one the pair leaves (`pair_remainder`, NaN is never kept) and whether its second effect's
-/// first-fit values tell it from the nominal ([`super::verdict::tells_from_nominal`]; `None`,
+/// first-fit values tell it from the nominal at [`SECOND_LOOK_DISTINCT_Z`]
+/// ([`super::verdict::tells_from_nominal_at`]; `None`,
 /// a value the data do not determine, does not set it aside: the verdict's own guard judges it
 /// again on the refitted ±). The remainder rule comes first, so a pair that closes too little
 /// is reported as such whatever its values.

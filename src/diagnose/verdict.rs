@@ -136,6 +136,12 @@ impl FromNominal {
 /// not determine (a sensor noise whose full well and read noise trade along a valley: their
 /// combination is measured, not each).
 pub fn tells_from_nominal(values: &[FromNominal]) -> Option<bool> {
+    tells_from_nominal_at(values, DISTINCT_Z)
+}
+
+/// [`tells_from_nominal`] with another threshold: `Some(true)` when one value lies at least
+/// `z_min` standard uncertainties from its nominal value.
+pub fn tells_from_nominal_at(values: &[FromNominal], z_min: f64) -> Option<bool> {
     if values.is_empty()
         || values
             .iter()
@@ -143,7 +149,7 @@ pub fn tells_from_nominal(values: &[FromNominal]) -> Option<bool> {
     {
         return None;
     }
-    Some(values.iter().any(|v| v.z() >= DISTINCT_Z))
+    Some(values.iter().any(|v| v.z() >= z_min))
 }
 
 /// The candidate the verdict rests on, and what was judged on the way.
@@ -300,6 +306,13 @@ mod tests {
         assert_eq!(tells_from_nominal(&[fv(0.0, 0.0, 0.0)]), Some(false));
         // The boundary belongs to the distinct side.
         assert_eq!(tells_from_nominal(&[fv(1.0, 1.0, 0.0)]), Some(true));
+        // At another threshold: the weak tilt's first-fit readout, 1.10 ± 0.50 ms against
+        // 0.5 ms (1.2 σ), tells at 1 σ, not at 2.
+        let readout = [fv(1.099e-3, 4.96e-4, 5e-4)];
+        assert_eq!(tells_from_nominal_at(&readout, 1.0), Some(true));
+        assert_eq!(tells_from_nominal_at(&readout, 2.0), Some(false));
+        assert_eq!(tells_from_nominal_at(&[fv(2.0, 1.0, 0.0)], 2.0), Some(true));
+        assert_eq!(tells_from_nominal_at(&[], 2.0), None);
     }
 
     #[test]

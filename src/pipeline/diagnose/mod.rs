@@ -993,10 +993,18 @@ pub fn diagnose_with(
                             // what the explaining single left.
                             Ok(evaluated) if second_look.is_some() => {
                                 let remaining = evaluated.gap.total;
-                                let second_tells = evaluated
-                                    .effects
-                                    .get(1)
-                                    .and_then(|second| fitted_from_nominal(&fitter, second).1);
+                                let second_tells = evaluated.effects.get(1).and_then(|second| {
+                                    let compared: Vec<verdict::FromNominal> =
+                                        fitted_from_nominal(&fitter, second)
+                                            .0
+                                            .iter()
+                                            .map(|c| c.2)
+                                            .collect();
+                                    verdict::tells_from_nominal_at(
+                                        &compared,
+                                        plan::SECOND_LOOK_DISTINCT_Z,
+                                    )
+                                });
                                 let judged = plan::judge_second_look_pair(
                                     single_remainder,
                                     remaining,
@@ -1015,8 +1023,8 @@ pub fn diagnose_with(
                                         first.effect.name()
                                     )),
                                     plan::SecondLookPair::SecondAtNominal => Some(
-                                        "its second effect's values lie within one standard \
-                                         uncertainty of the nominal's"
+                                        "its second effect's values lie within two standard \
+                                         uncertainties of the nominal's"
                                             .to_string(),
                                     ),
                                 };

@@ -134,9 +134,9 @@ fn set_aside_reason(judged: SecondLookPair) -> Option<&'static str> {
     match judged {
         SecondLookPair::Kept => None,
         SecondLookPair::ClosesTooLittle => Some("it left more than half"),
-        SecondLookPair::SecondAtNominal => {
-            Some("its second effect's values lie within one standard uncertainty of the nominal's")
-        }
+        SecondLookPair::SecondAtNominal => Some(
+            "its second effect's values lie within two standard uncertainties of the nominal's",
+        ),
     }
 }
 
@@ -1397,7 +1397,7 @@ mod tests {
             text.contains("remaining gap of 11.5, above the 8")
                 && text.contains("`compression + optical_blur` left 0.8 (kept)")
                 && text.contains("`compression + motion_blur` left 9.0 (set aside: it left more than half)")
-                && text.contains("`compression + rolling_shutter` left 1.2 (set aside: its second effect's values lie within one standard uncertainty of the nominal's)"),
+                && text.contains("`compression + rolling_shutter` left 1.2 (set aside: its second effect's values lie within two standard uncertainties of the nominal's)"),
             "{text}"
         );
         assert!(pair_found_text(Some(&look)).contains("`compression` alone closed the gap"));
