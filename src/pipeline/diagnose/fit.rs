@@ -644,6 +644,31 @@ impl<'a> Fitter<'a> {
         Ok(fits)
     }
 
+    /// The fit objective (Σ z² over the signature cells of `prior`'s effects and `e`, on the
+    /// fit seeds) with `e` at `values` on top of `prior`, and over the same cells with `prior`
+    /// alone (`e` as the nominal has it): whether a pair's second effect does anything
+    /// ([`crate::diagnose::plan::second_lowers_fit`]). Infinite where a trial fails.
+    pub fn objective_beside(
+        &self,
+        prior: &[(Effect, Vec<f64>)],
+        e: Effect,
+        values: &[f64],
+    ) -> (f64, f64) {
+        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+        applied.push((e, values.to_vec()));
+        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+        let fitted = self.objectives(&effects, &applied, LensCells::All).sum_z2;
+        let nominal = self
+            .objectives_of(
+                &effects,
+                self.trial_with(prior),
+                compare_for_fit,
+                LensCells::All,
+            )
+            .sum_z2;
+        (fitted, nominal)
+    }
+
     /// The aligned nominal's cells on each evaluation seed (empty in a fork).
     pub fn nominal_sims(&self) -> &[Cells] {
         &self.nominal_sims

@@ -408,6 +408,22 @@ pub struct SkippedPair {
     pub second: Effect,
     /// The second effect's fitted values, in [`Effect::params`] order.
     pub values: Vec<f64>,
+    pub why: SkipReason,
+}
+
+/// Why a second effect does nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SkipReason {
+    /// Every parameter at its neutral, one of them its search's end
+    /// ([`Effect::does_nothing_at`]).
+    AtNeutral,
+    /// Its fit did not lower the fit objective (Σ z² over both effects' signature cells, fit
+    /// seeds) by more than [`plan::SECOND_DROP_PER_PARAM`] per parameter below the nominal's
+    /// own setting of it, the first effect at its values in both ([`plan::second_lowers_fit`]).
+    NoLowerThanNominal {
+        fitted_sum_z2: f64,
+        nominal_sum_z2: f64,
+    },
 }
 
 /// A second look for a second cause ([`plan::second_look_effects`]): the single effect that
@@ -423,15 +439,16 @@ pub struct SecondLook {
 }
 
 impl SecondLook {
-    /// Whether `r` is a pair this second look kept: its first effect is the look's single.
-    fn kept_pair(&self, r: &Ranked) -> bool {
+    /// Whether `r` is a pair led by this look's single (two effects, the single first): the
+    /// only pairs a second look ranks are those it kept.
+    fn is_pair_of_single(&self, r: &Ranked) -> bool {
         r.evaluated.effects.len() == 2 && r.evaluated.effects[0].effect == self.first
     }
 
     /// Index in `ranking` of the single this look started from, when `best` is a pair it kept:
     /// that single is told apart from the pair, since the pair closed what it left.
     fn single_behind(&self, ranking: &[Ranked], best: usize) -> Option<usize> {
-        if !ranking.get(best).is_some_and(|r| self.kept_pair(r)) {
+        if !ranking.get(best).is_some_and(|r| self.is_pair_of_single(r)) {
             return None;
         }
         ranking.iter().position(|r| {
@@ -464,7 +481,7 @@ fn from_nominal(
     let mut all = Vec::new();
     let mut distinct = Some(true);
     for f in &r.evaluated.effects {
-        let (compared, tells) = fitted_from_nominal(fitter, f);
+        let (compared, tells) = fitted_from_nominal(fitter, f, verdict::DISTINCT_Z);
         distinct = match (distinct, tells) {
             (Some(false), _) | (_, Some(false)) => Some(false),
             (Some(true), Some(true)) => Some(true),
@@ -476,10 +493,12 @@ fn from_nominal(
 }
 
 /// One fitted effect's values beside those at which it would leave the nominal as it is, and
-/// whether they tell it from the nominal ([`verdict::tells_from_nominal`]).
+/// whether they tell it from the nominal at `z` standard uncertainties
+/// ([`verdict::tells_from_nominal_at`]).
 fn fitted_from_nominal(
     fitter: &Fitter,
     f: &fit::Fitted,
+    z: f64,
 ) -> (
     Vec<(Effect, &'static str, verdict::FromNominal)>,
     Option<bool>,
@@ -502,7 +521,7 @@ fn fitted_from_nominal(
         })
         .collect();
     let values: Vec<verdict::FromNominal> = compared.iter().map(|c| c.2).collect();
-    let tells = verdict::tells_from_nominal(&values);
+    let tells = verdict::tells_from_nominal_at(&values, z);
     (compared, tells)
 }
 
@@ -974,12 +993,22 @@ pub fn diagnose_with(
                     progress(&fitting(names), k * CONCURRENT_FITS, others.len());
                     let fits = fitter.on_forks(wave, |fork, &e| {
                         let evaluated = fork.fit(e, &prior).and_then(|second| {
+                            let skipped = |why| SkippedPair {
+                                first: first.effect,
+                                second: second.effect,
+                                values: second.values.clone(),
+                                why,
+                            };
                             if second.effect.does_nothing_at(&second.values, fps_hz) {
-                                return Ok(Err(SkippedPair {
-                                    first: first.effect,
-                                    second: second.effect,
-                                    values: second.values,
-                                }));
+                                return Ok(Err(skipped(SkipReason::AtNeutral)));
+                            }
+                            let (fitted, nominal) =
+                                fork.objective_beside(&prior, second.effect, &second.values);
+                            if !plan::second_lowers_fit(nominal, fitted, second.values.len()) {
+                                return Ok(Err(skipped(SkipReason::NoLowerThanNominal {
+                                    fitted_sum_z2: fitted,
+                                    nominal_sum_z2: nominal,
+                                })));
                             }
                             let pair = fork.backfit_first(vec![first.clone(), second])?;
                             fork.evaluate(pair).map(Ok)
@@ -994,16 +1023,12 @@ pub fn diagnose_with(
                             Ok(evaluated) if second_look.is_some() => {
                                 let remaining = evaluated.gap.total;
                                 let second_tells = evaluated.effects.get(1).and_then(|second| {
-                                    let compared: Vec<verdict::FromNominal> =
-                                        fitted_from_nominal(&fitter, second)
-                                            .0
-                                            .iter()
-                                            .map(|c| c.2)
-                                            .collect();
-                                    verdict::tells_from_nominal_at(
-                                        &compared,
+                                    fitted_from_nominal(
+                                        &fitter,
+                                        second,
                                         plan::SECOND_LOOK_DISTINCT_Z,
                                     )
+                                    .1
                                 });
                                 let judged = plan::judge_second_look_pair(
                                     single_remainder,
@@ -1015,19 +1040,13 @@ pub fn diagnose_with(
                                 {
                                     look.tried.push((second.effect, remaining, judged));
                                 }
-                                let why = match judged {
-                                    plan::SecondLookPair::Kept => None,
-                                    plan::SecondLookPair::ClosesTooLittle => Some(format!(
-                                        "it leaves {remaining:.1} of the {single_remainder:.1} \
-                                         {} left",
+                                let why = report::set_aside_reason(judged).map(|why| {
+                                    format!(
+                                        "{why} ({remaining:.1} of the {single_remainder:.1} {} \
+                                         left)",
                                         first.effect.name()
-                                    )),
-                                    plan::SecondLookPair::SecondAtNominal => Some(
-                                        "its second effect's values lie within two standard \
-                                         uncertainties of the nominal's"
-                                            .to_string(),
-                                    ),
-                                };
+                                    )
+                                });
                                 match why {
                                     None => ranking.push(ranked(nominal_gap, evaluated)),
                                     Some(why) => progress(
@@ -1044,10 +1063,10 @@ pub fn diagnose_with(
                             Err(skipped) => {
                                 progress(
                                     &format!(
-                                        "{} + {}: set aside, the second fitted where it does \
-                                         nothing",
+                                        "{} + {}: set aside, {}",
                                         skipped.first.name(),
-                                        skipped.second.name()
+                                        skipped.second.name(),
+                                        report::skipped_reason(skipped.why)
                                     ),
                                     k * CONCURRENT_FITS,
                                     others.len(),

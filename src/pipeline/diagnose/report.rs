@@ -8,7 +8,7 @@ use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{
     candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit,
-    SecondLook, SkippedPair,
+    SecondLook, SkipReason, SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
@@ -59,17 +59,61 @@ fn skipped_pair_json(p: &SkippedPair) -> Value {
         .zip(&p.values)
         .map(|(spec, v)| (spec.name.to_string(), json!(v)))
         .collect();
+    let fit_objective = match p.why {
+        SkipReason::AtNeutral => Value::Null,
+        SkipReason::NoLowerThanNominal {
+            fitted_sum_z2,
+            nominal_sum_z2,
+        } => {
+            json!({"fitted": finite_or_null(fitted_sum_z2), "nominal": finite_or_null(nominal_sum_z2)})
+        }
+    };
     json!({
         "effects": [p.first.name(), p.second.name()],
         "second_params": second,
-        "reason": SKIPPED_PAIR_REASON,
+        "reason": skipped_reason(p.why),
+        "fit_objective": fit_objective,
     })
 }
 
-/// Why the pair stage sets a pair aside, in `diagnosis.json` and `diagnosis.md`.
-const SKIPPED_PAIR_REASON: &str = "the second effect was fitted where it does nothing (every \
-     parameter with a neutral at it, one of them its search's end): the pair would be the single \
-     under another name";
+/// A number for JSON: null where not finite (a failed simulation's objective).
+fn finite_or_null(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+/// Why the pair stage set a pair aside, in `diagnosis.json`, `diagnosis.md` and the progress
+/// line: the pair would be the single under another name.
+pub(super) fn skipped_reason(why: SkipReason) -> String {
+    match why {
+        SkipReason::AtNeutral => "the second effect was fitted where it does nothing (every \
+             parameter with a neutral at it, one of them its search's end)"
+            .to_string(),
+        SkipReason::NoLowerThanNominal {
+            fitted_sum_z2,
+            nominal_sum_z2,
+        } => format!(
+            "the second effect's fit did not lower the fit objective (Σ z² over both effects' \
+             cells, fit seeds) by more than {} per parameter below the effect as the nominal \
+             has it ({} against {})",
+            crate::diagnose::plan::SECOND_DROP_PER_PARAM,
+            fmt_sum_z2(fitted_sum_z2),
+            fmt_sum_z2(nominal_sum_z2)
+        ),
+    }
+}
+
+/// A Σ z² in words, "failed" where its simulation failed.
+fn fmt_sum_z2(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.1}")
+    } else {
+        "failed".to_string()
+    }
+}
 
 /// `diagnosis.md`'s line on the pairs set aside; empty when there are none.
 fn skipped_pairs_text(pairs: &[SkippedPair]) -> String {
@@ -87,11 +131,16 @@ fn skipped_pairs_text(pairs: &[SkippedPair]) -> String {
                 .map(|(spec, v)| format!("{} = {} {}", spec.name, fmt(*v), spec.unit))
                 .collect::<Vec<_>>()
                 .join(", ");
-            format!("`{} + {}` ({values})", p.first.name(), p.second.name())
+            format!(
+                "`{} + {}` ({values}): {}",
+                p.first.name(),
+                p.second.name(),
+                skipped_reason(p.why)
+            )
         })
         .collect::<Vec<_>>()
         .join("; ");
-    format!("Pairs set aside ({SKIPPED_PAIR_REASON}): {listed}.\n\n")
+    format!("Pairs set aside, each a single under another name: {listed}.\n\n")
 }
 
 /// How the headline says a pair was found: past a single that did not explain the gap, or by
@@ -129,13 +178,15 @@ fn second_look_json(look: Option<&SecondLook>) -> Value {
     })
 }
 
-/// Why a second look set a pair aside, in words (None for a pair it kept).
-fn set_aside_reason(judged: SecondLookPair) -> Option<&'static str> {
+/// Why a second look set a pair aside, in words (None for a pair it kept); the progress line
+/// and `diagnosis.md` say the same.
+pub(super) fn set_aside_reason(judged: SecondLookPair) -> Option<&'static str> {
     match judged {
         SecondLookPair::Kept => None,
         SecondLookPair::ClosesTooLittle => Some("it left more than half"),
         SecondLookPair::SecondAtNominal => Some(
-            "its second effect's values lie within two standard uncertainties of the nominal's",
+            "its second effect's first-fit values lie within two standard uncertainties of the \
+             nominal's",
         ),
     }
 }
@@ -146,7 +197,8 @@ fn second_look_text(look: Option<&SecondLook>) -> String {
         return String::new();
     };
     let tried = if look.tried.is_empty() {
-        "no pair could be judged (each second effect was fitted where it does nothing)".to_string()
+        "no pair could be judged (each second effect did nothing: see the pairs set aside)"
+            .to_string()
     } else {
         look.tried
             .iter()
@@ -167,11 +219,13 @@ fn second_look_text(look: Option<&SecondLook>) -> String {
          remaining gap of {:.1}, above the {} that a comparison in agreement leaves (about the \
          99.9th percentile over a hundred cells), in cells another candidate moves. Pairs were \
          fitted for a second cause and kept only when they left at most {:.1} (half of it) with a \
-         second effect the data tell from the nominal: {tried}.\n\n",
+         second effect whose first-fit values lie at least {} standard uncertainties from the \
+         nominal's: {tried}.\n\n",
         look.first.name(),
         look.remainder,
         crate::diagnose::plan::SECOND_LOOK_REMAINDER,
         (1.0 - crate::diagnose::plan::SECOND_LOOK_CLOSE) * look.remainder,
+        crate::diagnose::plan::SECOND_LOOK_DISTINCT_Z,
     )
 }
 
@@ -1351,6 +1405,7 @@ mod tests {
             first: Effect::MotionBlur,
             second: Effect::Compression,
             values: vec![98.0],
+            why: SkipReason::AtNeutral,
         };
         let j = skipped_pair_json(&pair);
         assert_eq!(j["effects"], json!(["motion_blur", "compression"]));
@@ -1358,10 +1413,31 @@ mod tests {
         assert!(j["reason"]
             .as_str()
             .is_some_and(|r| r.contains("does nothing")));
-        let text = skipped_pairs_text(std::slice::from_ref(&pair));
+        assert_eq!(j["fit_objective"], Value::Null);
+        let no_drop = SkippedPair {
+            first: Effect::AxisRunout,
+            second: Effect::DriveSpeed,
+            values: vec![0.0288],
+            why: SkipReason::NoLowerThanNominal {
+                fitted_sum_z2: 79.98,
+                nominal_sum_z2: f64::INFINITY,
+            },
+        };
+        let j = skipped_pair_json(&no_drop);
+        assert_eq!(
+            j["fit_objective"],
+            json!({"fitted": 79.98, "nominal": null})
+        );
+        assert!(j["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("by more than 2 per parameter")
+                && r.contains("(80.0 against failed)")));
+        let text = skipped_pairs_text(&[pair, no_drop]);
         assert!(
-            text.starts_with("Pairs set aside (")
+            text.starts_with("Pairs set aside, each a single under another name: ")
                 && text.contains("`motion_blur + compression` (quality = 98")
+                && text.contains("): the second effect was fitted where it does nothing")
+                && text.contains("`axis_runout + drive_speed` (variation_frac = ")
                 && text.ends_with(".\n\n"),
             "{text}"
         );
@@ -1397,7 +1473,8 @@ mod tests {
             text.contains("remaining gap of 11.5, above the 8")
                 && text.contains("`compression + optical_blur` left 0.8 (kept)")
                 && text.contains("`compression + motion_blur` left 9.0 (set aside: it left more than half)")
-                && text.contains("`compression + rolling_shutter` left 1.2 (set aside: its second effect's values lie within two standard uncertainties of the nominal's)"),
+                && text.contains("`compression + rolling_shutter` left 1.2 (set aside: its second effect's first-fit values lie within two standard uncertainties of the nominal's)")
+                && text.contains("at least 2 standard uncertainties from the nominal's"),
             "{text}"
         );
         assert!(pair_found_text(Some(&look)).contains("`compression` alone closed the gap"));
