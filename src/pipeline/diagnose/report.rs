@@ -65,7 +65,7 @@ fn skipped_pair_json(p: &SkippedPair) -> Value {
             fitted_sum_z2,
             nominal_sum_z2,
         } => {
-            json!({"fitted": finite_or_null(fitted_sum_z2), "nominal": finite_or_null(nominal_sum_z2)})
+            json!({"fitted": finite_json(fitted_sum_z2), "nominal": finite_json(nominal_sum_z2)})
         }
     };
     json!({
@@ -74,15 +74,6 @@ fn skipped_pair_json(p: &SkippedPair) -> Value {
         "reason": skipped_reason(p.why),
         "fit_objective": fit_objective,
     })
-}
-
-/// A number for JSON: null where not finite (a failed simulation's objective).
-fn finite_or_null(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
 }
 
 /// Why the pair stage set a pair aside, in `diagnosis.json`, `diagnosis.md` and the progress
@@ -260,7 +251,7 @@ fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
             "effect": e.name(),
             "param": name,
             "value": v.value,
-            "std": sd_json(v.std),
+            "std": finite_json(v.std),
             "nominal": v.nominal,
             "z": v.z(),
         })).collect::<Vec<_>>(),
@@ -306,7 +297,7 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
         json!({
             "cycles_per_wheel_rev": f.cycles_per_wheel_rev,
             "phase_rad": f.phase_rad,
-            "phase_std_rad": sd_json(f.phase_std_rad),
+            "phase_std_rad": finite_json(f.phase_std_rad),
         })
     });
     let cell_shrink: Vec<Value> = r
@@ -356,7 +347,7 @@ fn intervals_json(r: &Ranked) -> (Map<String, Value>, Map<String, Value>) {
                 key.clone(),
                 interval.map_or(Value::Null, |i| json!([i.low, i.high])),
             );
-            dofs.insert(key, interval.map_or(Value::Null, |i| sd_json(i.dof)));
+            dofs.insert(key, interval.map_or(Value::Null, |i| finite_json(i.dof)));
         }
     }
     (ci95, dofs)
@@ -639,7 +630,7 @@ fn params_json(
         for ((spec, v), s) in effect.params().iter().zip(values).zip(sds) {
             let key = param_key(effect, spec.name, single);
             params.insert(key.clone(), json!(v));
-            stds.insert(key, sd_json(*s));
+            stds.insert(key, finite_json(*s));
         }
     }
     (params, stds)
@@ -655,8 +646,9 @@ fn param_key(effect: Effect, name: &str, single: bool) -> String {
     }
 }
 
-/// A 1-σ uncertainty in `diagnosis.json`: null when the data do not determine the parameter.
-fn sd_json(sd: f64) -> Value {
+/// A number in `diagnosis.json`, null where it is not finite: a 1-σ uncertainty the data do
+/// not determine, a failed simulation's objective.
+fn finite_json(sd: f64) -> Value {
     if sd.is_finite() {
         json!(sd)
     } else {
