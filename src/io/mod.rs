@@ -5,6 +5,7 @@
 
 pub mod csv_out;
 pub mod images;
+pub mod json;
 pub mod kinematics_csv;
 pub mod output_dir;
 pub mod png_out;

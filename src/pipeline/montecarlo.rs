@@ -12,6 +12,7 @@ use super::run::{run, RunError, RunOptions};
 use crate::budget::report::Budget;
 use crate::budget::MeanCi;
 use crate::errors::FileError;
+use crate::io::json::finite_or_null;
 use crate::plot::histogram::histogram_png;
 use crate::scenario::Scenario;
 use crate::shard::{self, Control, Manifest, Shard, ShardError, Study, UnitDirs};
@@ -376,13 +377,6 @@ pub fn aggregate(per_seed: &[Budget]) -> Value {
     json
 }
 
-/// A JSON number, or null for NaN/∞ (JSON has neither).
-fn number(x: f64) -> Value {
-    serde_json::Number::from_f64(x)
-        .map(Value::Number)
-        .unwrap_or(Value::Null)
-}
-
 fn as_f64(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
@@ -406,7 +400,10 @@ fn mean_of(values: &[&Value]) -> Value {
                     let m = MeanCi::of(&xs);
                     ci.insert(
                         key.clone(),
-                        Value::Array(vec![number(m.ci95_low), number(m.ci95_high)]),
+                        Value::Array(vec![
+                            finite_or_null(m.ci95_low),
+                            finite_or_null(m.ci95_high),
+                        ]),
                     );
                 }
             }
@@ -417,7 +414,7 @@ fn mean_of(values: &[&Value]) -> Value {
         }
         Value::Number(_) | Value::Null => {
             let xs: Vec<f64> = values.iter().map(|v| as_f64(v)).collect();
-            number(MeanCi::of(&xs).mean)
+            finite_or_null(MeanCi::of(&xs).mean)
         }
         Value::Bool(_) => Value::Bool(values.iter().all(|v| v.as_bool() == Some(true))),
         other => (*other).clone(),

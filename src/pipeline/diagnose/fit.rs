@@ -31,7 +31,9 @@ use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
 use std::cell::{OnceCell, RefCell};
 
+mod memo;
 mod noise;
+use memo::{MemoKey, ObjectiveMemo};
 pub use noise::{
     full_well_on_valley, noise_split_determined, read_noise_on_valley, NOISE_SPLIT_MAX_REL_SD,
 };
@@ -53,6 +55,18 @@ pub struct Fitted {
     pub simulations: usize,
     /// An axis runout's form, when it took the footage's ([`FittedRunoutForm`]).
     pub runout_form: Option<FittedRunoutForm>,
+}
+
+/// How the method of a fit by a Σ z² search begins ([`Fitted::searched_on_sum_z2`]).
+const SEARCH_METHOD: &str = "simulated method of moments: Σ z² over the";
+
+impl Fitted {
+    /// Whether the values come from a search of the fit objective (Σ z² over the signature
+    /// cells), not from a moment match or a direct fit. Read off the method, which the shard
+    /// records carry unchanged, so a fit decoded from another machine answers alike.
+    pub fn searched_on_sum_z2(&self) -> bool {
+        self.method.starts_with(SEARCH_METHOD)
+    }
 }
 
 /// A fitted candidate (one effect or a pair) judged on the evaluation seeds.
@@ -117,6 +131,8 @@ pub struct Fitter<'a> {
     /// trial that refits its nuisance matches (computed at the first such trial, shared with
     /// forks made after it).
     base_centre_px: OnceCell<[f64; 2]>,
+    /// Fit objectives already simulated ([`memo`]); empty in a new fork.
+    objective_memo: ObjectiveMemo,
 }
 
 /// One trial's two objectives, from the same simulations. The searches minimise `sum_z2`, Σ z²
@@ -523,6 +539,7 @@ impl<'a> Fitter<'a> {
             gap_options,
             simulations,
             base_centre_px: OnceCell::new(),
+            objective_memo: ObjectiveMemo::default(),
         })
     }
 
@@ -569,6 +586,7 @@ impl<'a> Fitter<'a> {
             gap_options: self.gap_options,
             simulations: RefCell::new(0),
             base_centre_px: self.base_centre_px.clone(),
+            objective_memo: ObjectiveMemo::default(),
         }
     }
 
@@ -632,6 +650,12 @@ impl<'a> Fitter<'a> {
     /// 42 (truth 35), and the pair kept it, fitting only the blur on top. Every pair's fit
     /// goes through here (the pair stage, its refits on fresh seeds and its bootstrap
     /// footages), so the values a pair states are fitted alike.
+    ///
+    /// A first effect fitted by a Σ z² search keeps its values when the refit leaves that
+    /// objective higher than they do ([`plan::backfit_keeps_refit`]): the refit searches from a
+    /// generic start and can end above them. A first effect matched on its moments (a JPEG
+    /// quality on the blockiness, a blur on the edge width) is not fitted on Σ z², and its
+    /// refit is the correction the backfit is for: it is always taken.
     pub fn backfit_first(&self, mut fits: Vec<Fitted>) -> Result<Vec<Fitted>, DiagnoseError> {
         if fits.len() < 2 {
             return Ok(fits);
@@ -640,8 +664,62 @@ impl<'a> Fitter<'a> {
             .iter()
             .map(|f| (f.effect, f.values.clone()))
             .collect();
-        fits[0] = self.fit(fits[0].effect, &others)?;
+        let refit = self.fit(fits[0].effect, &others)?;
+        fits[0] = if fits[0].searched_on_sum_z2() && refit.searched_on_sum_z2() {
+            self.better_of_backfit(&others, fits[0].clone(), refit)
+        } else {
+            refit
+        };
         Ok(fits)
+    }
+
+    /// `refit` or `kept` (the same effect's values before the refit), whichever leaves the fit
+    /// objective beside `others` lower ([`plan::backfit_keeps_refit`]); `kept` says so in its
+    /// method.
+    fn better_of_backfit(
+        &self,
+        others: &[(Effect, Vec<f64>)],
+        kept: Fitted,
+        refit: Fitted,
+    ) -> Fitted {
+        let at = |values: &[f64]| {
+            let mut applied: Vec<(Effect, Vec<f64>)> = others.to_vec();
+            applied.push((kept.effect, values.to_vec()));
+            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+            self.objectives(&effects, &applied, LensCells::All).sum_z2
+        };
+        let (kept_sum_z2, refit_sum_z2) = (at(&kept.values), at(&refit.values));
+        if plan::backfit_keeps_refit(kept_sum_z2, refit_sum_z2) {
+            return refit;
+        }
+        let beside: Vec<&str> = others.iter().map(|(e, _)| e.name()).collect();
+        let specs = self.specs(kept.effect);
+        let values: Vec<String> = refit
+            .values
+            .iter()
+            .zip(&specs)
+            .map(|(v, spec)| format!("{} = {v:.4e} {}", spec.name, spec.unit))
+            .collect();
+        let sum_z2 = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.1}")
+            } else {
+                "failed".to_string()
+            }
+        };
+        Fitted {
+            method: format!(
+                "{}; refitted beside {}, it ended at {} with Σ z² over both effects' signature \
+                 cells {}, above the {} of these values, which are kept",
+                kept.method,
+                beside.join(", "),
+                values.join(", "),
+                sum_z2(refit_sum_z2),
+                sum_z2(kept_sum_z2)
+            ),
+            simulations: kept.simulations + refit.simulations,
+            ..kept
+        }
     }
 
     /// The fit objective (Σ z² over the signature cells of `prior`'s effects and `e`, on the
@@ -1069,6 +1147,15 @@ impl<'a> Fitter<'a> {
         let Ok(trial) = trial else {
             return failed;
         };
+        let key = MemoKey::new(
+            &format!("{trial:?}"),
+            &self.fit_seeds,
+            effects,
+            &format!("{lens:?}, comparison at {:#x}", comparison as usize),
+        );
+        if let Some(known) = self.objective_memo.get(&key) {
+            return known;
+        }
         // Image statistics cost most of a simulated measurement; skip them when no signature
         // channel uses them (the objective compares signature cells only).
         let images = effects.iter().any(|e| {
@@ -1087,10 +1174,12 @@ impl<'a> Fitter<'a> {
             .filter(|c| counted(&c.key))
             .map(|c| c.z * c.z)
             .sum();
-        Objectives {
+        let objectives = Objectives {
             sum_z2,
             shared_chi2: shared_tolerance_chi2(self.real_cells, &sims, self.gap_options, counted),
-        }
+        };
+        self.objective_memo.insert(key, objectives);
+        objectives
     }
 
     /// Mean over phases of a channel's real value and the nominal simulations' mean.
@@ -1552,7 +1641,7 @@ impl<'a> Fitter<'a> {
                     last_search = Some((r, o));
                 }
                 method = format!(
-                    "simulated method of moments: Σ z² over the {} signature cells, {} fit seeds",
+                    "{SEARCH_METHOD} {} signature cells, {} fit seeds",
                     e.name(),
                     self.fit_seeds.len()
                 );
@@ -2089,6 +2178,33 @@ fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_a_search_of_the_fit_objective_counts_as_searched_for_the_backfits_guard() {
+        let fitted = |method: String| Fitted {
+            effect: Effect::AxisRunout,
+            values: vec![2e-3],
+            stds: vec![1e-4],
+            method,
+            simulations: 9,
+            runout_form: None,
+        };
+        // The search's method as `fit` writes it, with what a lens or a tilt appends.
+        let searched = format!("{SEARCH_METHOD} axis_runout signature cells, 2 fit seeds");
+        assert!(fitted(searched.clone()).searched_on_sum_z2());
+        assert!(fitted(format!("{searched}; started at the tilt …")).searched_on_sum_z2());
+        // A moment match (its method as `moment_method` writes it) and a direct fit are not.
+        assert!(!fitted(
+            "moment matching: edge width of the simulation set equal to the footage's (3 \
+             simulations of 2 fit seeds, secant steps)"
+                .into()
+        )
+        .searched_on_sum_z2());
+        assert!(
+            !fitted("fitted directly to the footage's timestamps (geneva timing fit)".into())
+                .searched_on_sum_z2()
+        );
+    }
 
     #[test]
     fn a_vibrations_frequency_starts_at_the_residuals_peak_not_the_trends() {

@@ -17,6 +17,7 @@ use crate::diagnose::gap::{CellGap, GapMap};
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
 use crate::errors::FileError;
+use crate::io::json::finite_or_null;
 use crate::io::output_dir::OutputDir;
 use crate::plot::{bars_png, heatmap::heatmap_png, heatmap::Heatmap, stacked_png, Panel, Series};
 use crate::plot::{MEASURED, SECOND, THIRD};
@@ -65,7 +66,7 @@ fn skipped_pair_json(p: &SkippedPair) -> Value {
             fitted_sum_z2,
             nominal_sum_z2,
         } => {
-            json!({"fitted": finite_json(fitted_sum_z2), "nominal": finite_json(nominal_sum_z2)})
+            json!({"fitted": finite_or_null(fitted_sum_z2), "nominal": finite_or_null(nominal_sum_z2)})
         }
     };
     json!({
@@ -251,7 +252,7 @@ fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
             "effect": e.name(),
             "param": name,
             "value": v.value,
-            "std": finite_json(v.std),
+            "std": finite_or_null(v.std),
             "nominal": v.nominal,
             "z": v.z(),
         })).collect::<Vec<_>>(),
@@ -297,7 +298,7 @@ fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
         json!({
             "cycles_per_wheel_rev": f.cycles_per_wheel_rev,
             "phase_rad": f.phase_rad,
-            "phase_std_rad": finite_json(f.phase_std_rad),
+            "phase_std_rad": finite_or_null(f.phase_std_rad),
         })
     });
     let cell_shrink: Vec<Value> = r
@@ -347,7 +348,7 @@ fn intervals_json(r: &Ranked) -> (Map<String, Value>, Map<String, Value>) {
                 key.clone(),
                 interval.map_or(Value::Null, |i| json!([i.low, i.high])),
             );
-            dofs.insert(key, interval.map_or(Value::Null, |i| finite_json(i.dof)));
+            dofs.insert(key, interval.map_or(Value::Null, |i| finite_or_null(i.dof)));
         }
     }
     (ci95, dofs)
@@ -630,7 +631,7 @@ fn params_json(
         for ((spec, v), s) in effect.params().iter().zip(values).zip(sds) {
             let key = param_key(effect, spec.name, single);
             params.insert(key.clone(), json!(v));
-            stds.insert(key, finite_json(*s));
+            stds.insert(key, finite_or_null(*s));
         }
     }
     (params, stds)
@@ -643,16 +644,6 @@ fn param_key(effect: Effect, name: &str, single: bool) -> String {
         name.to_string()
     } else {
         format!("{}.{name}", effect.name())
-    }
-}
-
-/// A number in `diagnosis.json`, null where it is not finite: a 1-σ uncertainty the data do
-/// not determine, a failed simulation's objective.
-fn finite_json(sd: f64) -> Value {
-    if sd.is_finite() {
-        json!(sd)
-    } else {
-        Value::Null
     }
 }
 
