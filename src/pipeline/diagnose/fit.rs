@@ -7,6 +7,7 @@
 use super::camera_warp;
 use super::nominal::Aligned;
 use super::pose_tilt::PoseTilt;
+use super::report::fmt_sum_z2;
 use super::simulate::{
     simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
 };
@@ -700,13 +701,6 @@ impl<'a> Fitter<'a> {
             .zip(&specs)
             .map(|(v, spec)| format!("{} = {v:.4e} {}", spec.name, spec.unit))
             .collect();
-        let sum_z2 = |x: f64| {
-            if x.is_finite() {
-                format!("{x:.1}")
-            } else {
-                "failed".to_string()
-            }
-        };
         Fitted {
             method: format!(
                 "{}; refitted beside {}, it ended at {} with Σ z² over both effects' signature \
@@ -714,8 +708,8 @@ impl<'a> Fitter<'a> {
                 kept.method,
                 beside.join(", "),
                 values.join(", "),
-                sum_z2(refit_sum_z2),
-                sum_z2(kept_sum_z2)
+                fmt_sum_z2(refit_sum_z2),
+                fmt_sum_z2(kept_sum_z2)
             ),
             simulations: kept.simulations + refit.simulations,
             ..kept

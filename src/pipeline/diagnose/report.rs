@@ -99,7 +99,7 @@ pub(super) fn skipped_reason(why: SkipReason) -> String {
 }
 
 /// A Σ z² in words, "failed" where its simulation failed.
-fn fmt_sum_z2(x: f64) -> String {
+pub(super) fn fmt_sum_z2(x: f64) -> String {
     if x.is_finite() {
         format!("{x:.1}")
     } else {
