@@ -684,10 +684,8 @@ impl<'a> Fitter<'a> {
         refit: Fitted,
     ) -> Fitted {
         let at = |values: &[f64]| {
-            let mut applied: Vec<(Effect, Vec<f64>)> = others.to_vec();
-            applied.push((kept.effect, values.to_vec()));
-            let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-            self.objectives(&effects, &applied, LensCells::All).sum_z2
+            self.objectives_beside(others, kept.effect, values, compare_for_fit, LensCells::All)
+                .sum_z2
         };
         let (kept_sum_z2, refit_sum_z2) = (at(&kept.values), at(&refit.values));
         if plan::backfit_keeps_refit(kept_sum_z2, refit_sum_z2) {
@@ -726,10 +724,10 @@ impl<'a> Fitter<'a> {
         e: Effect,
         values: &[f64],
     ) -> (f64, f64) {
-        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-        applied.push((e, values.to_vec()));
-        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-        let fitted = self.objectives(&effects, &applied, LensCells::All).sum_z2;
+        let fitted = self
+            .objectives_beside(prior, e, values, compare_for_fit, LensCells::All)
+            .sum_z2;
+        let effects: Vec<Effect> = prior.iter().map(|a| a.0).chain([e]).collect();
         let nominal = self
             .objectives_of(
                 &effects,
@@ -1101,18 +1099,6 @@ impl<'a> Fitter<'a> {
         ))
     }
 
-    /// The fit objective (Σ z² over the signature cells of `effects`, the lens's as `lens` says,
-    /// every cell's tolerance symmetric: [`compare_for_fit`]) and, from the same simulations, the
-    /// χ² whose curvature is the fitted parameter's uncertainty ([`Objectives`]).
-    fn objectives(
-        &self,
-        effects: &[Effect],
-        applied: &[(Effect, Vec<f64>)],
-        lens: LensCells,
-    ) -> Objectives {
-        self.objectives_by(effects, applied, compare_for_fit, lens)
-    }
-
     /// [`Objectives`] over the signature cells of `effects` (the lens's as `lens` says), Σ z²
     /// with the cells compared by `comparison`.
     fn objectives_by(
@@ -1174,6 +1160,24 @@ impl<'a> Fitter<'a> {
         };
         self.objective_memo.insert(key, objectives);
         objectives
+    }
+
+    /// [`Objectives`] with `e` at `values` on top of `prior`, over the signature cells of all
+    /// of them (the lens's as `lens` says), compared by `comparison`: the fit objective (Σ z²,
+    /// every cell's tolerance symmetric) with [`compare_for_fit`], and, from the same
+    /// simulations, the χ² whose curvature is the fitted parameter's uncertainty.
+    fn objectives_beside(
+        &self,
+        prior: &[(Effect, Vec<f64>)],
+        e: Effect,
+        values: &[f64],
+        comparison: fn(&Cells, &[Cells], GapOptions) -> GapMap,
+        lens: LensCells,
+    ) -> Objectives {
+        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
+        applied.push((e, values.to_vec()));
+        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
+        self.objectives_by(&effects, &applied, comparison, lens)
     }
 
     /// Mean over phases of a channel's real value and the nominal simulations' mean.
@@ -1400,10 +1404,7 @@ impl<'a> Fitter<'a> {
         let evaluated: RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
         let r = minimise(
             |x| {
-                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                applied.push((e, vec![x]));
-                let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                let f = self.objectives(&effects, &applied, LensCells::All);
+                let f = self.objectives_beside(prior, e, &[x], compare_for_fit, LensCells::All);
                 evaluated.borrow_mut().push((vec![x], f));
                 f.sum_z2
             },
@@ -1671,16 +1672,8 @@ impl<'a> Fitter<'a> {
                     // footage lie below the simulations. The fit's symmetric tolerance rejected the 20.12° pose fit
                     // of a 20° tilt drawn by another renderer for the moments' 18.62°.
                     let with = |v: &[f64]| {
-                        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                        applied.push((e, v.to_vec()));
-                        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-                        self.objectives_by(
-                            &effects,
-                            &applied,
-                            compare_with_slow_shape,
-                            LensCells::All,
-                        )
-                        .sum_z2
+                        self.objectives_beside(prior, e, v, compare_with_slow_shape, LensCells::All)
+                            .sum_z2
                     };
                     let at_pose = with(&[p.tilt_x_deg, p.tilt_y_deg]);
                     let at_minimum = with(&values);
@@ -1789,10 +1782,7 @@ impl<'a> Fitter<'a> {
         if let Some(f) = objective_at(&evaluated.borrow(), &v) {
             return f.sum_z2;
         }
-        let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-        applied.push((e, v.clone()));
-        let effects: Vec<Effect> = applied.iter().map(|a| a.0).collect();
-        let f = self.objectives(&effects, &applied, lens);
+        let f = self.objectives_beside(prior, e, &v, compare_for_fit, lens);
         evaluated.borrow_mut().push((v, f));
         f.sum_z2
     }
