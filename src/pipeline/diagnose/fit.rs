@@ -56,17 +56,82 @@ pub struct Fitted {
     pub simulations: usize,
     /// An axis runout's form, when it took the footage's ([`FittedRunoutForm`]).
     pub runout_form: Option<FittedRunoutForm>,
+    /// How the values were obtained, as the code decides on it (`method` says it in words).
+    pub kind: FitKind,
 }
 
-/// How the method of a fit by a Σ z² search begins ([`Fitted::searched_on_sum_z2`]).
+/// How a fit obtained its values: what the backfit's guard ([`Fitter::backfit_first`]) asks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitKind {
+    /// A search of the fit objective (Σ z² over the signature cells on the fit seeds).
+    SumZ2Search,
+    /// One statistic of the simulation set matched to the footage's (secant steps): an edge
+    /// width, a blockiness, a readout implied by stretch, the noise at two grey levels.
+    MomentMatch,
+    /// Read off the footage with at most one simulated correction: the timing fit, the
+    /// timestamps' rate, the tone inverted from the ink, paper and disc levels.
+    Measured,
+}
+
+/// How the method of a fit by a Σ z² search begins.
 const SEARCH_METHOD: &str = "simulated method of moments: Σ z² over the";
+
+/// How the method of a moment match begins ([`moment_method`]).
+const MOMENT_METHOD: &str = "moment matching:";
+
+impl FitKind {
+    pub const ALL: [FitKind; 3] = [Self::SumZ2Search, Self::MomentMatch, Self::Measured];
+
+    /// The name a shard record stores.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::SumZ2Search => "sum_z2_search",
+            Self::MomentMatch => "moment_match",
+            Self::Measured => "measured",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The kind of a fit recorded before fits carried one (shard records written before
+    /// stop 59): read off its method's opening words, which those builds wrote the same way.
+    /// Whether it was a Σ z² search, all the guard asks, is recovered exactly; a disc
+    /// vibration's sinusoid fit reads as `Measured`, not as the `MomentMatch` it now records.
+    pub fn of_legacy_method(method: &str) -> Self {
+        if method.starts_with(SEARCH_METHOD) {
+            Self::SumZ2Search
+        } else if method.starts_with(MOMENT_METHOD) {
+            Self::MomentMatch
+        } else {
+            Self::Measured
+        }
+    }
+}
+
+/// The method of a Σ z² search of `e` on `fit_seeds` seeds (what a tilt, a lens or a runout
+/// did besides is appended).
+pub(super) fn search_method(e: Effect, fit_seeds: usize) -> String {
+    format!(
+        "{SEARCH_METHOD} {} signature cells, {fit_seeds} fit seeds",
+        e.name()
+    )
+}
+
+/// The method of a moment match of `what` that took `n` simulations of `fit_seeds` seeds.
+pub(super) fn moment_method(what: &str, n: usize, fit_seeds: usize) -> String {
+    format!(
+        "{MOMENT_METHOD} {what} of the simulation set equal to the footage's ({n} simulations \
+         of {fit_seeds} fit seeds, secant steps)"
+    )
+}
 
 impl Fitted {
     /// Whether the values come from a search of the fit objective (Σ z² over the signature
-    /// cells), not from a moment match or a direct fit. Read off the method, which the shard
-    /// records carry unchanged, so a fit decoded from another machine answers alike.
+    /// cells), not from a moment match or a measurement.
     pub fn searched_on_sum_z2(&self) -> bool {
-        self.method.starts_with(SEARCH_METHOD)
+        self.kind == FitKind::SumZ2Search
     }
 }
 
@@ -1426,6 +1491,8 @@ impl<'a> Fitter<'a> {
         let specs = self.specs(e);
         let mut values = self.start_values(e);
         let mut stds = vec![f64::INFINITY; specs.len()];
+        // A moment match, or a disc vibration's sinusoid (the residual's sinusoid at the
+        // vibration's frequency matched to the footage's).
         let fitted = |(values, stds, method): (Vec<f64>, Vec<f64>, String)| Fitted {
             effect: e,
             values,
@@ -1433,6 +1500,7 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
             runout_form: None,
+            kind: FitKind::MomentMatch,
         };
         let why_searched = match self.fit_by_moments(e, prior, &values)? {
             MomentFit::Fitted(direct) => return Ok(fitted(direct)),
@@ -1440,6 +1508,7 @@ impl<'a> Fitter<'a> {
         };
         let mut method: String;
         let mut runout_form: Option<FittedRunoutForm> = None;
+        let mut kind = FitKind::Measured;
         match e {
             Effect::FrameTiming => {
                 let ts =
@@ -1635,11 +1704,8 @@ impl<'a> Fitter<'a> {
                     searches_run += 1;
                     last_search = Some((r, o));
                 }
-                method = format!(
-                    "{SEARCH_METHOD} {} signature cells, {} fit seeds",
-                    e.name(),
-                    self.fit_seeds.len()
-                );
+                kind = FitKind::SumZ2Search;
+                method = search_method(e, self.fit_seeds.len());
                 if let Some(why) = &why_searched {
                     method.push_str(why);
                 }
@@ -1765,6 +1831,7 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
             runout_form,
+            kind,
         })
     }
 
@@ -1808,11 +1875,7 @@ impl<'a> Fitter<'a> {
 
     /// The method's words for a moment match of `what` after `n` simulations.
     fn moment_method(&self, what: &str, n: usize) -> String {
-        format!(
-            "moment matching: {what} of the simulation set equal to the footage's ({n} \
-             simulations of {} fit seeds, secant steps)",
-            self.fit_seeds.len()
-        )
+        moment_method(what, n, self.fit_seeds.len())
     }
 
     /// Fits `e` by moment matching ([`moments`]) when one statistic of the gap map carries its
@@ -2164,30 +2227,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn only_a_search_of_the_fit_objective_counts_as_searched_for_the_backfits_guard() {
-        let fitted = |method: String| Fitted {
-            effect: Effect::AxisRunout,
-            values: vec![2e-3],
-            stds: vec![1e-4],
-            method,
-            simulations: 9,
-            runout_form: None,
-        };
-        // The search's method as `fit` writes it, with what a lens or a tilt appends.
-        let searched = format!("{SEARCH_METHOD} axis_runout signature cells, 2 fit seeds");
-        assert!(fitted(searched.clone()).searched_on_sum_z2());
-        assert!(fitted(format!("{searched}; started at the tilt …")).searched_on_sum_z2());
-        // A moment match (its method as `moment_method` writes it) and a direct fit are not.
-        assert!(!fitted(
-            "moment matching: edge width of the simulation set equal to the footage's (3 \
-             simulations of 2 fit seeds, secant steps)"
-                .into()
-        )
-        .searched_on_sum_z2());
-        assert!(
-            !fitted("fitted directly to the footage's timestamps (geneva timing fit)".into())
-                .searched_on_sum_z2()
+    fn an_older_records_fit_kind_is_read_off_the_method_its_build_wrote() {
+        // The methods as `fit` writes them, with what a lens or a tilt appends.
+        let searched = search_method(Effect::AxisRunout, 2);
+        assert_eq!(FitKind::of_legacy_method(&searched), FitKind::SumZ2Search);
+        assert_eq!(
+            FitKind::of_legacy_method(&format!("{searched}; started at the tilt …")),
+            FitKind::SumZ2Search
         );
+        assert_eq!(
+            FitKind::of_legacy_method(&moment_method("edge width² along the motion", 3, 2)),
+            FitKind::MomentMatch
+        );
+        assert_eq!(
+            FitKind::of_legacy_method(
+                "fitted directly to the footage's timestamps (geneva timing fit)"
+            ),
+            FitKind::Measured
+        );
+        for kind in FitKind::ALL {
+            assert_eq!(FitKind::from_name(kind.name()), Some(kind));
+        }
+        assert_eq!(FitKind::from_name("searched"), None);
     }
 
     #[test]

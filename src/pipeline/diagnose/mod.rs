@@ -1572,6 +1572,7 @@ pub(crate) mod tests {
             method: "by hand".into(),
             simulations: 0,
             runout_form: None,
+            kind: fit::FitKind::Measured,
         }
     }
 

@@ -13,7 +13,7 @@
 //! A record keeps every f64 as its bit pattern (a JSON integer): exact, infinities and NaN
 //! included, whatever the JSON float parser does.
 
-use super::fit::{Evaluated, Fitted, FittedRunoutForm, Fitter};
+use super::fit::{Evaluated, FitKind, Fitted, FittedRunoutForm, Fitter};
 use super::{DiagnoseError, DiagnoseOptions};
 use crate::diagnose::cells::{channel, CellKey, PHASES};
 use crate::diagnose::gap::{CellGap, GapMap, GapOptions};
@@ -187,6 +187,10 @@ struct FittedRecord {
     /// An axis runout's form as bits: cycles per wheel revolution, phase, phase's σ.
     #[serde(default)]
     runout_form: Option<[u64; 3]>,
+    /// [`FitKind::name`]; absent from records written before stop 59
+    /// ([`FitKind::of_legacy_method`]).
+    #[serde(default)]
+    kind: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -233,6 +237,7 @@ pub fn encode(e: &Evaluated, simulations: usize) -> Result<String, DiagnoseError
                         r.phase_std_rad.to_bits(),
                     ]
                 }),
+                kind: Some(f.kind.name().into()),
             })
             .collect(),
         cells: g
@@ -283,6 +288,15 @@ pub fn decode(text: &str, place: &Path) -> Result<(Evaluated, usize), DiagnoseEr
         .map(|f| {
             let effect = Effect::from_name(&f.effect)
                 .ok_or_else(|| bad(format!("{}: unknown effect `{}`", r.candidate, f.effect)))?;
+            let kind = match &f.kind {
+                Some(name) => FitKind::from_name(name).ok_or_else(|| {
+                    bad(format!(
+                        "{}: {}'s fit has an unknown kind `{name}`",
+                        r.candidate, f.effect
+                    ))
+                })?,
+                None => FitKind::of_legacy_method(&f.method),
+            };
             Ok(Fitted {
                 effect,
                 values: floats(&f.values),
@@ -294,6 +308,7 @@ pub fn decode(text: &str, place: &Path) -> Result<(Evaluated, usize), DiagnoseEr
                     phase_rad: f64::from_bits(p),
                     phase_std_rad: f64::from_bits(s),
                 }),
+                kind,
             })
         })
         .collect::<Result<Vec<_>, DiagnoseError>>()?;
@@ -360,6 +375,7 @@ mod tests {
                 values: vec![0.1 + 0.2, 1e-300, -0.0, f64::MIN_POSITIVE / 3.0],
                 stds: vec![f64::INFINITY, f64::NAN, 1.0 / 3.0, 7e22],
                 method: "secant".into(),
+                kind: FitKind::MomentMatch,
                 simulations: 17,
                 runout_form: Some(FittedRunoutForm {
                     cycles_per_wheel_rev: -3.0,
@@ -403,5 +419,84 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("shards/0/units.tsv"));
+    }
+
+    /// A one-effect candidate fitted with `method` as `kind`, as one record's text.
+    fn record_of(method: &str, kind: FitKind) -> String {
+        let mut e = Evaluated {
+            effects: vec![crate::pipeline::diagnose::tests::fitted(
+                Effect::AxisRunout,
+                vec![2e-3],
+                vec![1e-4],
+            )],
+            gap: GapMap {
+                cells: Vec::new(),
+                total: 1.5,
+                options: GapOptions::default(),
+            },
+            outcome: Outcome {
+                remaining: 1.5,
+                params: 1,
+                significant_left: 0,
+            },
+        };
+        e.effects[0].method = method.into();
+        e.effects[0].kind = kind;
+        encode(&e, 3).unwrap()
+    }
+
+    /// `text` with its fits' `kind` field taken out, as a record written before stop 59 reads.
+    fn without_kind(text: &str) -> String {
+        let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
+        for f in v["effects"].as_array_mut().unwrap() {
+            assert!(f.as_object_mut().unwrap().remove("kind").is_some());
+        }
+        v.to_string()
+    }
+
+    #[test]
+    fn a_fits_kind_round_trips_and_older_records_read_it_off_the_method() {
+        for kind in FitKind::ALL {
+            let text = record_of("any words", kind);
+            let (back, _) = decode(&text, Path::new("x")).unwrap();
+            assert_eq!(back.effects[0].kind, kind);
+        }
+        // Older records: the method's opening words, as those builds wrote them; what the
+        // method says, not the kind the (absent) field would have held, decides.
+        let cases = [
+            (
+                super::super::fit::search_method(Effect::AxisRunout, 2),
+                FitKind::SumZ2Search,
+            ),
+            (
+                super::super::fit::moment_method("edge width² along the motion", 3, 2),
+                FitKind::MomentMatch,
+            ),
+            (
+                "fitted directly to the footage's timestamps (geneva timing fit)".into(),
+                FitKind::Measured,
+            ),
+        ];
+        for (method, expected) in cases {
+            let old = without_kind(&record_of(&method, FitKind::Measured));
+            let (back, _) = decode(&old, Path::new("x")).unwrap();
+            assert_eq!(back.effects[0].kind, expected, "{method}");
+            assert_eq!(
+                back.effects[0].searched_on_sum_z2(),
+                expected == FitKind::SumZ2Search
+            );
+        }
+    }
+
+    #[test]
+    fn a_record_with_an_unknown_fit_kind_is_refused_naming_it() {
+        let text = record_of("any words", FitKind::Measured).replace("\"measured\"", "\"guessed\"");
+        let err = decode(&text, Path::new("shards/1/units.tsv"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("guessed") && err.contains("shards/1/units.tsv"),
+            "{err}"
+        );
     }
 }
