@@ -82,6 +82,9 @@ pub fn minimise(
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut jac = jacobian(residuals, &x, &r, steps)?;
+    // Whether `jac` was computed at the current `x` (then the final one is the same, bit for
+    // bit: the Jacobian is a pure function of `x` and its residuals).
+    let mut jac_at_x = true;
     let mut trial = Vec::with_capacity(r.len());
     while iterations < max_iterations {
         iterations += 1;
@@ -107,6 +110,7 @@ pub fn minimise(
                         .all(|(s, h)| s.abs() < 1e-3 * h.abs().max(1e-15));
                     let gain = cost - c;
                     x = x_new;
+                    jac_at_x = false;
                     std::mem::swap(&mut r, &mut trial);
                     cost = c;
                     lambda = (lambda / 10.0).max(1e-12);
@@ -120,8 +124,11 @@ pub fn minimise(
             break;
         }
         jac = jacobian(residuals, &x, &r, steps)?;
+        jac_at_x = true;
     }
-    let jac = jacobian(residuals, &x, &r, steps)?;
+    if !jac_at_x {
+        jac = jacobian(residuals, &x, &r, steps)?;
+    }
     let (jtj, _) = normal(&jac, &r, p);
     Some(LmFit {
         params: x,
@@ -206,6 +213,30 @@ mod tests {
             se.iter().all(|s| s.is_finite() && *s > 0.0 && *s < 0.01),
             "{se:?}"
         );
+    }
+
+    #[test]
+    fn the_curvature_returned_is_the_one_at_the_solution_on_every_way_out() {
+        // Out by the iteration cap (the last Jacobian was taken at x), by convergence (a last
+        // small step moved x after it), and from a start already at the minimum (no step taken).
+        let ts: Vec<f64> = (0..30).map(|k| k as f64 * 0.1).collect();
+        let f = |p: &[f64], out: &mut Vec<f64>| {
+            out.clear();
+            out.extend(
+                ts.iter()
+                    .map(|t| p[0] * (-p[1] * t).exp() - 2.0 * (-0.7 * t).exp()),
+            );
+            true
+        };
+        let steps = [1e-6, 1e-6];
+        for (start, cap) in [([1.0, 0.2], 2), ([1.0, 0.2], 100), ([2.0, 0.7], 100)] {
+            let fit = minimise(&f, &start, &steps, cap).unwrap();
+            let jac = jacobian(&f, &fit.params, &fit.residuals, &steps).unwrap();
+            let (jtj, _) = normal(&jac, &fit.residuals, 2);
+            for (got, want) in fit.jtj.iter().flatten().zip(jtj.iter().flatten()) {
+                assert_eq!(got.to_bits(), want.to_bits(), "start {start:?}, cap {cap}");
+            }
+        }
     }
 
     #[test]
