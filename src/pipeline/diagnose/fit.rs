@@ -1873,11 +1873,6 @@ impl<'a> Fitter<'a> {
         (1.0 + 1.0 / self.fit_seeds.len() as f64).sqrt()
     }
 
-    /// The method's words for a moment match of `what` after `n` simulations.
-    fn moment_method(&self, what: &str, n: usize) -> String {
-        moment_method(what, n, self.fit_seeds.len())
-    }
-
     /// Fits `e` by moment matching ([`moments`]) when one statistic of the gap map carries its
     /// parameter: optical blur (edge width along the motion, on σ²), motion blur (extra edge
     /// variance across the motion during the drive, on T²), rolling shutter (the readout implied
@@ -1894,7 +1889,7 @@ impl<'a> Fitter<'a> {
         let motion = ["dwell", "entry", "drive", "exit"];
         let sims_factor = self.moment_sims_factor();
         let gap_at = |v: &[f64]| self.gap_with(prior, e, v);
-        let method = |what: &str, n: usize| self.moment_method(what, n);
+        let method = |what: &str, n: usize| moment_method(what, n, self.fit_seeds.len());
         if e == Effect::PixelNoise {
             return self.noise_by_moments(prior, start);
         }

@@ -5,8 +5,8 @@
 //! module keeps a split from being stated where the footage does not measure it.
 
 use super::{
-    aligned_of, objective_at, shared_std_along, Fitter, LensCells, MomentFit, Objectives,
-    MOMENT_SIMULATIONS,
+    aligned_of, moment_method, objective_at, shared_std_along, Fitter, LensCells, MomentFit,
+    Objectives, MOMENT_SIMULATIONS,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan;
@@ -316,7 +316,11 @@ impl Fitter<'_> {
                 return Ok(MomentFit::Fitted((
                     v,
                     vec![sd_fw, sd_rn],
-                    self.moment_method("noise variance at the ink and paper levels", k + 1),
+                    moment_method(
+                        "noise variance at the ink and paper levels",
+                        k + 1,
+                        self.fit_seeds.len(),
+                    ),
                 )));
             }
         }
