@@ -52,9 +52,7 @@ fn mv(a: &M3, v: &V3) -> V3 {
 }
 
 fn inv3(a: &M3) -> Option<M3> {
-    let rows: Vec<Vec<f64>> = a.iter().map(|r| r.to_vec()).collect();
-    let inv = super::linalg::invert(&rows)?;
-    Some([0, 1, 2].map(|i| [inv[i][0], inv[i][1], inv[i][2]]))
+    super::linalg::invert_fixed(a)
 }
 
 fn transition(h: f64, lambda: f64) -> (M3, M3) {

@@ -8,38 +8,48 @@
 /// Solves `a x = b` by Gaussian elimination with partial pivoting; `None` when `a` is singular
 /// (pivot below `1e-13` times the largest entry).
 pub fn solve(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
-    let n = b.len();
     let mut m: Vec<Vec<f64>> = a.to_vec();
     let mut x: Vec<f64> = b.to_vec();
+    solve_in_place(&mut m, &mut x)?;
+    Some(x)
+}
+
+/// [`solve`] on rows of any storage, overwriting `m` and leaving the solution in `x`: the same
+/// operations in the same order for heap rows and fixed-size ones, so both give the same bits.
+fn solve_in_place<R: AsRef<[f64]> + AsMut<[f64]>>(m: &mut [R], x: &mut [f64]) -> Option<()> {
+    let n = x.len();
     let scale = m
         .iter()
-        .flat_map(|r| r.iter())
+        .flat_map(|r| r.as_ref().iter())
         .fold(0.0_f64, |s, v| s.max(v.abs()));
     if !scale.is_finite() || scale <= 0.0 {
         return None;
     }
+    let at = |m: &[R], r: usize, c: usize| m[r].as_ref()[c];
     for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
-        if m[piv][col].abs() <= 1e-13 * scale {
+        let piv = (col..n).max_by(|&i, &j| at(m, i, col).abs().total_cmp(&at(m, j, col).abs()))?;
+        if at(m, piv, col).abs() <= 1e-13 * scale {
             return None;
         }
         m.swap(col, piv);
         x.swap(col, piv);
         for row in col + 1..n {
-            let f = m[row][col] / m[col][col];
+            let f = at(m, row, col) / at(m, col, col);
             if f != 0.0 {
+                let (above, below) = m.split_at_mut(row);
+                let (pivot_row, target) = (above[col].as_ref(), below[0].as_mut());
                 for k in col..n {
-                    m[row][k] -= f * m[col][k];
+                    target[k] -= f * pivot_row[k];
                 }
                 x[row] -= f * x[col];
             }
         }
     }
     for col in (0..n).rev() {
-        let s: f64 = (col + 1..n).map(|k| m[col][k] * x[k]).sum();
-        x[col] = (x[col] - s) / m[col][col];
+        let s: f64 = (col + 1..n).map(|k| at(m, col, k) * x[k]).sum();
+        x[col] = (x[col] - s) / at(m, col, col);
     }
-    Some(x)
+    Some(())
 }
 
 /// Inverse of a square matrix, column by column; `None` when singular.
@@ -51,6 +61,22 @@ pub fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
         e[c] = 1.0;
         let col = solve(a, &e)?;
         for r in 0..n {
+            inv[r][c] = col[r];
+        }
+    }
+    Some(inv)
+}
+
+/// [`invert`] of a fixed-size matrix without a heap allocation, the same bits (a Kalman
+/// smoother inverts a 3×3 covariance at every sample of every track it smooths).
+pub fn invert_fixed<const N: usize>(a: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+    let mut inv = [[0.0; N]; N];
+    for c in 0..N {
+        let mut m = *a;
+        let mut col = [0.0; N];
+        col[c] = 1.0;
+        solve_in_place(&mut m, &mut col)?;
+        for r in 0..N {
             inv[r][c] = col[r];
         }
     }
@@ -136,6 +162,36 @@ pub fn sym_eigen(a: &[Vec<f64>]) -> (Vec<f64>, Vec<Vec<f64>>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn a_fixed_size_inverse_is_the_heap_inverse_bit_for_bit(seed in any::<u64>()) {
+            use rand::Rng;
+            let mut rng = crate::rng::stream(seed, crate::rng::Stream::MonteCarlo, 1);
+            // Entries over many decades, exact zeros, repeated values (ties between pivots)
+            // and now and then a repeated row (singular): every branch of the elimination.
+            let palette = [0.0, -0.0, 1.0, -1.0, 2.5];
+            let mut a = [[0.0f64; 3]; 3];
+            for row in a.iter_mut() {
+                for v in row.iter_mut() {
+                    *v = match rng.gen_range(0..6) {
+                        0 | 1 => palette[rng.gen_range(0..palette.len())],
+                        _ => rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-6..7)),
+                    };
+                }
+            }
+            if rng.gen_range(0..5) == 0 {
+                a[2] = a[0];
+            }
+            let heap: Vec<Vec<f64>> = a.iter().map(|r| r.to_vec()).collect();
+            let bits = |m: Option<Vec<Vec<f64>>>| {
+                m.map(|m| m.into_iter().flatten().map(f64::to_bits).collect::<Vec<u64>>())
+            };
+            let fixed = invert_fixed(&a).map(|m| m.iter().map(|r| r.to_vec()).collect());
+            prop_assert_eq!(bits(fixed), bits(invert(&heap)));
+        }
+    }
 
     #[test]
     fn solve_and_invert_known_system() {

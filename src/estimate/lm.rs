@@ -169,7 +169,63 @@ fn jacobian(
     Some(out)
 }
 
+/// JᵀJ and Jᵀr. Every entry is the sum of its products in residual order from −0.0, which is
+/// what `Iterator::sum` computes ([`normal_by_entry`]), so the result is the same bits. But the
+/// entries of a row of JᵀJ are accumulated side by side, one residual at a time, from the
+/// Jacobian laid out residual-major: their additions are independent (each entry's sum no
+/// longer waits on its own previous addition, and the compiler can vectorise across entries),
+/// and a block of rows shares every load. A pose fit has ~160 parameters (one angle per pose)
+/// and ~1200 corner residuals: 12 000 entries of 1200 products each, at every iteration.
 fn normal(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+    const BLOCK: usize = 4;
+    let n = r.len();
+    if jac.len() < p || jac[..p].iter().any(|row| row.len() != n) {
+        return normal_by_entry(jac, r, p);
+    }
+    // by_residual[k * p + j] = ∂r_k/∂p_j.
+    let mut by_residual = vec![0.0f64; n * p];
+    for (j, row) in jac[..p].iter().enumerate() {
+        for (k, &v) in row.iter().enumerate() {
+            by_residual[k * p + j] = v;
+        }
+    }
+    let mut jtr = vec![-0.0f64; p];
+    for (k, &rk) in r.iter().enumerate() {
+        for (s, &a) in jtr.iter_mut().zip(&by_residual[k * p..(k + 1) * p]) {
+            *s += a * rk;
+        }
+    }
+    let mut jtj = vec![vec![0.0; p]; p];
+    let mut acc = vec![-0.0f64; BLOCK * p];
+    for i0 in (0..p).step_by(BLOCK) {
+        let rows = BLOCK.min(p - i0);
+        acc.fill(-0.0);
+        for k in 0..n {
+            let grad = &by_residual[k * p..(k + 1) * p];
+            for b in 0..rows {
+                let i = i0 + b;
+                let a = grad[i];
+                // Entries j ≥ i of row i; row b of the block keeps them at b·p + j.
+                for (s, &g) in acc[b * p + i..(b + 1) * p].iter_mut().zip(&grad[i..]) {
+                    *s += a * g;
+                }
+            }
+        }
+        for b in 0..rows {
+            let i = i0 + b;
+            for j in i..p {
+                let v = acc[b * p + j];
+                jtj[i][j] = v;
+                jtj[j][i] = v;
+            }
+        }
+    }
+    (jtj, jtr)
+}
+
+/// [`normal`] one entry at a time: its reference, and what it does with rows of other lengths
+/// (each sum then runs over the shorter of its two rows).
+fn normal_by_entry(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
     let mut jtj = vec![vec![0.0; p]; p];
     let mut jtr = vec![0.0; p];
     for i in 0..p {
@@ -186,6 +242,43 @@ fn normal(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn the_one_pass_normal_equations_are_the_per_entry_sums_bit_for_bit(
+            p in 1usize..23,
+            n in 0usize..60,
+            seed in any::<u64>(),
+        ) {
+            use rand::Rng;
+            let mut rng = crate::rng::stream(seed, crate::rng::Stream::MonteCarlo, 0);
+            // Magnitudes over many decades, exact zeros of both signs and a rare infinity,
+            // where rounding, the sign of zero and NaN would show any change in the order of
+            // the additions.
+            let mut value = || match rng.gen_range(0..40) {
+                0..=3 => 0.0,
+                4..=7 => -0.0,
+                8 => f64::INFINITY,
+                _ => rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-8..9)),
+            };
+            let jac: Vec<Vec<f64>> = (0..p).map(|_| (0..n).map(|_| value()).collect()).collect();
+            let r: Vec<f64> = (0..n).map(|_| value()).collect();
+            let bits = |(jtj, jtr): (Vec<Vec<f64>>, Vec<f64>)| -> Vec<u64> {
+                jtj.into_iter().flatten().chain(jtr).map(f64::to_bits).collect()
+            };
+            prop_assert_eq!(bits(normal(&jac, &r, p)), bits(normal_by_entry(&jac, &r, p)));
+        }
+    }
+
+    #[test]
+    fn rows_of_other_lengths_are_summed_as_before() {
+        let jac = vec![vec![1.0, 2.0, 3.0], vec![4.0, 5.0]];
+        let r = [1.0, 1.0, 1.0];
+        let (jtj, jtr) = normal(&jac, &r, 2);
+        assert_eq!(jtr, vec![6.0, 9.0]);
+        assert_eq!(jtj, vec![vec![14.0, 14.0], vec![14.0, 41.0]]);
+    }
 
     #[test]
     fn fits_an_exponential_and_reports_sensible_errors() {

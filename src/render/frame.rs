@@ -250,15 +250,16 @@ fn band_pipeline<'a>(
     let offsets = motion_blur::sample_offsets_s(exposure_s, k);
     let t_s = frame.t_s;
     let samples = if fx.rolling_shutter.enabled {
-        Samples::Rolling(Box::new(move |y: i64| {
+        Samples::Rolling(Box::new(move |y: i64, above: Option<&RowAnchor>| {
             let t_row = t_s + fx.rolling_shutter.row_delay_s(y, settings.height_px);
-            sample_scene(
+            let s = sample_scene(
                 scene,
                 vibration.as_ref(),
                 offsets.iter().map(|o| t_row + o),
                 false,
-            )
-            .prepared
+                above,
+            );
+            RowAnchor::split(s)
         }))
     } else {
         let s = sample_scene(
@@ -266,6 +267,7 @@ fn band_pipeline<'a>(
             vibration.as_ref(),
             offsets.iter().map(|o| t_s + o),
             true,
+            None,
         );
         let plan = ExposurePlan::new(&s.prepared, &s.scenes, &s.transforms);
         Samples::Global(s.prepared, plan)
@@ -289,11 +291,43 @@ struct Sampled {
     prepared: Vec<PreparedSnapshot>,
 }
 
+/// The first exposure sample of a rolling-shutter row: the row below shares every layer shape
+/// of it that its own samples leave unchanged (a static disc is converted once per band, not
+/// once per row). Sharing reuses shapes equal to what a fresh conversion would give, so no
+/// pixel changes.
+pub(super) struct RowAnchor {
+    scene: SceneSnapshot,
+    transform: Option<RigidTransform>,
+    prepared: PreparedSnapshot,
+}
+
+impl RowAnchor {
+    /// A row's prepared samples, and its first sample as the anchor of the row below.
+    fn split(s: Sampled) -> (Vec<PreparedSnapshot>, Option<Self>) {
+        let anchor = match (
+            s.scenes.into_iter().next(),
+            s.transforms.first(),
+            s.prepared.first(),
+        ) {
+            (Some(scene), Some(&transform), Some(prepared)) => Some(Self {
+                scene,
+                transform,
+                prepared: prepared.clone(),
+            }),
+            _ => None,
+        };
+        (s.prepared, anchor)
+    }
+}
+
+/// The samples at `times` (see [`Sampled`]); the first shares the unchanged shapes of
+/// `above` (the previous row's first sample) when there is one under the same transform.
 fn sample_scene(
     scene: &dyn SceneAt,
     vibration: Option<&Vibration>,
     times: impl Iterator<Item = f64>,
     keep_scenes: bool,
+    above: Option<&RowAnchor>,
 ) -> Sampled {
     let mut sampled = Sampled {
         scenes: Vec::new(),
@@ -303,12 +337,16 @@ fn sample_scene(
     for t in times {
         let transform = vibration.map(|v| v.at(t));
         let snapshot = scene.snapshot(t);
-        let prepared = match (
+        let earlier = match (
             sampled.scenes.first(),
             sampled.transforms.first(),
             sampled.prepared.first(),
         ) {
-            (Some(s0), Some(tr0), Some(p0)) if *tr0 == transform => {
+            (Some(s0), Some(tr0), Some(p0)) => Some((s0, tr0, p0)),
+            _ => above.map(|a| (&a.scene, &a.transform, &a.prepared)),
+        };
+        let prepared = match earlier {
+            Some((s0, tr0, p0)) if *tr0 == transform => {
                 PreparedSnapshot::new_sharing(&snapshot, transform.as_ref(), s0, p0)
             }
             _ => PreparedSnapshot::new(&snapshot, transform.as_ref()),

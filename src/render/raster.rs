@@ -520,6 +520,17 @@ impl PreparedSnapshot {
     }
 }
 
+#[cfg(test)]
+impl PreparedSnapshot {
+    /// Whether layer `j` of both is the very same shape (shared, not converted again).
+    pub(crate) fn shares_shape(&self, other: &PreparedSnapshot, j: usize) -> bool {
+        match (self.layers.get(j), other.layers.get(j)) {
+            (Some(a), Some(b)) => Arc::ptr_eq(&a.shape, &b.shape),
+            _ => false,
+        }
+    }
+}
+
 /// Exact coverage fraction of each pixel of `window` by `layer` (row-major).
 pub fn layer_coverage(layer: &Layer, window: &PixelRect) -> Vec<f32> {
     let mut out = vec![0.0; window.len()];

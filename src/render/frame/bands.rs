@@ -8,6 +8,7 @@
 //! bits the full computation gives there. A band is therefore described by one constant plus the
 //! values of an "active" column range.
 
+use super::RowAnchor;
 use crate::render::effects::optical_blur::{constant_response, convolve_column, convolve_row};
 use crate::render::raster::{
     average_exposure, ExposurePlan, ExposureScratch, PixelRect, PreparedSnapshot,
@@ -22,9 +23,14 @@ pub(super) enum Samples<'a> {
     /// Global shutter: the K prepared snapshots shared by every row, and how they are averaged
     /// (decided once for all bands).
     Global(Vec<PreparedSnapshot>, ExposurePlan),
-    /// Rolling shutter: the K prepared snapshots of absolute row y.
-    Rolling(Box<dyn Fn(i64) -> Vec<PreparedSnapshot> + Sync + 'a>),
+    /// Rolling shutter: the K prepared snapshots of absolute row y, given the anchor of the
+    /// row above it in the band (shapes it may share), and the anchor of row y.
+    Rolling(RowSampler<'a>),
 }
+
+/// The exposure samples of one rolling-shutter row (see [`Samples::Rolling`]).
+pub(super) type RowSampler<'a> =
+    Box<dyn Fn(i64, Option<&RowAnchor>) -> (Vec<PreparedSnapshot>, Option<RowAnchor>) + Sync + 'a>;
 
 /// What every band of a frame shares.
 pub(super) struct BandPipeline<'a> {
@@ -75,7 +81,12 @@ impl BandPipeline<'_> {
         let n_rows = band.height + 2 * r;
         if let Samples::Rolling(prepare) = &self.samples {
             scratch.row_samples.clear();
-            scratch.row_samples.extend((rows.0..rows.1).map(prepare));
+            let mut above: Option<RowAnchor> = None;
+            for y in rows.0..rows.1 {
+                let (samples, anchor) = prepare(y, above.as_ref());
+                scratch.row_samples.push(samples);
+                above = anchor;
+            }
         }
         let snaps_of_row = |i: usize| -> &[PreparedSnapshot] {
             match &self.samples {
@@ -196,5 +207,99 @@ fn exposure_average(values: impl Iterator<Item = f32>) -> f32 {
         sum * (1.0 / k as f32)
     } else {
         sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{band_pipeline, FrameRequest, RenderSettings};
+    use super::*;
+    use crate::render::effects::EffectsConfig;
+    use crate::render::shapes::{Layer, SceneAt, SceneSnapshot};
+    use crate::render::test_scenes::{rotated_square, SpinningMarker};
+    use glam::DVec2;
+
+    /// A static tilted plate (many rows, never moving) behind a spinning marker.
+    struct PlateAndMarker(SpinningMarker);
+
+    impl SceneAt for PlateAndMarker {
+        fn snapshot(&self, t_s: f64) -> SceneSnapshot {
+            let mut s = self.0.snapshot(t_s);
+            s.layers.insert(
+                0,
+                Layer {
+                    radiance: 0.3,
+                    polygons: vec![rotated_square(DVec2::new(60.2, 47.9), 150.0, 0.3)],
+                },
+            );
+            s
+        }
+    }
+
+    #[test]
+    fn rolling_rows_share_unchanged_shapes_and_render_the_bits_of_rows_prepared_alone() {
+        let scene = PlateAndMarker(SpinningMarker {
+            centre_px: DVec2::new(61.3, 40.6),
+            side_px: 50.0,
+            rate_rad_s: 3.0,
+        });
+        // Rolling shutter with and without motion-blur samples, with and without optical blur;
+        // a camera vibration moves every row differently, so nothing can be shared there.
+        for (k, vibrating) in [(0usize, false), (6, false), (6, true)] {
+            let mut fx = EffectsConfig::none();
+            fx.rolling_shutter.enabled = true;
+            fx.rolling_shutter.readout_s = 0.02;
+            fx.motion_blur.enabled = k > 0;
+            fx.motion_blur.exposure_s = 0.006;
+            fx.motion_blur.samples = k as u32;
+            fx.optical_blur.enabled = k > 0;
+            fx.optical_blur.sigma_px = 0.9;
+            fx.camera_vibration.enabled = vibrating;
+            fx.camera_vibration.random.x_rms_px = 0.4;
+            let settings = RenderSettings {
+                width_px: 120,
+                height_px: 90,
+                effects: fx,
+                seed: 3,
+            };
+            let frame = FrameRequest {
+                index: 2,
+                t_s: 0.13,
+                window: settings.frame_rect(),
+            };
+            let shared = band_pipeline(&scene, &settings, &frame);
+            let Samples::Rolling(sampler) = &shared.samples else {
+                panic!("a rolling shutter samples per row");
+            };
+            let alone = BandPipeline {
+                samples: Samples::Rolling(Box::new(|y, _| sampler(y, None))),
+                weights: shared.weights.clone(),
+            };
+            let rect = settings.frame_rect();
+            for b in 0..rect.height.div_ceil(BAND_ROWS) {
+                let band = rect.rows(rect.y0 + (b * BAND_ROWS) as i64, BAND_ROWS);
+                let (mut sa, mut sb) = (BandScratch::default(), BandScratch::default());
+                let (va, vb) = (shared.render(&band, &mut sa), alone.render(&band, &mut sb));
+                let bits = |v: &BandValues| {
+                    let values: Vec<u32> = v.values.iter().map(|x| x.to_bits()).collect();
+                    (v.constant.to_bits(), v.x0, v.width, values)
+                };
+                assert_eq!(
+                    bits(&va),
+                    bits(&vb),
+                    "k {k}, vibrating {vibrating}, band {b}"
+                );
+                let rows = &sa.row_samples;
+                assert!(rows.len() > 1 && rows.iter().all(|r| r.len() == k.max(1)));
+                for pair in rows.windows(2) {
+                    // The plate (layer 0) is converted once per band unless the camera moves
+                    // it; the marker (layer 1) moves with every row.
+                    assert_eq!(pair[1][0].shares_shape(&pair[0][0], 0), !vibrating);
+                    assert!(!pair[1][0].shares_shape(&pair[0][0], 1));
+                }
+                let alone_rows = &sb.row_samples;
+                assert!(!alone_rows[1][0].shares_shape(&alone_rows[0][0], 0));
+            }
+        }
     }
 }
