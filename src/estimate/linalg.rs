@@ -68,7 +68,9 @@ pub fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 }
 
 /// [`invert`] of a fixed-size matrix without a heap allocation, the same bits (a Kalman
-/// smoother inverts a 3×3 covariance at every sample of every track it smooths).
+/// smoother inverts a 3×3 covariance at every sample of every track it smooths). Not
+/// [`invert3`]: cofactors round differently from the elimination, and a speed-up must leave
+/// every output bit as it was.
 pub fn invert_fixed<const N: usize>(a: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
     let mut inv = [[0.0; N]; N];
     for c in 0..N {

@@ -69,7 +69,6 @@ pub fn minimise(
     steps: &[f64],
     max_iterations: usize,
 ) -> Option<LmFit> {
-    let p = start.len();
     let mut x = start.to_vec();
     let mut r = Vec::new();
     if !residuals(&x, &mut r) {
@@ -88,7 +87,7 @@ pub fn minimise(
     let mut trial = Vec::with_capacity(r.len());
     while iterations < max_iterations {
         iterations += 1;
-        let (jtj, jtr) = normal(&jac, &r, p);
+        let (jtj, jtr) = normal(&jac, &r);
         let mut improved = false;
         while lambda < 1e12 {
             let mut damped = jtj.clone();
@@ -129,7 +128,7 @@ pub fn minimise(
     if !jac_at_x {
         jac = jacobian(residuals, &x, &r, steps)?;
     }
-    let (jtj, _) = normal(&jac, &r, p);
+    let (jtj, _) = normal(&jac, &r);
     Some(LmFit {
         params: x,
         residuals: r,
@@ -176,15 +175,16 @@ fn jacobian(
 /// longer waits on its own previous addition, and the compiler can vectorise across entries),
 /// and a block of rows shares every load. A pose fit has ~160 parameters (one angle per pose)
 /// and ~1200 corner residuals: 12 000 entries of 1200 products each, at every iteration.
-fn normal(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+fn normal(jac: &[Vec<f64>], r: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
     const BLOCK: usize = 4;
+    let p = jac.len();
     let n = r.len();
-    if jac.len() < p || jac[..p].iter().any(|row| row.len() != n) {
-        return normal_by_entry(jac, r, p);
+    if jac.iter().any(|row| row.len() != n) {
+        return normal_by_entry(jac, r);
     }
     // by_residual[k * p + j] = ∂r_k/∂p_j.
     let mut by_residual = vec![0.0f64; n * p];
-    for (j, row) in jac[..p].iter().enumerate() {
+    for (j, row) in jac.iter().enumerate() {
         for (k, &v) in row.iter().enumerate() {
             by_residual[k * p + j] = v;
         }
@@ -225,7 +225,8 @@ fn normal(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
 
 /// [`normal`] one entry at a time: its reference, and what it does with rows of other lengths
 /// (each sum then runs over the shorter of its two rows).
-fn normal_by_entry(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+fn normal_by_entry(jac: &[Vec<f64>], r: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let p = jac.len();
     let mut jtj = vec![vec![0.0; p]; p];
     let mut jtr = vec![0.0; p];
     for i in 0..p {
@@ -267,7 +268,7 @@ mod tests {
             let bits = |(jtj, jtr): (Vec<Vec<f64>>, Vec<f64>)| -> Vec<u64> {
                 jtj.into_iter().flatten().chain(jtr).map(f64::to_bits).collect()
             };
-            prop_assert_eq!(bits(normal(&jac, &r, p)), bits(normal_by_entry(&jac, &r, p)));
+            prop_assert_eq!(bits(normal(&jac, &r)), bits(normal_by_entry(&jac, &r)));
         }
     }
 
@@ -275,7 +276,7 @@ mod tests {
     fn rows_of_other_lengths_are_summed_as_before() {
         let jac = vec![vec![1.0, 2.0, 3.0], vec![4.0, 5.0]];
         let r = [1.0, 1.0, 1.0];
-        let (jtj, jtr) = normal(&jac, &r, 2);
+        let (jtj, jtr) = normal(&jac, &r);
         assert_eq!(jtr, vec![6.0, 9.0]);
         assert_eq!(jtj, vec![vec![14.0, 14.0], vec![14.0, 41.0]]);
     }
@@ -325,7 +326,7 @@ mod tests {
         for (start, cap) in [([1.0, 0.2], 2), ([1.0, 0.2], 100), ([2.0, 0.7], 100)] {
             let fit = minimise(&f, &start, &steps, cap).unwrap();
             let jac = jacobian(&f, &fit.params, &fit.residuals, &steps).unwrap();
-            let (jtj, _) = normal(&jac, &fit.residuals, 2);
+            let (jtj, _) = normal(&jac, &fit.residuals);
             for (got, want) in fit.jtj.iter().flatten().zip(jtj.iter().flatten()) {
                 assert_eq!(got.to_bits(), want.to_bits(), "start {start:?}, cap {cap}");
             }
