@@ -32,6 +32,8 @@ use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
 use std::cell::{OnceCell, RefCell};
 
+#[cfg(test)]
+mod backfit_tests;
 mod memo;
 mod noise;
 use memo::{MemoKey, ObjectiveMemo};

@@ -22,6 +22,7 @@
 
 pub mod camera_warp;
 pub mod fit;
+pub mod footing;
 pub mod image;
 pub mod nominal;
 pub mod pose_tilt;
@@ -31,7 +32,7 @@ pub mod selfcheck;
 pub mod shards;
 pub mod simulate;
 
-use crate::diagnose::cells::{image_cells, timing_cells, track_cells, Cells};
+use crate::diagnose::cells::Cells;
 use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
 use crate::diagnose::plan;
 use crate::diagnose::verdict::{self, Outcome, Verdict};
@@ -39,10 +40,10 @@ use crate::io::output_dir::OutputDir;
 use crate::pipeline::analyze::Source;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
-use fit::{Evaluated, Fitter, RealSide};
+use fit::{Evaluated, Fitter};
+use footing::Footing;
 use nominal::Aligned;
 use shards::{CandidateStudy, Mode};
-use simulate::{RealFrames, SimContext};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -689,87 +690,16 @@ pub fn diagnose_with(
         &|d, t| progress("measuring the real footage", d, t),
     )?;
     progress("aligning the nominal", 0, 1);
-    let aligned = nominal::align(nominal, &real.record, &real.estimate, &layout)?;
-    let t_all = real.record.t_s();
-    let median_dt = {
-        let mut d: Vec<f64> = t_all.windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
-    };
-    let nyquist_hz = 0.5 / median_dt;
-    let real_missing: Vec<bool> = real
-        .record
-        .frames
-        .iter()
-        .map(|f| f.corners_px.is_none())
-        .collect();
-    let ctx = SimContext {
-        aligned: &aligned,
-        layout: &layout,
-        with_images: real.record.has_images,
-        nyquist_hz,
-        height_px: nominal.camera.height_px as f64,
-        real_frames: Some(RealFrames {
-            t_s: &t_all,
-            missing: &real_missing,
-        }),
-    };
-    let (reference, real_time_shift_s) =
-        nominal::motion_reference(&aligned.reference, &real.record, &real.estimate);
-    let mut real_cells = track_cells(
-        &real.record,
-        &real.estimate,
-        &reference,
-        nyquist_hz,
-        ctx.height_px,
-    );
-    real_cells.extend(image_cells(
-        &real.record,
-        aligned.geometry.rotation_centre_px,
-        &reference.phase,
-        nyquist_hz,
-        ctx.height_px,
-    ));
-    real_cells.extend(timing_cells(&t_all));
-    let primary = &real.estimate.primary_series().theta_rad;
-    let real_angle =
-        crate::diagnose::cells::angle_residual(&t_all, primary, &reference.theta_rad, nyquist_hz);
-
-    // What the runout and tilt candidates start from, read off the real track: only when they
-    // are candidates (each costs a fit over every detected frame).
-    let is_candidate = |e: Effect| options.effects.as_ref().is_none_or(|c| c.contains(&e));
-    let runout_form = if is_candidate(Effect::AxisRunout) {
-        crate::diagnose::runout::fit_runout_form(
-            &nominal::runout_samples(&aligned, &real.record, real_time_shift_s)?,
-            &crate::diagnose::runout::CYCLES_TRIED,
-        )
-    } else {
-        None
-    };
-    let pose_tilt = is_candidate(Effect::PerspectiveTilt)
-        .then(|| pose_tilt::pose_tilt(&aligned.scenario, &real.record))
-        .flatten();
-    let (t_det, th_det) = crate::diagnose::cells::detected_angle(&t_all, primary);
+    let footing = Footing::new(nominal, &real, &layout, options.effects.as_deref())?;
     let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
     let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
         .map(|k| nominal.seed.wrapping_add(2000 + k))
         .collect();
-    let base = Fitter::base_trial(&aligned, nominal, &t_all);
     progress("simulating the nominal", 0, seeds.len());
-    let mut fitter = Fitter::new(
-        ctx,
+    let mut fitter = footing.fitter(
         nominal,
-        RealSide {
-            cells: &real_cells,
-            t_s: &t_all,
-            theta_det: (&t_det, &th_det),
-            theta_residual: &real_angle.residual_rad,
-            theta_peak_hz: real_angle.peak_hz,
-            runout_form,
-            pose_tilt,
-        },
-        base,
+        &layout,
         fit_seeds.clone(),
         seeds.clone(),
         options.gap,
@@ -1184,9 +1114,9 @@ pub fn diagnose_with(
     let simulations = fitter.simulations() + candidate_simulations;
     let diagnosis = Diagnosis {
         verdict,
-        aligned: aligned.clone(),
+        aligned: footing.aligned.clone(),
         nominal_gap: nominal_gap.clone(),
-        real_cells: real_cells.clone(),
+        real_cells: footing.real_cells.clone(),
         ranking,
         best,
         screened_out,
@@ -1204,8 +1134,8 @@ pub fn diagnose_with(
         frames: real.record.frames.len(),
         detected: real.record.detected(),
         has_images: real.record.has_images,
-        nyquist_hz,
-        real_time_shift_s,
+        nyquist_hz: footing.nyquist_hz,
+        real_time_shift_s: footing.real_time_shift_s,
         elapsed_s: started.elapsed().as_secs_f64(),
     };
     progress("writing the report", 0, 1);
