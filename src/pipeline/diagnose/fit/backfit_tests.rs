@@ -25,80 +25,76 @@ fn stated(effect: Effect, values: Vec<f64>, kind: FitKind) -> Fitted {
 }
 
 #[test]
-fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches() {
-    let tmp = tempfile::tempdir().expect("temporary folder");
+fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
+) -> Result<(), Box<dyn std::error::Error>> {
+    let tmp = tempfile::tempdir()?;
     let plan = SuitePlan {
         null_cases: 0,
         flicker_cases: 0,
         ..SuitePlan::quick(Effect::Backlash)
     };
     // The plan's strong backlash, on 2 s of footage.
-    let case = cases(&suite_base(2.0).expect("built-in rig"), &plan, &[])
+    let case = cases(&suite_base(2.0)?, &plan, &[])
         .into_iter()
         .find(|c| c.name.starts_with("withheld-backlash-strong"))
-        .expect("the plan's backlash case");
+        .ok_or("the plan's backlash case")?;
     let nominal = case.nominal.clone();
     let clearance: Vec<f64> = Effect::Backlash
         .nominal_values(&case.data, nominal.frame_timing.fps)
         .into_iter()
-        .map(|v| v.expect("the footage's clearance"))
-        .collect();
+        .map(|v| v.ok_or("the footage's clearance"))
+        .collect::<Result<_, _>>()?;
     let frames = tmp.path().join("frames");
-    render_case(&case, &frames).expect("render");
+    render_case(&case, &frames)?;
     let source = Source::Frames {
         dir: frames.clone(),
         timestamps: frames.join("timestamps.csv"),
     };
-    let layout = image::marker_layout(&nominal).expect("layout");
+    let layout = image::marker_layout(&nominal)?;
     let measured = real::measure_real(
         &nominal,
         &source,
         &layout,
         &tmp.path().join("real"),
         &|_, _| {},
-    )
-    .expect("measured");
+    )?;
     let effects = [Effect::Backlash, Effect::Timebase];
-    let footing = Footing::new(&nominal, &measured, &layout, Some(&effects)).expect("aligned");
-    let fitter = footing
-        .fitter(
-            &nominal,
-            &layout,
-            vec![2000, 2001],
-            vec![1000, 1001],
-            GapOptions::default(),
-        )
-        .expect("fitter");
+    let footing = Footing::new(&nominal, &measured, &layout, Some(&effects))?;
+    let fitter = footing.fitter(
+        &nominal,
+        &layout,
+        vec![2000, 2001],
+        vec![1000, 1001],
+        GapOptions::default(),
+    )?;
 
     // The second effect: the timebase at the timestamps' median rate, read off them without a
     // simulation. Beside it (a constant rate this jittered footage does not have) the backlash
     // fits far from its 0.5 mm on 2 s of footage: what is tested is which values the backfit
     // keeps, not how well they fit.
-    let second = fitter.fit(Effect::Timebase, &[]).expect("timebase");
+    let second = fitter.fit(Effect::Timebase, &[])?;
     assert_eq!(second.kind, FitKind::Measured);
     let others = vec![(second.effect, second.values.clone())];
     // What the backfit's own refit gives: a fit is a pure function of the fitter's inputs.
-    let refit = fitter.fit(Effect::Backlash, &others).expect("refit");
+    let refit = fitter.fit(Effect::Backlash, &others)?;
     assert_eq!(refit.kind, FitKind::SumZ2Search, "{}", refit.method);
     let objective = |values: &[f64]| fitter.objective_beside(&others, Effect::Backlash, values).0;
     let refit_sum_z2 = objective(&refit.values);
     assert!(refit_sum_z2.is_finite(), "{refit_sum_z2}");
-    let backfit = |first: Fitted| {
-        let out = fitter
-            .backfit_first(vec![first, second.clone()])
-            .expect("backfit");
+    let backfit = |first: Fitted| -> Result<Fitted, DiagnoseError> {
+        let out = fitter.backfit_first(vec![first, second.clone()])?;
         assert_eq!(out.len(), 2);
         assert_eq!(
             out[1].values, second.values,
             "the second effect is not refitted"
         );
-        out[0].clone()
+        Ok(out[0].clone())
     };
     let search_top = Effect::Backlash.params()[0].search.1;
 
     // Alone, a fit is returned as it came.
     let alone = stated(Effect::Backlash, vec![search_top], FitKind::SumZ2Search);
-    let out = fitter.backfit_first(vec![alone.clone()]).expect("alone");
+    let out = fitter.backfit_first(vec![alone.clone()])?;
     assert_eq!(out[0].values, alone.values);
     assert_eq!(out[0].method, alone.method);
 
@@ -106,7 +102,7 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
     let far = stated(Effect::Backlash, vec![search_top], FitKind::SumZ2Search);
     let far_sum_z2 = objective(&far.values);
     assert!(refit_sum_z2 < far_sum_z2, "{refit_sum_z2} vs {far_sum_z2}");
-    let out = backfit(far);
+    let out = backfit(far)?;
     assert_eq!(out.values, refit.values);
     assert_eq!(out.method, refit.method);
 
@@ -136,7 +132,7 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
             Effect::Backlash,
             values.clone(),
             FitKind::MomentMatch,
-        ));
+        ))?;
         assert_eq!(out.values, refit.values);
         assert_eq!(out.kind, FitKind::SumZ2Search);
         // Two searches: the values that leave the lower Σ z² stay.
@@ -144,7 +140,7 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
             Effect::Backlash,
             values.clone(),
             FitKind::SumZ2Search,
-        ));
+        ))?;
         if kept_sum_z2 < refit_sum_z2 {
             assert_eq!(out.values, values);
             assert!(
@@ -159,4 +155,5 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
             assert_eq!(out.method, refit.method);
         }
     }
+    Ok(())
 }
