@@ -552,6 +552,14 @@ fn sorted_intervals_s(t_s: &[f64]) -> Vec<f64> {
     d
 }
 
+/// The median interval between consecutive times `t_s` (the upper one of an even count), or
+/// 1/30 s when there is no interval: the one rate the footing's Nyquist band and the fit's
+/// frame-rate parameters both read, so the two can never disagree.
+pub(crate) fn median_interval_s(t_s: &[f64]) -> f64 {
+    let d = sorted_intervals_s(t_s);
+    d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
+}
+
 fn aligned_of<'a>(f: &'a Fitter<'a>) -> &'a Aligned {
     f.ctx.aligned
 }
@@ -891,8 +899,7 @@ impl<'a> Fitter<'a> {
     }
 
     fn median_interval_s(&self) -> f64 {
-        let d = sorted_intervals_s(self.real_t_s);
-        d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
+        median_interval_s(self.real_t_s)
     }
 
     /// The values at which `e` would leave the aligned nominal as it is on this footage
@@ -2403,6 +2410,18 @@ mod tests {
         let expected = 1.2533 * 1.4826 * 5e-4 / 180f64.sqrt();
         assert!((sd / expected - 1.0).abs() < 1e-6, "{sd} vs {expected}");
         assert_eq!(median_interval_sd_s(&[1.0]), f64::INFINITY);
+    }
+
+    #[test]
+    fn the_median_interval_ignores_dropped_frames_and_has_a_default() {
+        // Two dropped frames: intervals 40, 80, 80, 40, 40 ms. The median is 40 ms; the middle
+        // of the unsorted intervals would be 80 ms.
+        let t_s = [0.0, 0.04, 0.12, 0.2, 0.24, 0.28];
+        assert!((median_interval_s(&t_s) - 0.04).abs() < 1e-12);
+        // Intervals 10 and 30 ms: the upper one of an even count.
+        assert!((median_interval_s(&[0.0, 0.03, 0.04]) - 0.03).abs() < 1e-12);
+        assert_eq!(median_interval_s(&[1.0]), 1.0 / 30.0);
+        assert_eq!(median_interval_s(&[]), 1.0 / 30.0);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! times and lost frames) and what the runout and tilt candidates start from. [`Footing`] owns
 //! it all, so that the [`Fitter`] the diagnosis runs on (and a test's) borrows it from one place.
 
-use super::fit::{Fitter, RealSide};
+use super::fit::{self, Fitter, RealSide};
 use super::nominal::{self, Aligned};
 use super::pose_tilt::{self, PoseTilt};
 use super::real::RealMeasurement;
@@ -50,12 +50,7 @@ impl Footing {
     ) -> Result<Self, DiagnoseError> {
         let aligned = nominal::align(nominal, &real.record, &real.estimate, layout)?;
         let t_all_s = real.record.t_s();
-        let median_dt = {
-            let mut d: Vec<f64> = t_all_s.windows(2).map(|w| w[1] - w[0]).collect();
-            d.sort_by(f64::total_cmp);
-            d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
-        };
-        let nyquist_hz = 0.5 / median_dt;
+        let nyquist_hz = 0.5 / fit::median_interval_s(&t_all_s);
         let real_missing: Vec<bool> = real
             .record
             .frames

@@ -881,6 +881,73 @@ fn params_text(r: &Ranked) -> String {
     values_text(&r.evaluated, None)
 }
 
+/// Whether the best candidate `r` closed a gap of total `d0`, left no significant cell, and
+/// still could not explain it because the gap is smaller than its parameters' penalty lets any
+/// fit earn: even closing all of it would score under [`EXPLAINED_SHRINK`]. "No candidate
+/// closes enough" would misread that (the best closed it); a shrink short of the bar with a
+/// penalty that leaves room is not this case.
+///
+/// [`EXPLAINED_SHRINK`]: crate::diagnose::verdict::EXPLAINED_SHRINK
+fn gap_too_small_to_attribute(r: &Ranked, d0: f64) -> bool {
+    use crate::diagnose::verdict::{EXPLAINED_SHRINK, PENALTY_PER_PARAM};
+    let best_possible_score = 1.0 - PENALTY_PER_PARAM * r.evaluated.outcome.params as f64 / d0;
+    d0 > 0.0
+        && r.evaluated.outcome.significant_left == 0
+        && r.shrink >= EXPLAINED_SHRINK
+        && best_possible_score < EXPLAINED_SHRINK
+}
+
+/// The answer for a gap too small to attribute ([`gap_too_small_to_attribute`]): what the best
+/// candidate did, why the penalty decides, how many others closed it as well, and what would
+/// tell chance from a real mismatch (the same cells differing in another recording).
+fn too_small_to_attribute_text(
+    ranking: &[Ranked],
+    best: usize,
+    gap: &GapMap,
+    nyquist_hz: f64,
+) -> String {
+    use crate::diagnose::verdict::{EXPLAINED_SHRINK, PENALTY_PER_PARAM};
+    let Some(r) = ranking.get(best) else {
+        return String::new();
+    };
+    let d0 = gap.total;
+    let params = r.evaluated.outcome.params;
+    let penalty_share = PENALTY_PER_PARAM * params as f64 / d0;
+    let closing_too = ranking
+        .iter()
+        .enumerate()
+        .filter(|&(i, o)| {
+            i != best && o.shrink >= EXPLAINED_SHRINK && o.evaluated.outcome.significant_left == 0
+        })
+        .count();
+    let q = gap.options.fdr_q;
+    format!(
+        "**Unexplained: a gap too small to attribute.** The best candidate, `{}` ({}), closes \
+         {:.0} % of the gap and leaves no significant cell, but the whole gap (D₀ = {:.1}) is \
+         small against the penalty of {} per fitted parameter that an explanation must earn: \
+         its {} parameter(s) cost {:.0} % of D₀, so that even closing all of it scores at most \
+         {:.2}, under the {:.2} an explanation needs (its score: {:.2}). {} other candidate(s) \
+         closed the gap as well: a gap this small cannot single out one effect. The cells are \
+         judged at a false-discovery rate of {}, so about one footage in {:.0} that has no gap \
+         at all shows such a cell by chance: treat it as chance or a small mismatch of the \
+         nominal unless the same cell differs again in another recording. The gap: {}.",
+        candidate_name(&r.evaluated),
+        params_text(r),
+        100.0 * r.shrink,
+        d0,
+        PENALTY_PER_PARAM,
+        params,
+        100.0 * penalty_share,
+        1.0 - penalty_share,
+        EXPLAINED_SHRINK,
+        r.score,
+        closing_too,
+        q,
+        1.0 / q,
+        cells_text(&gap.significant().cloned().collect::<Vec<_>>(), nyquist_hz)
+    )
+}
+
 /// `diagnosis.md`.
 pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
     let mut s = String::new();
@@ -932,6 +999,14 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
                 d.nyquist_hz
             )
         ),
+        (_, Some(r)) if gap_too_small_to_attribute(r, d.nominal_gap.total) => {
+            too_small_to_attribute_text(
+                &d.ranking,
+                d.best.unwrap_or(0),
+                &d.nominal_gap,
+                d.nyquist_hz,
+            )
+        }
         (_, Some(r)) => format!(
             "**Unexplained.** No candidate closes enough of the gap: the best, `{}` ({}), closes \
              {:.0} % and leaves {} significant cell(s). What is left is listed under Remainder.",
@@ -1464,6 +1539,78 @@ mod tests {
         assert!(pair_found_text(None).contains("One effect alone was not enough"));
         assert_eq!(second_look_json(None), Value::Null);
         assert_eq!(second_look_text(None), "");
+    }
+
+    /// The one false alarm of stop 62's 96 null cases (`reports/diagnosis-stop62/`, own
+    /// renderer, null-24): one cell at z = 4.2, D₀ = 4.83, a backlash closing it all with one
+    /// parameter, scored 0.59. The answer says the best closed it and why that is no
+    /// explanation, not that no candidate closes enough.
+    #[test]
+    fn a_gap_smaller_than_one_parameters_penalty_is_called_too_small_to_attribute() {
+        use crate::diagnose::gap::GapOptions;
+        use crate::diagnose::verdict::shrink;
+        let d0 = 4.83;
+        let cell = CellGap {
+            key: CellKey {
+                channel: "theta",
+                phase: "entry",
+                band: Some(0),
+            },
+            real: 4.68e-4,
+            sim_mean: 1.21e-4,
+            sim_std: 1.76e-5,
+            sims: 4,
+            z: 4.2,
+            p: 9.0e-5,
+            significant: true,
+        };
+        let gap = GapMap {
+            cells: vec![cell],
+            total: d0,
+            options: GapOptions::default(),
+        };
+        let candidate = |effect: Effect, values: Vec<f64>, remaining: f64| {
+            let stds = vec![0.001; values.len()];
+            let mut r = ranked(vec![fitted(effect, values, stds)], Refit::Off);
+            r.evaluated.outcome.remaining = remaining;
+            r.shrink = 1.0 - remaining / d0;
+            r.score = shrink(d0, &r.evaluated.outcome);
+            r
+        };
+        let ranking = vec![
+            candidate(Effect::Backlash, vec![0.0207], 0.0),
+            candidate(Effect::Timebase, vec![30.0], 0.0),
+            // Closes less than the bar: not counted among those that closed it as well.
+            candidate(Effect::Overrotation, vec![0.1], 0.5 * d0),
+        ];
+        assert!(gap_too_small_to_attribute(&ranking[0], d0));
+        let text = too_small_to_attribute_text(&ranking, 0, &gap, 15.0);
+        assert!(
+            text.starts_with(
+                "**Unexplained: a gap too small to attribute.** The best candidate, `backlash` ("
+            ) && text.contains("closes 100 % of the gap and leaves no significant cell")
+                && text.contains("(D₀ = 4.8)")
+                && text.contains("its 1 parameter(s) cost 41 % of D₀")
+                && text.contains("scores at most 0.59, under the 0.70")
+                && text.contains("(its score: 0.59)")
+                && text.contains("1 other candidate(s) closed the gap as well")
+                && text.contains("false-discovery rate of 0.01, so about one footage in 100")
+                && text.contains("theta")
+                && text.contains("z = 4.2"),
+            "{text}"
+        );
+        // A gap large enough that a perfect fit would explain it: the penalty does not decide,
+        // so it is not this case (even where this candidate's shrink falls short).
+        let mut short = candidate(Effect::Backlash, vec![0.0207], 0.25 * 40.0);
+        short.shrink = 0.75;
+        short.score = 0.75 - 2.0 / 40.0 * 4.0;
+        assert!(!gap_too_small_to_attribute(&short, 40.0));
+        // A significant cell left, or a shrink short of the bar: not this case either.
+        let mut left = ranking[0].clone();
+        left.evaluated.outcome.significant_left = 1;
+        assert!(!gap_too_small_to_attribute(&left, d0));
+        assert!(!gap_too_small_to_attribute(&ranking[2], d0));
+        assert!(!gap_too_small_to_attribute(&ranking[0], 0.0));
     }
 
     #[test]
