@@ -77,6 +77,30 @@ pub fn explains(d0: f64, o: &Outcome) -> bool {
     shrink(d0, o) >= EXPLAINED_SHRINK && o.significant_left == 0
 }
 
+/// The penalised shrink `o`'s parameters allow at best on a gap of total `d0`: its [`shrink`]
+/// had it closed all of the gap.
+pub fn best_possible_shrink(d0: f64, o: &Outcome) -> f64 {
+    shrink(
+        d0,
+        &Outcome {
+            remaining: 0.0,
+            ..o.clone()
+        },
+    )
+}
+
+/// Whether `o` closed at least [`EXPLAINED_SHRINK`] of a gap of total `d0` before its penalty
+/// and left no significant cell, yet no fit with its parameters could explain that gap: even
+/// closing all of it scores under [`EXPLAINED_SHRINK`] ([`best_possible_shrink`]), that is
+/// D₀ < [`PENALTY_PER_PARAM`]·p / (1 − [`EXPLAINED_SHRINK`]). Such a gap is too small to single
+/// out an effect; a shrink short of the bar with a penalty that leaves room is not this case.
+pub fn too_small_to_attribute(d0: f64, o: &Outcome) -> bool {
+    d0 > 0.0
+        && o.significant_left == 0
+        && 1.0 - o.remaining / d0 >= EXPLAINED_SHRINK
+        && best_possible_shrink(d0, o) < EXPLAINED_SHRINK
+}
+
 /// Indices of `outcomes` from best to worst (penalised shrink, then fewer parameters, then
 /// input order).
 pub fn rank(d0: f64, outcomes: &[Outcome]) -> Vec<usize> {

@@ -881,43 +881,27 @@ fn params_text(r: &Ranked) -> String {
     values_text(&r.evaluated, None)
 }
 
-/// Whether the best candidate `r` closed a gap of total `d0`, left no significant cell, and
-/// still could not explain it because the gap is smaller than its parameters' penalty lets any
-/// fit earn: even closing all of it would score under [`EXPLAINED_SHRINK`]. "No candidate
-/// closes enough" would misread that (the best closed it); a shrink short of the bar with a
-/// penalty that leaves room is not this case.
+/// The answer for a gap too small to attribute ([`verdict::too_small_to_attribute`]): what
+/// the best candidate `r` of `ranking` did, why the penalty decides, how many others closed the
+/// gap as well, and what would tell chance from a real mismatch (the same cells differing in
+/// another recording).
 ///
-/// [`EXPLAINED_SHRINK`]: crate::diagnose::verdict::EXPLAINED_SHRINK
-fn gap_too_small_to_attribute(r: &Ranked, d0: f64) -> bool {
-    use crate::diagnose::verdict::{EXPLAINED_SHRINK, PENALTY_PER_PARAM};
-    let best_possible_score = 1.0 - PENALTY_PER_PARAM * r.evaluated.outcome.params as f64 / d0;
-    d0 > 0.0
-        && r.evaluated.outcome.significant_left == 0
-        && r.shrink >= EXPLAINED_SHRINK
-        && best_possible_score < EXPLAINED_SHRINK
-}
-
-/// The answer for a gap too small to attribute ([`gap_too_small_to_attribute`]): what the best
-/// candidate did, why the penalty decides, how many others closed it as well, and what would
-/// tell chance from a real mismatch (the same cells differing in another recording).
+/// [`verdict::too_small_to_attribute`]: crate::diagnose::verdict::too_small_to_attribute
 fn too_small_to_attribute_text(
+    r: &Ranked,
     ranking: &[Ranked],
-    best: usize,
     gap: &GapMap,
     nyquist_hz: f64,
 ) -> String {
-    use crate::diagnose::verdict::{EXPLAINED_SHRINK, PENALTY_PER_PARAM};
-    let Some(r) = ranking.get(best) else {
-        return String::new();
-    };
+    use crate::diagnose::verdict::{best_possible_shrink, EXPLAINED_SHRINK, PENALTY_PER_PARAM};
     let d0 = gap.total;
-    let params = r.evaluated.outcome.params;
-    let penalty_share = PENALTY_PER_PARAM * params as f64 / d0;
+    let best_possible = best_possible_shrink(d0, &r.evaluated.outcome);
     let closing_too = ranking
         .iter()
-        .enumerate()
-        .filter(|&(i, o)| {
-            i != best && o.shrink >= EXPLAINED_SHRINK && o.evaluated.outcome.significant_left == 0
+        .filter(|o| {
+            !std::ptr::eq(*o, r)
+                && o.shrink >= EXPLAINED_SHRINK
+                && o.evaluated.outcome.significant_left == 0
         })
         .count();
     let q = gap.options.fdr_q;
@@ -936,9 +920,9 @@ fn too_small_to_attribute_text(
         100.0 * r.shrink,
         d0,
         PENALTY_PER_PARAM,
-        params,
-        100.0 * penalty_share,
-        1.0 - penalty_share,
+        r.evaluated.outcome.params,
+        100.0 * (1.0 - best_possible),
+        best_possible,
         EXPLAINED_SHRINK,
         r.score,
         closing_too,
@@ -999,13 +983,13 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
                 d.nyquist_hz
             )
         ),
-        (_, Some(r)) if gap_too_small_to_attribute(r, d.nominal_gap.total) => {
-            too_small_to_attribute_text(
-                &d.ranking,
-                d.best.unwrap_or(0),
-                &d.nominal_gap,
-                d.nyquist_hz,
-            )
+        (_, Some(r))
+            if crate::diagnose::verdict::too_small_to_attribute(
+                d.nominal_gap.total,
+                &r.evaluated.outcome,
+            ) =>
+        {
+            too_small_to_attribute_text(r, &d.ranking, &d.nominal_gap, d.nyquist_hz)
         }
         (_, Some(r)) => format!(
             "**Unexplained.** No candidate closes enough of the gap: the best, `{}` ({}), closes \
@@ -1548,7 +1532,7 @@ mod tests {
     #[test]
     fn a_gap_smaller_than_one_parameters_penalty_is_called_too_small_to_attribute() {
         use crate::diagnose::gap::GapOptions;
-        use crate::diagnose::verdict::shrink;
+        use crate::diagnose::verdict::{shrink, too_small_to_attribute};
         let d0 = 4.83;
         let cell = CellGap {
             key: CellKey {
@@ -1583,8 +1567,8 @@ mod tests {
             // Closes less than the bar: not counted among those that closed it as well.
             candidate(Effect::Overrotation, vec![0.1], 0.5 * d0),
         ];
-        assert!(gap_too_small_to_attribute(&ranking[0], d0));
-        let text = too_small_to_attribute_text(&ranking, 0, &gap, 15.0);
+        assert!(too_small_to_attribute(d0, &ranking[0].evaluated.outcome));
+        let text = too_small_to_attribute_text(&ranking[0], &ranking, &gap, 15.0);
         assert!(
             text.starts_with(
                 "**Unexplained: a gap too small to attribute.** The best candidate, `backlash` ("
@@ -1604,13 +1588,13 @@ mod tests {
         let mut short = candidate(Effect::Backlash, vec![0.0207], 0.25 * 40.0);
         short.shrink = 0.75;
         short.score = 0.75 - 2.0 / 40.0 * 4.0;
-        assert!(!gap_too_small_to_attribute(&short, 40.0));
+        assert!(!too_small_to_attribute(40.0, &short.evaluated.outcome));
         // A significant cell left, or a shrink short of the bar: not this case either.
         let mut left = ranking[0].clone();
         left.evaluated.outcome.significant_left = 1;
-        assert!(!gap_too_small_to_attribute(&left, d0));
-        assert!(!gap_too_small_to_attribute(&ranking[2], d0));
-        assert!(!gap_too_small_to_attribute(&ranking[0], 0.0));
+        assert!(!too_small_to_attribute(d0, &left.evaluated.outcome));
+        assert!(!too_small_to_attribute(d0, &ranking[2].evaluated.outcome));
+        assert!(!too_small_to_attribute(0.0, &ranking[0].evaluated.outcome));
     }
 
     #[test]
