@@ -169,6 +169,19 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
         )
         .unwrap();
         assert_eq!(json["verdict"], o.verdict.as_str());
+        // The verdict's reason, machine-readable, agrees with the verdict it explains.
+        let reason = json["remainder"]["reason"].as_str().unwrap_or_default();
+        let allowed: &[&str] = match o.verdict.as_str() {
+            "no_gap" => &["no_significant_cell"],
+            "explained" => &["explained"],
+            _ => &[
+                "not_distinct_from_nominal",
+                "too_small_to_attribute",
+                "not_closed",
+                "no_candidate",
+            ],
+        };
+        assert!(allowed.contains(&reason), "{}: reason {reason:?}", o.name);
         assert_eq!(
             json["run"]["seeds"].as_array().map(Vec::len),
             Some(o.eval_seeds)

@@ -252,6 +252,53 @@ pub fn verdict(
     }
 }
 
+/// Why a verdict is what it is, one of a fixed list: `diagnosis.json`'s `remainder.reason`, for a
+/// program that reads the verdict, and the case `diagnosis.md`'s answer states in words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VerdictReason {
+    /// `no_gap`: no compared cell differs significantly.
+    NoSignificantCell,
+    /// `explained`: the best candidate closes enough and leaves no significant cell.
+    Explained,
+    /// `unexplained`: the candidate that closed the gap has fitted values that do not tell it
+    /// from the nominal (its seeds closed the gap, not the effect).
+    NotDistinctFromNominal,
+    /// `unexplained`: the best closed the gap and left no cell, but the gap is smaller than its
+    /// parameters' penalty ([`too_small_to_attribute`]).
+    TooSmallToAttribute,
+    /// `unexplained`: the best candidate closes too little or leaves a significant cell.
+    NotClosed,
+    /// `unexplained`: no candidate was fitted (none has a signature in the differing cells).
+    NoCandidate,
+}
+
+impl VerdictReason {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            VerdictReason::NoSignificantCell => "no_significant_cell",
+            VerdictReason::Explained => "explained",
+            VerdictReason::NotDistinctFromNominal => "not_distinct_from_nominal",
+            VerdictReason::TooSmallToAttribute => "too_small_to_attribute",
+            VerdictReason::NotClosed => "not_closed",
+            VerdictReason::NoCandidate => "no_candidate",
+        }
+    }
+}
+
+/// The reason for verdict `v` on a gap of total `d0`, given the outcome of the candidate it rests
+/// on (none when no candidate was fitted) and whether that candidate's values failed to tell it
+/// from the nominal ([`choose`]'s `not_distinct`).
+pub fn reason(v: Verdict, d0: f64, best: Option<&Outcome>, not_distinct: bool) -> VerdictReason {
+    match (v, best) {
+        (Verdict::NoGap, _) => VerdictReason::NoSignificantCell,
+        (Verdict::Explained, Some(_)) => VerdictReason::Explained,
+        (_, Some(_)) if not_distinct => VerdictReason::NotDistinctFromNominal,
+        (_, Some(o)) if too_small_to_attribute(d0, o) => VerdictReason::TooSmallToAttribute,
+        (_, Some(_)) => VerdictReason::NotClosed,
+        (_, None) => VerdictReason::NoCandidate,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -292,6 +339,52 @@ mod tests {
         );
         assert_eq!(verdict(3, 100.0, None, None), Verdict::Unexplained);
         assert_eq!(verdict(0, 0.0, None, Some(false)), Verdict::NoGap);
+    }
+
+    /// Each reason is the one its verdict and best outcome call for, checked against the
+    /// verdict those same inputs give.
+    #[test]
+    fn every_verdict_states_its_reason() {
+        let d0 = 100.0;
+        let cases = [
+            (0, None, false, VerdictReason::NoSignificantCell),
+            (3, Some(o(5.0, 1, 0)), false, VerdictReason::Explained),
+            (
+                3,
+                Some(o(5.0, 1, 0)),
+                true,
+                VerdictReason::NotDistinctFromNominal,
+            ),
+            (3, Some(o(5.0, 1, 1)), false, VerdictReason::NotClosed),
+            (3, Some(o(50.0, 1, 0)), false, VerdictReason::NotClosed),
+            (3, None, false, VerdictReason::NoCandidate),
+        ];
+        for (significant, best, not_distinct, want) in cases {
+            let distinct = not_distinct.then_some(false);
+            let v = verdict(significant, d0, best.as_ref(), distinct);
+            assert_eq!(reason(v, d0, best.as_ref(), not_distinct), want, "{want:?}");
+        }
+        // null-24 of stop 62: D₀ 4.8, closed all of it with one parameter, no cell left.
+        let small = o(0.0, 1, 0);
+        let v = verdict(1, 4.8, Some(&small), None);
+        assert_eq!(v, Verdict::Unexplained);
+        assert_eq!(
+            reason(v, 4.8, Some(&small), false),
+            VerdictReason::TooSmallToAttribute
+        );
+        let names: Vec<&str> = [
+            VerdictReason::NoSignificantCell,
+            VerdictReason::Explained,
+            VerdictReason::NotDistinctFromNominal,
+            VerdictReason::TooSmallToAttribute,
+            VerdictReason::NotClosed,
+            VerdictReason::NoCandidate,
+        ]
+        .map(VerdictReason::as_str)
+        .to_vec();
+        for (i, n) in names.iter().enumerate() {
+            assert!(!names[..i].contains(n), "{n} twice");
+        }
     }
 
     fn fv(value: f64, std: f64, nominal: f64) -> FromNominal {

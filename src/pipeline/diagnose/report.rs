@@ -16,6 +16,7 @@ use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{CellGap, GapMap};
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
+use crate::diagnose::verdict::VerdictReason;
 use crate::errors::FileError;
 use crate::io::json::finite_or_null;
 use crate::io::output_dir::OutputDir;
@@ -280,6 +281,19 @@ fn not_distinct_text(not_distinct: &[NotDistinct], ranking: &[Ranked]) -> String
         .collect::<Vec<_>>()
         .join("; ");
     format!("Closed the gap but not taken as its cause ({NOT_DISTINCT_REASON}): {listed}.\n\n")
+}
+
+/// The reason for `d`'s verdict ([`VerdictReason`]), with the candidate the verdict rests on
+/// when there is one.
+pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
+    let best = d.best.and_then(|b| d.ranking.get(b));
+    let reason = crate::diagnose::verdict::reason(
+        d.verdict,
+        d.nominal_gap.total,
+        best.map(|r| &r.evaluated.outcome),
+        best_not_distinct(d),
+    );
+    (reason, best)
 }
 
 /// Whether the verdict's candidate is one that did not tell itself from the nominal (then no
@@ -779,8 +793,8 @@ pub fn to_json(d: &Diagnosis) -> Value {
         "marker_orientation_deg": a.geometry.orientation_deg,
         "screen_sign": a.screen_sign,
     });
-    let best = d.best.map(|b| &d.ranking[b]);
-    let remainder = match best {
+    let (reason, best) = verdict_reason(d);
+    let mut remainder = match best {
         Some(_) if best_not_distinct(d) => json!({
             "after": Value::Null,
             "total": d.nominal_gap.total,
@@ -808,6 +822,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
             "best_partial": Vec::<String>::new(),
         }),
     };
+    remainder["reason"] = json!(reason.as_str());
     json!({
         "verdict": d.verdict.as_str(),
         "nuisance": nuisance,
@@ -935,16 +950,16 @@ fn too_small_to_attribute_text(
 /// `diagnosis.md`.
 pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
     let mut s = String::new();
-    let best = d.best.map(|b| &d.ranking[b]);
     s.push_str("# Sim-to-real diagnosis\n\n");
-    let answer = match (d.verdict, best) {
-        (crate::diagnose::verdict::Verdict::NoGap, _) => format!(
+    let (reason, best) = verdict_reason(d);
+    let answer = match (reason, best) {
+        (VerdictReason::NoSignificantCell, _) => format!(
             "**No gap.** The real measurement lies within the nominal simulation's spread: none of \
              the {} compared cells differs significantly (false-discovery rate {}).",
             d.nominal_gap.cells.len(),
             d.nominal_gap.options.fdr_q
         ),
-        (crate::diagnose::verdict::Verdict::Explained, Some(r)) => {
+        (VerdictReason::Explained, Some(r)) => {
             let mut t = format!(
                 "**Explained by `{}`** ({}): adding it closes {:.0} % of the gap and leaves no \
                  significant difference.",
@@ -967,7 +982,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             }
             t
         }
-        (_, Some(r)) if best_not_distinct(d) => format!(
+        (VerdictReason::NotDistinctFromNominal, Some(r)) => format!(
             "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but its fitted \
              values do not tell it from the nominal: {}. Those seeds closed the gap, not the \
              effect, and no candidate that closes it differs from the nominal. The gap: {}.",
@@ -983,12 +998,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
                 d.nyquist_hz
             )
         ),
-        (_, Some(r))
-            if crate::diagnose::verdict::too_small_to_attribute(
-                d.nominal_gap.total,
-                &r.evaluated.outcome,
-            ) =>
-        {
+        (VerdictReason::TooSmallToAttribute, Some(r)) => {
             too_small_to_attribute_text(r, &d.ranking, &d.nominal_gap, d.nyquist_hz)
         }
         (_, Some(r)) => format!(

@@ -457,14 +457,12 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
             renderer: plan.renderer,
         });
     }
-    let excluded = [
-        Effect::RollingShutter,
-        Effect::OpticalBlur,
-        Effect::PixelNoise,
-    ];
+    let excluded = excluded_effects();
     for k in 0..plan.excluded_cases {
         let seed = next_seed();
-        let e = excluded[k % excluded.len()];
+        let Some(&e) = excluded.get(k % excluded.len()) else {
+            break;
+        };
         let mut nominal = base.clone();
         e.switch_off(&mut nominal);
         let mut data = nominal.clone();
@@ -535,6 +533,30 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
         });
     }
     out
+}
+
+/// The effects an out-of-vocabulary case switches on in the data and excludes from the
+/// candidates, taken in this order (and round again past its end). The first three are the
+/// default plan's. The rest widen a larger `--excluded` run to every effect whose footage no
+/// remaining candidate is documented to draw alike; left out are the frame timing and the
+/// timebase (the example of effects the data cannot tell apart, each the other's twin)
+/// and the motion blur (the optical blur's twin at low speed), whose exclusion leaves their twin
+/// to explain them, and the overrotation, which shares the backlash's switch.
+pub fn excluded_effects() -> Vec<Effect> {
+    vec![
+        Effect::RollingShutter,
+        Effect::OpticalBlur,
+        Effect::PixelNoise,
+        Effect::Lighting,
+        Effect::Compression,
+        Effect::CameraVibration,
+        Effect::AxisRunout,
+        Effect::Backlash,
+        Effect::DiscVibration,
+        Effect::LensDistortion,
+        Effect::PerspectiveTilt,
+        Effect::DriveSpeed,
+    ]
 }
 
 /// The names that count as the same answer as `e`: the effects sharing its switch.
@@ -1651,5 +1673,62 @@ mod tests {
         }
         let runout = &all[1].data.dynamics.axis_runout;
         assert!(runout.is_visible() && runout.cycles_per_wheel_rev == 3.0);
+    }
+
+    /// A larger `--excluded` run takes every listed effect once before going round, each on in
+    /// the data, off in the nominal and out of the candidates with its switch mates, while every
+    /// other effect stays a candidate; the default plan's three cases keep their names.
+    #[test]
+    fn excluded_cases_withhold_each_listed_effect_from_the_candidates() -> Result<(), DiagnoseError>
+    {
+        let base = suite_base(4.0)?;
+        let listed = excluded_effects();
+        let plan = SuitePlan {
+            seeds_per_case: 0,
+            null_cases: 0,
+            flicker_cases: 0,
+            excluded_cases: listed.len() + 1,
+            ..SuitePlan::full(0)
+        };
+        let all = cases(&base, &plan, &[]);
+        assert_eq!(all.len(), listed.len() + 1);
+        let names: Vec<&str> = all.iter().take(3).map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "oov-excluded-rolling_shutter-0",
+                "oov-excluded-optical_blur-1",
+                "oov-excluded-pixel_noise-2",
+            ]
+        );
+        for (c, e) in all.iter().zip(listed.iter().cycle()) {
+            assert_eq!(c.expectation, Expectation::OutOfVocabulary, "{}", c.name);
+            assert!(c.name.starts_with(&format!("oov-excluded-{}-", e.name())));
+            assert!(!e.is_on(&c.nominal) && e.is_on(&c.data), "{}", c.name);
+            let candidates = c.effects.clone().unwrap_or_default();
+            for other in Effect::ALL {
+                let out = other == *e || e.shares_switch_with().contains(&other);
+                assert_eq!(
+                    candidates.contains(&other),
+                    !out,
+                    "{}: {}",
+                    c.name,
+                    other.name()
+                );
+            }
+        }
+        assert_ne!(all[0].data.seed, all[listed.len()].data.seed);
+        for twin in [
+            Effect::FrameTiming,
+            Effect::Timebase,
+            Effect::MotionBlur,
+            Effect::Overrotation,
+        ] {
+            assert!(!listed.contains(&twin), "{}", twin.name());
+        }
+        for (i, e) in listed.iter().enumerate() {
+            assert!(!listed[..i].contains(e), "{} listed twice", e.name());
+        }
+        Ok(())
     }
 }
