@@ -176,6 +176,7 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
             "explained" => &["explained"],
             _ => &[
                 "not_distinct_from_nominal",
+                "undetermined_at_search_end",
                 "too_small_to_attribute",
                 "not_closed",
                 "no_candidate",

@@ -176,6 +176,24 @@ pub fn tells_from_nominal_at(values: &[FromNominal], z_min: f64) -> Option<bool>
     Some(values.iter().any(|v| v.z() >= z_min))
 }
 
+/// Whether a fit left its effect undetermined at the edge of what it searched: every value
+/// without a finite uncertainty (the objective has no curvature there) and at an end of its
+/// search range `search` (low, high). Such a fit measured no value: what it closed, switching the
+/// effect on closed, at whatever value the search stopped. An overrotation, whose switch turns the
+/// wheel dynamics on, "explained" a withheld axis runout with its friction at the search's upper
+/// end and no ± when the runout was excluded from the candidates (`reports/diagnosis-stop63/`).
+/// A valley's values (a full well and read noise that trade) are not at an end together.
+pub fn undetermined_at_search_end(values: &[f64], stds: &[f64], search: &[(f64, f64)]) -> bool {
+    !values.is_empty()
+        && values.len() == stds.len()
+        && values.len() == search.len()
+        && stds.iter().all(|s| !s.is_finite())
+        && values.iter().zip(search).all(|(&v, &(lo, hi))| {
+            let tol = 1e-9 * (hi - lo).abs().max(f64::MIN_POSITIVE);
+            (v - lo).abs() <= tol || (v - hi).abs() <= tol
+        })
+}
+
 /// The candidate the verdict rests on, and what was judged on the way.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Choice {
@@ -263,6 +281,9 @@ pub enum VerdictReason {
     /// `unexplained`: the candidate that closed the gap has fitted values that do not tell it
     /// from the nominal (its seeds closed the gap, not the effect).
     NotDistinctFromNominal,
+    /// `unexplained`: the candidate that closed the gap measured no value
+    /// ([`undetermined_at_search_end`]): its switch closed it.
+    Undetermined,
     /// `unexplained`: the best closed the gap and left no cell, but the gap is smaller than its
     /// parameters' penalty ([`too_small_to_attribute`]).
     TooSmallToAttribute,
@@ -278,6 +299,7 @@ impl VerdictReason {
             VerdictReason::NoSignificantCell => "no_significant_cell",
             VerdictReason::Explained => "explained",
             VerdictReason::NotDistinctFromNominal => "not_distinct_from_nominal",
+            VerdictReason::Undetermined => "undetermined_at_search_end",
             VerdictReason::TooSmallToAttribute => "too_small_to_attribute",
             VerdictReason::NotClosed => "not_closed",
             VerdictReason::NoCandidate => "no_candidate",
@@ -285,14 +307,30 @@ impl VerdictReason {
     }
 }
 
+/// Why the candidate a verdict rests on was set aside ([`choose`]'s `not_distinct`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SetAside {
+    /// Its values lie within [`DISTINCT_Z`] uncertainties of the nominal's.
+    NotDistinct,
+    /// Its fit measured no value ([`undetermined_at_search_end`]).
+    Undetermined,
+}
+
 /// The reason for verdict `v` on a gap of total `d0`, given the outcome of the candidate it rests
-/// on (none when no candidate was fitted) and whether that candidate's values failed to tell it
-/// from the nominal ([`choose`]'s `not_distinct`).
-pub fn reason(v: Verdict, d0: f64, best: Option<&Outcome>, not_distinct: bool) -> VerdictReason {
+/// on (none when no candidate was fitted) and why that candidate was set aside, if it was.
+pub fn reason(
+    v: Verdict,
+    d0: f64,
+    best: Option<&Outcome>,
+    set_aside: Option<SetAside>,
+) -> VerdictReason {
     match (v, best) {
         (Verdict::NoGap, _) => VerdictReason::NoSignificantCell,
         (Verdict::Explained, Some(_)) => VerdictReason::Explained,
-        (_, Some(_)) if not_distinct => VerdictReason::NotDistinctFromNominal,
+        (_, Some(_)) if set_aside == Some(SetAside::Undetermined) => VerdictReason::Undetermined,
+        (_, Some(_)) if set_aside == Some(SetAside::NotDistinct) => {
+            VerdictReason::NotDistinctFromNominal
+        }
         (_, Some(o)) if too_small_to_attribute(d0, o) => VerdictReason::TooSmallToAttribute,
         (_, Some(_)) => VerdictReason::NotClosed,
         (_, None) => VerdictReason::NoCandidate,
@@ -346,36 +384,44 @@ mod tests {
     #[test]
     fn every_verdict_states_its_reason() {
         let d0 = 100.0;
+        let aside = Some(SetAside::NotDistinct);
         let cases = [
-            (0, None, false, VerdictReason::NoSignificantCell),
-            (3, Some(o(5.0, 1, 0)), false, VerdictReason::Explained),
+            (0, None, None, VerdictReason::NoSignificantCell),
+            (3, Some(o(5.0, 1, 0)), None, VerdictReason::Explained),
             (
                 3,
                 Some(o(5.0, 1, 0)),
-                true,
+                aside,
                 VerdictReason::NotDistinctFromNominal,
             ),
-            (3, Some(o(5.0, 1, 1)), false, VerdictReason::NotClosed),
-            (3, Some(o(50.0, 1, 0)), false, VerdictReason::NotClosed),
-            (3, None, false, VerdictReason::NoCandidate),
+            (
+                3,
+                Some(o(5.0, 1, 0)),
+                Some(SetAside::Undetermined),
+                VerdictReason::Undetermined,
+            ),
+            (3, Some(o(5.0, 1, 1)), None, VerdictReason::NotClosed),
+            (3, Some(o(50.0, 1, 0)), None, VerdictReason::NotClosed),
+            (3, None, None, VerdictReason::NoCandidate),
         ];
-        for (significant, best, not_distinct, want) in cases {
-            let distinct = not_distinct.then_some(false);
+        for (significant, best, set_aside, want) in cases {
+            let distinct = set_aside.map(|_| false);
             let v = verdict(significant, d0, best.as_ref(), distinct);
-            assert_eq!(reason(v, d0, best.as_ref(), not_distinct), want, "{want:?}");
+            assert_eq!(reason(v, d0, best.as_ref(), set_aside), want, "{want:?}");
         }
         // null-24 of stop 62: D₀ 4.8, closed all of it with one parameter, no cell left.
         let small = o(0.0, 1, 0);
         let v = verdict(1, 4.8, Some(&small), None);
         assert_eq!(v, Verdict::Unexplained);
         assert_eq!(
-            reason(v, 4.8, Some(&small), false),
+            reason(v, 4.8, Some(&small), None),
             VerdictReason::TooSmallToAttribute
         );
         let names: Vec<&str> = [
             VerdictReason::NoSignificantCell,
             VerdictReason::Explained,
             VerdictReason::NotDistinctFromNominal,
+            VerdictReason::Undetermined,
             VerdictReason::TooSmallToAttribute,
             VerdictReason::NotClosed,
             VerdictReason::NoCandidate,
@@ -385,6 +431,33 @@ mod tests {
         for (i, n) in names.iter().enumerate() {
             assert!(!names[..i].contains(n), "{n} twice");
         }
+    }
+
+    /// A fit is undetermined only with every value at a search end and no finite ±.
+    #[test]
+    fn a_fit_without_curvature_at_its_search_end_is_undetermined() {
+        let friction = [(0.003, 0.3)];
+        assert!(undetermined_at_search_end(
+            &[0.29999999999999993],
+            &[f64::INFINITY],
+            &friction
+        ));
+        assert!(undetermined_at_search_end(&[0.003], &[f64::NAN], &friction));
+        // A finite ±, or a value inside the range: the data measured it.
+        assert!(!undetermined_at_search_end(&[0.3], &[0.01], &friction));
+        assert!(!undetermined_at_search_end(
+            &[0.2],
+            &[f64::INFINITY],
+            &friction
+        ));
+        // A valley: one value inside its range, both without ±.
+        assert!(!undetermined_at_search_end(
+            &[2031.0, 185.0],
+            &[f64::INFINITY, f64::INFINITY],
+            &[(200.0, 20000.0), (1.0, 185.0)]
+        ));
+        assert!(!undetermined_at_search_end(&[], &[], &[]));
+        assert!(!undetermined_at_search_end(&[0.3], &[], &friction));
     }
 
     fn fv(value: f64, std: f64, nominal: f64) -> FromNominal {

@@ -466,31 +466,59 @@ pub struct NotDistinct {
     pub ranked: usize,
     /// Each compared value: its effect, its parameter's name, and where it lies.
     pub values: Vec<(Effect, &'static str, verdict::FromNominal)>,
+    /// The effects whose fit measured no value ([`verdict::undetermined_at_search_end`]): each
+    /// parameter's name, value and search range (low, high).
+    pub undetermined: Vec<(Effect, Vec<Undetermined>)>,
+}
+
+/// A fitted value the data did not determine, at an end of its search range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Undetermined {
+    pub param: &'static str,
+    pub value: f64,
+    pub search: (f64, f64),
 }
 
 /// The fitted values of `r` beside those at which each of its effects would leave the nominal
 /// as it is (forms and values with none left out), and whether they tell it from the nominal:
 /// a pair only when each of its effects does, since a second effect at its nominal values makes
 /// the pair the single under another name.
-fn from_nominal(
-    fitter: &Fitter,
-    r: &Ranked,
-) -> (
-    Vec<(Effect, &'static str, verdict::FromNominal)>,
-    Option<bool>,
-) {
-    let mut all = Vec::new();
+/// An effect whose fit measured no value ([`verdict::undetermined_at_search_end`]) does not tell
+/// its candidate from the nominal either: its switch, not a fitted value, did the closing.
+fn from_nominal(fitter: &Fitter, r: &Ranked) -> (NotDistinct, Option<bool>) {
+    let mut judged = NotDistinct {
+        ranked: 0,
+        values: Vec::new(),
+        undetermined: Vec::new(),
+    };
     let mut distinct = Some(true);
     for f in &r.evaluated.effects {
-        let (compared, tells) = fitted_from_nominal(fitter, f, verdict::DISTINCT_Z);
+        let (compared, mut tells) = fitted_from_nominal(fitter, f, verdict::DISTINCT_Z);
+        let specs = f.effect.params_on(fitter.footage_fps_hz());
+        let search: Vec<(f64, f64)> = specs.iter().map(|p| p.search).collect();
+        if verdict::undetermined_at_search_end(&f.values, &f.stds, &search) {
+            tells = Some(false);
+            judged.undetermined.push((
+                f.effect,
+                specs
+                    .iter()
+                    .zip(&f.values)
+                    .map(|(p, &value)| Undetermined {
+                        param: p.name,
+                        value,
+                        search: p.search,
+                    })
+                    .collect(),
+            ));
+        }
         distinct = match (distinct, tells) {
             (Some(false), _) | (_, Some(false)) => Some(false),
             (Some(true), Some(true)) => Some(true),
             _ => None,
         };
-        all.extend(compared);
+        judged.values.extend(compared);
     }
-    (all, distinct)
+    (judged, distinct)
 }
 
 /// One fitted effect's values beside those at which it would leave the nominal as it is, and
@@ -1075,9 +1103,12 @@ pub fn diagnose_with(
                 }
                 judged += 1;
                 settle(&mut ranking[i]);
-                let (values, tells) = from_nominal(&fitter, &ranking[i]);
+                let (judged, tells) = from_nominal(&fitter, &ranking[i]);
                 if tells == Some(false) {
-                    not_distinct.push(NotDistinct { ranked: i, values });
+                    not_distinct.push(NotDistinct {
+                        ranked: i,
+                        ..judged
+                    });
                 }
                 tells
             },
@@ -1480,6 +1511,7 @@ pub(crate) mod tests {
         let nd = |ranked| NotDistinct {
             ranked,
             values: Vec::new(),
+            undetermined: Vec::new(),
         };
         let mut ranking = vec!["lens", "tilt", "blur", "noise"];
         let mut set_aside = vec![nd(0), nd(1)];

@@ -16,7 +16,7 @@ use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{CellGap, GapMap};
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
-use crate::diagnose::verdict::VerdictReason;
+use crate::diagnose::verdict::{SetAside, VerdictReason};
 use crate::errors::FileError;
 use crate::io::json::finite_or_null;
 use crate::io::output_dir::OutputDir;
@@ -228,8 +228,14 @@ const NOT_DISTINCT_REASON: &str = "every fitted value lies within one standard u
      the value at which the effect would leave the nominal as it is: the data cannot tell it from \
      the nominal, so what it closed on fresh seeds was closed by those seeds, not by the effect";
 
+/// Why a candidate that closed the gap measured no value ([`super::Undetermined`]).
+const UNDETERMINED_REASON: &str = "its fit measured no value: each lies at an end of its search \
+     range with no finite uncertainty, so switching the effect on, not a value the footage \
+     measured, closed the gap";
+
 /// One candidate's fitted values against the nominal's, in words: `k1 = 0.006 ± 0.010 against
-/// 0 (0.6 σ)`.
+/// 0 (0.6 σ)`; a value its fit did not determine as `mu_kinetic = 0.3000, at the end of its
+/// search range 0.0030–0.3000, no ±`.
 fn not_distinct_values_text(n: &NotDistinct) -> String {
     n.values
         .iter()
@@ -242,8 +248,28 @@ fn not_distinct_values_text(n: &NotDistinct) -> String {
                 v.z()
             )
         })
+        .chain(n.undetermined.iter().flat_map(|(_, params)| {
+            params.iter().map(|u| {
+                format!(
+                    "{} = {}, at the end of its search range {}–{}, no ±",
+                    u.param,
+                    fmt(u.value),
+                    fmt(u.search.0),
+                    fmt(u.search.1)
+                )
+            })
+        }))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The reason `n` was set aside: its values restate the nominal, or its fit measured none.
+fn not_distinct_reason(n: &NotDistinct) -> &'static str {
+    if n.undetermined.is_empty() {
+        NOT_DISTINCT_REASON
+    } else {
+        UNDETERMINED_REASON
+    }
 }
 
 fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
@@ -257,7 +283,13 @@ fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
             "nominal": v.nominal,
             "z": v.z(),
         })).collect::<Vec<_>>(),
-        "reason": NOT_DISTINCT_REASON,
+        "undetermined": n.undetermined.iter().flat_map(|(e, params)| params.iter().map(|u| json!({
+            "effect": e.name(),
+            "param": u.param,
+            "value": u.value,
+            "search": [u.search.0, u.search.1],
+        }))).collect::<Vec<_>>(),
+        "reason": not_distinct_reason(n),
     })
 }
 
@@ -267,31 +299,50 @@ fn not_distinct_text(not_distinct: &[NotDistinct], ranking: &[Ranked]) -> String
     if not_distinct.is_empty() {
         return String::new();
     }
-    let listed = not_distinct
-        .iter()
-        .filter_map(|n| {
-            ranking.get(n.ranked).map(|r| {
-                format!(
-                    "`{}` ({})",
-                    candidate_name(&r.evaluated),
-                    not_distinct_values_text(n)
-                )
+    let mut text = String::new();
+    for reason in [NOT_DISTINCT_REASON, UNDETERMINED_REASON] {
+        let listed = not_distinct
+            .iter()
+            .filter(|n| not_distinct_reason(n) == reason)
+            .filter_map(|n| {
+                ranking.get(n.ranked).map(|r| {
+                    format!(
+                        "`{}` ({})",
+                        candidate_name(&r.evaluated),
+                        not_distinct_values_text(n)
+                    )
+                })
             })
-        })
-        .collect::<Vec<_>>()
-        .join("; ");
-    format!("Closed the gap but not taken as its cause ({NOT_DISTINCT_REASON}): {listed}.\n\n")
+            .collect::<Vec<_>>()
+            .join("; ");
+        if !listed.is_empty() {
+            text.push_str(&format!(
+                "Closed the gap but not taken as its cause ({reason}): {listed}.\n\n"
+            ));
+        }
+    }
+    text
 }
 
 /// The reason for `d`'s verdict ([`VerdictReason`]), with the candidate the verdict rests on
 /// when there is one.
 pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     let best = d.best.and_then(|b| d.ranking.get(b));
+    let set_aside = d
+        .best
+        .and_then(|b| d.not_distinct.iter().find(|n| n.ranked == b))
+        .map(|n| {
+            if n.undetermined.is_empty() {
+                SetAside::NotDistinct
+            } else {
+                SetAside::Undetermined
+            }
+        });
     let reason = crate::diagnose::verdict::reason(
         d.verdict,
         d.nominal_gap.total,
         best.map(|r| &r.evaluated.outcome),
-        best_not_distinct(d),
+        set_aside,
     );
     (reason, best)
 }
@@ -982,22 +1033,34 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             }
             t
         }
-        (VerdictReason::NotDistinctFromNominal, Some(r)) => format!(
-            "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but its fitted \
-             values do not tell it from the nominal: {}. Those seeds closed the gap, not the \
-             effect, and no candidate that closes it differs from the nominal. The gap: {}.",
-            candidate_name(&r.evaluated),
-            100.0 * r.shrink,
-            d.not_distinct
+        (VerdictReason::Undetermined | VerdictReason::NotDistinctFromNominal, Some(r)) => {
+            let why = if reason == VerdictReason::Undetermined {
+                "its fit measured no value: {values}. Switching it on closed the gap, not a value \
+                 the footage determines, and no other candidate that closes it measured values \
+                 that differ from the nominal"
+            } else {
+                "its fitted values do not tell it from the nominal: {values}. Those seeds closed \
+                 the gap, not the effect, and no candidate that closes it differs from the \
+                 nominal"
+            };
+            let values = d
+                .not_distinct
                 .iter()
                 .find(|n| Some(n.ranked) == d.best)
                 .map(not_distinct_values_text)
-                .unwrap_or_default(),
-            cells_text(
-                &d.nominal_gap.significant().cloned().collect::<Vec<_>>(),
-                d.nyquist_hz
+                .unwrap_or_default();
+            format!(
+                "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but {}. The gap: \
+                 {}.",
+                candidate_name(&r.evaluated),
+                100.0 * r.shrink,
+                why.replace("{values}", &values),
+                cells_text(
+                    &d.nominal_gap.significant().cloned().collect::<Vec<_>>(),
+                    d.nyquist_hz
+                )
             )
-        ),
+        }
         (VerdictReason::TooSmallToAttribute, Some(r)) => {
             too_small_to_attribute_text(r, &d.ranking, &d.nominal_gap, d.nyquist_hz)
         }
@@ -1607,9 +1670,9 @@ mod tests {
         assert!(!too_small_to_attribute(0.0, &ranking[0].evaluated.outcome));
     }
 
-    #[test]
-    fn a_candidate_not_told_from_the_nominal_is_listed_with_its_values_and_why() {
-        let n = NotDistinct {
+    /// Stop 52's lens, k1 = 0.006 ± 0.0103, set aside as 0.6 σ from the nominal's 0.
+    fn lens_not_distinct() -> NotDistinct {
+        NotDistinct {
             ranked: 0,
             values: vec![(
                 Effect::LensDistortion,
@@ -1620,7 +1683,13 @@ mod tests {
                     nominal: 0.0,
                 },
             )],
-        };
+            undetermined: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_candidate_not_told_from_the_nominal_is_listed_with_its_values_and_why() {
+        let n = lens_not_distinct();
         let text = not_distinct_values_text(&n);
         assert_eq!(text, "k1 = 0.0060 ± 0.0103 against 0 (0.6 σ)");
         let j = not_distinct_json(&n, &[]);
@@ -1643,6 +1712,63 @@ mod tests {
             "{text}"
         );
         assert_eq!(not_distinct_text(&[], &[lens]), "");
+    }
+
+    /// An overrotation whose friction the fit left at its search end with no ±
+    /// (`reports/diagnosis-stop63/`) is set aside for measuring no value, listed apart from the
+    /// candidates that restate the nominal, in the words and the JSON.
+    #[test]
+    fn a_candidate_whose_fit_measured_no_value_is_listed_apart_with_its_search_range() {
+        let over = NotDistinct {
+            ranked: 1,
+            values: Vec::new(),
+            undetermined: vec![(
+                Effect::Overrotation,
+                vec![super::super::Undetermined {
+                    param: "mu_kinetic",
+                    value: 0.3,
+                    search: (0.003, 0.3),
+                }],
+            )],
+        };
+        assert_eq!(
+            not_distinct_values_text(&over),
+            "mu_kinetic = 0.3000, at the end of its search range 0.0030–0.3000, no ±"
+        );
+        let j = not_distinct_json(&over, &[]);
+        assert_eq!(j["values"], json!([]));
+        assert_eq!(j["undetermined"][0]["effect"], json!("overrotation"));
+        assert_eq!(j["undetermined"][0]["search"], json!([0.003, 0.3]));
+        assert!(j["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("measured no value") && !r.contains("  ")));
+        let lens_aside = lens_not_distinct();
+        let ranking = [
+            ranked(
+                vec![fitted(Effect::LensDistortion, vec![0.006], vec![0.0103])],
+                Refit::Off,
+            ),
+            ranked(
+                vec![fitted(Effect::Overrotation, vec![0.3], vec![f64::INFINITY])],
+                Refit::Off,
+            ),
+        ];
+        let text = not_distinct_text(&[lens_aside, over], &ranking);
+        let parts: Vec<&str> = text.split("\n\n").filter(|p| !p.is_empty()).collect();
+        assert_eq!(parts.len(), 2, "{text}");
+        assert!(
+            parts[0].contains("cannot tell it from the nominal")
+                && parts[0].contains("`lens_distortion`"),
+            "{text}"
+        );
+        assert!(
+            parts[1].contains("measured no value")
+                && parts[1].ends_with(
+                    "`overrotation` (mu_kinetic = 0.3000, at the end of its search range \
+                     0.0030–0.3000, no ±)."
+                ),
+            "{text}"
+        );
     }
 
     fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
