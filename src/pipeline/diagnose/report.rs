@@ -1034,27 +1034,30 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             t
         }
         (VerdictReason::Undetermined | VerdictReason::NotDistinctFromNominal, Some(r)) => {
-            let why = if reason == VerdictReason::Undetermined {
-                "its fit measured no value: {values}. Switching it on closed the gap, not a value \
-                 the footage determines, and no other candidate that closes it measured values \
-                 that differ from the nominal"
-            } else {
-                "its fitted values do not tell it from the nominal: {values}. Those seeds closed \
-                 the gap, not the effect, and no candidate that closes it differs from the \
-                 nominal"
-            };
             let values = d
                 .not_distinct
                 .iter()
                 .find(|n| Some(n.ranked) == d.best)
                 .map(not_distinct_values_text)
                 .unwrap_or_default();
+            let why = if reason == VerdictReason::Undetermined {
+                format!(
+                    "its fit measured no value: {values}. Switching it on closed the gap, not a \
+                     value the footage determines, and no other candidate that closes it \
+                     measured values that differ from the nominal"
+                )
+            } else {
+                format!(
+                    "its fitted values do not tell it from the nominal: {values}. Those seeds \
+                     closed the gap, not the effect, and no candidate that closes it differs \
+                     from the nominal"
+                )
+            };
             format!(
-                "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but {}. The gap: \
-                 {}.",
+                "**Unexplained.** `{}` closes {:.0} % of the gap on fresh seeds, but {why}. The \
+                 gap: {}.",
                 candidate_name(&r.evaluated),
                 100.0 * r.shrink,
-                why.replace("{values}", &values),
                 cells_text(
                     &d.nominal_gap.significant().cloned().collect::<Vec<_>>(),
                     d.nyquist_hz
