@@ -15,6 +15,7 @@
 //! would leave the nominal as it is closes the gap by the luck of the seeds it was judged on,
 //! not by the effect, and the verdict does not rest on it.
 
+use crate::scenario::effects::same_search_point;
 use serde::Serialize;
 
 /// Penalised shrink the best candidate must reach for `explained`.
@@ -189,8 +190,7 @@ pub fn undetermined_at_search_end(values: &[f64], stds: &[f64], search: &[(f64, 
         && values.len() == search.len()
         && stds.iter().all(|s| !s.is_finite())
         && values.iter().zip(search).all(|(&v, &(lo, hi))| {
-            let tol = 1e-9 * (hi - lo).abs().max(f64::MIN_POSITIVE);
-            (v - lo).abs() <= tol || (v - hi).abs() <= tol
+            same_search_point(v, lo, (lo, hi)) || same_search_point(v, hi, (lo, hi))
         })
 }
 

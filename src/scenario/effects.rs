@@ -109,6 +109,12 @@ impl Neutral {
     }
 }
 
+/// Whether `a` and `b` are one point of a search over `search` (low, high): equal to within a
+/// billionth of its span, what a search's clamping and arithmetic leave of an end it stopped at.
+pub fn same_search_point(a: f64, b: f64, search: (f64, f64)) -> bool {
+    (a - b).abs() <= 1e-9 * (search.1 - search.0).abs().max(f64::MIN_POSITIVE)
+}
+
 const fn param(
     name: &'static str,
     path: &'static str,
@@ -628,9 +634,9 @@ impl Effect {
         has_search_end
             && values.len() == params.len()
             && params.iter().zip(values).all(|(p, &v)| {
-                p.neutral.value(p, fps_hz).is_none_or(|n| {
-                    (v - n).abs() <= 1e-9 * (p.search.1 - p.search.0).abs().max(f64::MIN_POSITIVE)
-                })
+                p.neutral
+                    .value(p, fps_hz)
+                    .is_none_or(|n| same_search_point(v, n, p.search))
             })
     }
 

@@ -915,7 +915,7 @@ impl<'a> Fitter<'a> {
 
     /// The parameters of `e` as this footage's fit searches them: a time inside one frame (an
     /// exposure, a readout) up to the footage's median frame interval ([`Effect::params_on`]).
-    fn specs(&self, e: Effect) -> Vec<ParamSpec> {
+    pub(crate) fn specs(&self, e: Effect) -> Vec<ParamSpec> {
         e.params_on(self.footage_fps_hz())
     }
 

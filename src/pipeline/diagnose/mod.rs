@@ -466,14 +466,26 @@ pub struct NotDistinct {
     pub ranked: usize,
     /// Each compared value: its effect, its parameter's name, and where it lies.
     pub values: Vec<(Effect, &'static str, verdict::FromNominal)>,
-    /// The effects whose fit measured no value ([`verdict::undetermined_at_search_end`]): each
-    /// parameter's name, value and search range (low, high).
-    pub undetermined: Vec<(Effect, Vec<Undetermined>)>,
+    /// The values of the effects whose fit measured none
+    /// ([`verdict::undetermined_at_search_end`]).
+    pub undetermined: Vec<Undetermined>,
 }
 
-/// A fitted value the data did not determine, at an end of its search range.
+impl NotDistinct {
+    /// Why it was set aside: a fit that measured no value, else values restating the nominal.
+    pub fn set_aside(&self) -> verdict::SetAside {
+        if self.undetermined.is_empty() {
+            verdict::SetAside::NotDistinct
+        } else {
+            verdict::SetAside::Undetermined
+        }
+    }
+}
+
+/// A fitted value the data did not determine, at an end of its search range (low, high).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Undetermined {
+    pub effect: Effect,
     pub param: &'static str,
     pub value: f64,
     pub search: (f64, f64),
@@ -485,31 +497,27 @@ pub struct Undetermined {
 /// the pair the single under another name.
 /// An effect whose fit measured no value ([`verdict::undetermined_at_search_end`]) does not tell
 /// its candidate from the nominal either: its switch, not a fitted value, did the closing.
-fn from_nominal(fitter: &Fitter, r: &Ranked) -> (NotDistinct, Option<bool>) {
+fn from_nominal(fitter: &Fitter, ranked: usize, r: &Ranked) -> (NotDistinct, Option<bool>) {
     let mut judged = NotDistinct {
-        ranked: 0,
+        ranked,
         values: Vec::new(),
         undetermined: Vec::new(),
     };
     let mut distinct = Some(true);
     for f in &r.evaluated.effects {
         let (compared, mut tells) = fitted_from_nominal(fitter, f, verdict::DISTINCT_Z);
-        let specs = f.effect.params_on(fitter.footage_fps_hz());
+        let specs = fitter.specs(f.effect);
         let search: Vec<(f64, f64)> = specs.iter().map(|p| p.search).collect();
         if verdict::undetermined_at_search_end(&f.values, &f.stds, &search) {
             tells = Some(false);
-            judged.undetermined.push((
-                f.effect,
-                specs
-                    .iter()
-                    .zip(&f.values)
-                    .map(|(p, &value)| Undetermined {
-                        param: p.name,
-                        value,
-                        search: p.search,
-                    })
-                    .collect(),
-            ));
+            judged
+                .undetermined
+                .extend(specs.iter().zip(&f.values).map(|(p, &value)| Undetermined {
+                    effect: f.effect,
+                    param: p.name,
+                    value,
+                    search: p.search,
+                }));
         }
         distinct = match (distinct, tells) {
             (Some(false), _) | (_, Some(false)) => Some(false),
@@ -1103,12 +1111,9 @@ pub fn diagnose_with(
                 }
                 judged += 1;
                 settle(&mut ranking[i]);
-                let (judged, tells) = from_nominal(&fitter, &ranking[i]);
+                let (judged, tells) = from_nominal(&fitter, i, &ranking[i]);
                 if tells == Some(false) {
-                    not_distinct.push(NotDistinct {
-                        ranked: i,
-                        ..judged
-                    });
+                    not_distinct.push(judged);
                 }
                 tells
             },

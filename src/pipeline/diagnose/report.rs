@@ -248,16 +248,14 @@ fn not_distinct_values_text(n: &NotDistinct) -> String {
                 v.z()
             )
         })
-        .chain(n.undetermined.iter().flat_map(|(_, params)| {
-            params.iter().map(|u| {
-                format!(
-                    "{} = {}, at the end of its search range {}–{}, no ±",
-                    u.param,
-                    fmt(u.value),
-                    fmt(u.search.0),
-                    fmt(u.search.1)
-                )
-            })
+        .chain(n.undetermined.iter().map(|u| {
+            format!(
+                "{} = {}, at the end of its search range {}–{}, no ±",
+                u.param,
+                fmt(u.value),
+                fmt(u.search.0),
+                fmt(u.search.1)
+            )
         }))
         .collect::<Vec<_>>()
         .join(", ")
@@ -265,10 +263,9 @@ fn not_distinct_values_text(n: &NotDistinct) -> String {
 
 /// The reason `n` was set aside: its values restate the nominal, or its fit measured none.
 fn not_distinct_reason(n: &NotDistinct) -> &'static str {
-    if n.undetermined.is_empty() {
-        NOT_DISTINCT_REASON
-    } else {
-        UNDETERMINED_REASON
+    match n.set_aside() {
+        SetAside::NotDistinct => NOT_DISTINCT_REASON,
+        SetAside::Undetermined => UNDETERMINED_REASON,
     }
 }
 
@@ -283,12 +280,12 @@ fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
             "nominal": v.nominal,
             "z": v.z(),
         })).collect::<Vec<_>>(),
-        "undetermined": n.undetermined.iter().flat_map(|(e, params)| params.iter().map(|u| json!({
-            "effect": e.name(),
+        "undetermined": n.undetermined.iter().map(|u| json!({
+            "effect": u.effect.name(),
             "param": u.param,
             "value": u.value,
             "search": [u.search.0, u.search.1],
-        }))).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
         "reason": not_distinct_reason(n),
     })
 }
@@ -331,13 +328,7 @@ pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     let set_aside = d
         .best
         .and_then(|b| d.not_distinct.iter().find(|n| n.ranked == b))
-        .map(|n| {
-            if n.undetermined.is_empty() {
-                SetAside::NotDistinct
-            } else {
-                SetAside::Undetermined
-            }
-        });
+        .map(NotDistinct::set_aside);
     let reason = crate::diagnose::verdict::reason(
         d.verdict,
         d.nominal_gap.total,
@@ -1725,14 +1716,12 @@ mod tests {
         let over = NotDistinct {
             ranked: 1,
             values: Vec::new(),
-            undetermined: vec![(
-                Effect::Overrotation,
-                vec![super::super::Undetermined {
-                    param: "mu_kinetic",
-                    value: 0.3,
-                    search: (0.003, 0.3),
-                }],
-            )],
+            undetermined: vec![super::super::Undetermined {
+                effect: Effect::Overrotation,
+                param: "mu_kinetic",
+                value: 0.3,
+                search: (0.003, 0.3),
+            }],
         };
         assert_eq!(
             not_distinct_values_text(&over),
