@@ -5,7 +5,10 @@
 //! ≤ 2 min from tracks.
 //! Stage wall times (measuring, aligning, simulating the nominal, each fit) go to stderr; the
 //! figures, with the machine's load average beside them, to stdout.
-//! Run: `cargo bench --bench diagnose` (or `cargo xtask bench`).
+//! Run: `cargo bench --bench diagnose` (or `cargo xtask bench`). `GENEVA_BENCH_ONLY=runout`
+//! (or `frames`, `tracks`, comma-separated; `tracks` needs `frames`) runs only those figures;
+//! `GENEVA_BENCH_KEEP=DIR` keeps the footage and the diagnoses in DIR (to compare the outputs of
+//! two builds: an optimisation that keeps the floating-point order keeps them bit for bit).
 
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::pipeline::analyze::Source;
@@ -36,26 +39,42 @@ fn main() {
         return;
     }
     println!("threads: {}", rayon::current_num_threads());
+    let only = std::env::var("GENEVA_BENCH_ONLY").ok();
+    let runs = |figure: &str| {
+        only.as_deref()
+            .is_none_or(|o| o.split(',').any(|x| x.trim() == figure))
+    };
     let tmp = tempfile::tempdir().expect("temporary folder");
+    let keep = std::env::var_os("GENEVA_BENCH_KEEP").map(std::path::PathBuf::from);
+    let root = keep.as_deref().unwrap_or(tmp.path());
+    std::fs::create_dir_all(root).expect("GENEVA_BENCH_KEEP folder");
     let nominal = suite_base(10.0).expect("built-in rig");
-    let rolling_shutter = withheld(&nominal, Effect::RollingShutter, &[0.03], tmp.path());
-    let from_frames = timed(&nominal, &rolling_shutter, &tmp.path().join("from-frames"));
-    report(
-        &format!(
-            "{} frames {}x{}, all candidates",
-            from_frames.0.frames, nominal.camera.width_px, nominal.camera.height_px
-        ),
-        &from_frames,
-        300.0,
-    );
-    let tracks = Source::Tracks(tmp.path().join("from-frames/real/tracks.csv"));
-    let from_tracks = timed(&nominal, &tracks, &tmp.path().join("from-tracks"));
-    report("the same from its tracks.csv", &from_tracks, 120.0);
+    if runs("frames") {
+        let rolling_shutter = withheld(&nominal, Effect::RollingShutter, &[0.03], root);
+        let from_frames = timed(&nominal, &rolling_shutter, &root.join("from-frames"));
+        report(
+            &format!(
+                "{} frames {}x{}, all candidates",
+                from_frames.0.frames, nominal.camera.width_px, nominal.camera.height_px
+            ),
+            &from_frames,
+            300.0,
+        );
+        if runs("tracks") {
+            let tracks = Source::Tracks(root.join("from-frames/real/tracks.csv"));
+            let from_tracks = timed(&nominal, &tracks, &root.join("from-tracks"));
+            report("the same from its tracks.csv", &from_tracks, 120.0);
+        }
+    }
+    if !runs("runout") {
+        println!("diagnose: peak memory {:.0} MB", peak_rss_mb());
+        return;
+    }
     // The costliest candidate to fit: every trial of a runout realigns the crank motion through
     // its own wobble (estimator passes on exact corners) besides simulating the footage.
     let runout_values = level_values(Effect::AxisRunout, Level::Strong, nominal.frame_timing.fps);
-    let runout = withheld(&nominal, Effect::AxisRunout, &runout_values, tmp.path());
-    let runout = timed(&nominal, &runout, &tmp.path().join("runout"));
+    let runout = withheld(&nominal, Effect::AxisRunout, &runout_values, root);
+    let runout = timed(&nominal, &runout, &root.join("runout"));
     report(
         &format!(
             "{} frames with a withheld {:.1} mm axis runout, all candidates",

@@ -16,6 +16,7 @@
 use super::cells::median;
 use crate::mechanism::{DriveSpeedConfig, Mechanism, Phase};
 use crate::scenario::Scenario;
+use rayon::prelude::*;
 use std::f64::consts::TAU;
 
 /// Fraction of residuals kept by the reported (trimmed) residual and offset.
@@ -192,19 +193,23 @@ pub fn align_motion(
         }
     };
 
-    // Coarse grid: 3° in θ1₀, 4 % in |s|, both senses.
-    let mut grid: Vec<(f64, f64, f64)> = Vec::new();
+    // Coarse grid: 3° in θ1₀, 4 % in |s|, both senses. The points are independent: evaluated
+    // in parallel, kept in grid order (the stable sort then ranks ties as a serial loop would).
     let steps_s =
         ((SPEED_SCALE_RANGE.1 / SPEED_SCALE_RANGE.0).ln() / 0.04f64.ln_1p()).ceil() as usize;
+    let mut points: Vec<(f64, f64)> = Vec::with_capacity(2 * (steps_s + 1) * 120);
     for sense in [1.0, -1.0] {
         for j in 0..=steps_s {
             let k = sense * SPEED_SCALE_RANGE.0 * 1.04f64.powi(j as i32);
             for i in 0..120 {
-                let theta1_0 = TAU * i as f64 / 120.0;
-                grid.push((loss(&t_sub, &th_sub, theta1_0, k), theta1_0, k));
+                points.push((TAU * i as f64 / 120.0, k));
             }
         }
     }
+    let mut grid: Vec<(f64, f64, f64)> = points
+        .par_iter()
+        .map(|&(theta1_0, k)| (loss(&t_sub, &th_sub, theta1_0, k), theta1_0, k))
+        .collect();
     grid.sort_by(|a, b| a.0.total_cmp(&b.0));
 
     // Compass search from the best few grid points, on all frames. It moves the crank angle at
@@ -218,42 +223,49 @@ pub fn align_motion(
     let mean_speed_rad_s = crate::scenario::effects::mean_crank_speed_rad_s(&nominal.drive_speed);
     // The crank angle at t = 0 for angle `mid` at mid-footage and speed scale `k`.
     let start_of = |mid: f64, k: f64| mid - k * mean_speed_rad_s * t_mid_s;
-    let mut best = (f64::INFINITY, 0.0, 1.0);
-    for &(_, theta1_0, k) in grid.iter().take(4) {
-        let (mut mid, mut ln_k) = (theta1_0 + k * mean_speed_rad_s * t_mid_s, k.abs().ln());
-        let sense = k.signum();
-        let at = |mid: f64, ln_k: f64| {
-            let k = sense * ln_k.exp();
-            loss(t_all, th_all, start_of(mid, k), k)
-        };
-        let mut f = at(mid, ln_k);
-        let (mut da, mut dk) = (TAU / 240.0, 0.02);
-        while da > 1e-6 {
-            let mut improved = false;
-            for (pa, pk) in [
-                (da, 0.0),
-                (-da, 0.0),
-                (0.0, dk),
-                (0.0, -dk),
-                (da, dk),
-                (-da, -dk),
-                (da, -dk),
-                (-da, dk),
-            ] {
-                let g = at(mid + pa, ln_k + pk);
-                if g < f {
-                    (f, mid, ln_k) = (g, mid + pa, ln_k + pk);
-                    improved = true;
+    // The four searches are independent: run in parallel, compared in grid order.
+    let searched: Vec<(f64, f64, f64)> = grid[..grid.len().min(4)]
+        .par_iter()
+        .map(|&(_, theta1_0, k)| {
+            let (mut mid, mut ln_k) = (theta1_0 + k * mean_speed_rad_s * t_mid_s, k.abs().ln());
+            let sense = k.signum();
+            let at = |mid: f64, ln_k: f64| {
+                let k = sense * ln_k.exp();
+                loss(t_all, th_all, start_of(mid, k), k)
+            };
+            let mut f = at(mid, ln_k);
+            let (mut da, mut dk) = (TAU / 240.0, 0.02);
+            while da > 1e-6 {
+                let mut improved = false;
+                for (pa, pk) in [
+                    (da, 0.0),
+                    (-da, 0.0),
+                    (0.0, dk),
+                    (0.0, -dk),
+                    (da, dk),
+                    (-da, -dk),
+                    (da, -dk),
+                    (-da, dk),
+                ] {
+                    let g = at(mid + pa, ln_k + pk);
+                    if g < f {
+                        (f, mid, ln_k) = (g, mid + pa, ln_k + pk);
+                        improved = true;
+                    }
+                }
+                if !improved {
+                    da *= 0.5;
+                    dk *= 0.5;
                 }
             }
-            if !improved {
-                da *= 0.5;
-                dk *= 0.5;
-            }
-        }
-        if f < best.0 {
             let k = sense * ln_k.exp();
-            best = (f, start_of(mid, k).rem_euclid(TAU), k);
+            (f, start_of(mid, k).rem_euclid(TAU), k)
+        })
+        .collect();
+    let mut best = (f64::INFINITY, 0.0, 1.0);
+    for found in searched {
+        if found.0 < best.0 {
+            best = found;
         }
     }
     if !best.0.is_finite() {
@@ -321,6 +333,15 @@ mod tests {
         assert!((a.offset_rad - 0.7).abs() < 2e-3, "{a:?}");
         assert!(a.rms_residual_rad < 1.5e-3, "{a:?}");
         assert!(a.nominal_rms_residual_rad > 10.0 * a.rms_residual_rad);
+        // The grid and the searches run in parallel: the same bits on one thread.
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let serial = one
+            .install(|| align_motion(&nominal, &t, &theta, -1.0))
+            .unwrap();
+        assert_eq!(format!("{serial:?}"), format!("{a:?}"));
     }
 
     /// Footage that starts mid-index and ends after the next: a start angle and a speed that

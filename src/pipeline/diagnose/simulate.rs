@@ -305,24 +305,36 @@ pub fn simulated_footage(
     })
 }
 
-/// Cells of `trial` for each of `seeds` (simulated one after the other; frames in parallel).
-/// `images: false` skips the image statistics (when nothing that uses them is compared).
+/// Cells of `trial` for each of `seeds` (seeds and frames in parallel, results in the seeds'
+/// order). `images: false` skips the image statistics (when nothing that uses them is compared).
 pub fn trial_cells(
     ctx: &SimContext<'_>,
     trial: &Trial,
     seeds: &[u64],
     images: bool,
 ) -> Result<Vec<Cells>, DiagnoseError> {
-    let mut out = Vec::with_capacity(seeds.len());
-    for &seed in seeds {
+    per_seed(seeds, |seed| {
         let (s, record) = trial_record(ctx, trial, seed, images)?;
         let mut cells = measurement_cells(ctx, &s, &record)?;
         if let Some(t) = trial.timing.times(seed) {
             cells.extend(timing_cells(&t));
         }
-        out.push(cells);
-    }
-    Ok(out)
+        Ok(cells)
+    })
+}
+
+/// `job` on each seed, all at once (rayon), the results in the seeds' order and the first
+/// error in that order: the same whatever the thread count.
+///
+/// Why not one seed after the other: each simulation ends in serial work (the estimator, the
+/// cells) that leaves a core idle beside a fit running alone; the next seed's frames fill it.
+fn per_seed<T: Send>(
+    seeds: &[u64],
+    job: impl Fn(u64) -> Result<T, DiagnoseError> + Sync,
+) -> Result<Vec<T>, DiagnoseError> {
+    use rayon::prelude::*;
+    let results: Vec<Result<T, DiagnoseError>> = seeds.par_iter().map(|&seed| job(seed)).collect();
+    results.into_iter().collect()
 }
 
 /// A series sampled at frame times: (times in s, values; NaN where the marker was not found).
@@ -335,23 +347,49 @@ pub fn trial_theta_residuals(
     trial: &Trial,
     seeds: &[u64],
 ) -> Result<Vec<FrameSeries>, DiagnoseError> {
-    let mut out = Vec::with_capacity(seeds.len());
-    for &seed in seeds {
+    per_seed(seeds, |seed| {
         let (s, record) = trial_record(ctx, trial, seed, false)?;
         let (record, _) = masked_like_real(ctx, &record);
         let est = estimate_record(&s, &record)?;
         let (reference, _) = motion_reference(&ctx.aligned.reference, &record, &est);
-        out.push((
+        Ok((
             record.t_s(),
             residual(&est.primary_series().theta_rad, &reference.theta_rad),
-        ));
-    }
-    Ok(out)
+        ))
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seeds_run_at_once_keep_their_order_and_the_first_error_in_it() {
+        let job = |seed: u64| -> Result<u64, DiagnoseError> {
+            // Later seeds finish first, so completion order is not seed order.
+            std::thread::sleep(std::time::Duration::from_millis(20 - seed));
+            if seed % 5 == 3 {
+                Err(DiagnoseError::TooFewSeeds {
+                    seeds: seed as usize,
+                })
+            } else {
+                Ok(seed * seed)
+            }
+        };
+        for threads in [1, 4] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let ok = pool.install(|| per_seed(&[4, 0, 2, 1], job)).unwrap();
+            assert_eq!(ok, vec![16, 0, 4, 1], "{threads} threads");
+            let first = pool.install(|| per_seed(&[1, 8, 2, 3, 13], job));
+            assert!(
+                matches!(first, Err(DiagnoseError::TooFewSeeds { seeds: 8 })),
+                "{threads} threads: {first:?}"
+            );
+        }
+    }
 
     #[test]
     fn a_simulated_frame_is_lost_where_the_nearest_real_frame_was_lost() {
