@@ -7,8 +7,9 @@
 //! figures, with the machine's load average beside them, to stdout.
 //! Run: `cargo bench --bench diagnose` (or `cargo xtask bench`). `GENEVA_BENCH_ONLY=runout`
 //! (or `frames`, `tracks`, comma-separated; `tracks` needs `frames`) runs only those figures;
-//! `GENEVA_BENCH_KEEP=DIR` keeps the footage and the diagnoses in DIR (to compare the outputs of
-//! two builds: an optimisation that keeps the floating-point order keeps them bit for bit).
+//! `GENEVA_BENCH_KEEP=DIR` keeps the footage and the diagnoses in DIR, a new or empty folder (to
+//! compare the outputs of two builds: an optimisation that keeps the floating-point order keeps
+//! them bit for bit). An unknown figure name or a non-empty DIR stops the run before any work.
 
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::pipeline::analyze::Source;
@@ -39,15 +40,33 @@ fn main() {
         return;
     }
     println!("threads: {}", rayon::current_num_threads());
-    let only = std::env::var("GENEVA_BENCH_ONLY").ok();
-    let runs = |figure: &str| {
-        only.as_deref()
-            .is_none_or(|o| o.split(',').any(|x| x.trim() == figure))
-    };
+    let only: Option<Vec<String>> = std::env::var("GENEVA_BENCH_ONLY")
+        .ok()
+        .map(|o| o.split(',').map(|x| x.trim().to_string()).collect());
+    // A misspelt figure would run nothing and still succeed: refuse it.
+    if let Some(only) = &only {
+        for figure in only {
+            assert!(
+                ["frames", "tracks", "runout"].contains(&figure.as_str()),
+                "GENEVA_BENCH_ONLY: unknown figure `{figure}` (frames, tracks, runout)"
+            );
+        }
+        assert!(
+            !only.iter().any(|f| f == "tracks") || only.iter().any(|f| f == "frames"),
+            "GENEVA_BENCH_ONLY: `tracks` reads the tracks.csv the `frames` figure writes; add `frames`"
+        );
+    }
+    let runs = |figure: &str| only.as_ref().is_none_or(|o| o.iter().any(|x| x == figure));
     let tmp = tempfile::tempdir().expect("temporary folder");
     let keep = std::env::var_os("GENEVA_BENCH_KEEP").map(std::path::PathBuf::from);
     let root = keep.as_deref().unwrap_or(tmp.path());
     std::fs::create_dir_all(root).expect("GENEVA_BENCH_KEEP folder");
+    // Another run's footage or diagnoses left there would be mixed with this one's.
+    assert!(
+        std::fs::read_dir(root).is_ok_and(|mut d| d.next().is_none()),
+        "GENEVA_BENCH_KEEP: {} is not an empty folder",
+        root.display()
+    );
     let nominal = suite_base(10.0).expect("built-in rig");
     if runs("frames") {
         let rolling_shutter = withheld(&nominal, Effect::RollingShutter, &[0.03], root);
