@@ -214,3 +214,35 @@ fn a_failed_estimation_keeps_the_detections_it_names() {
     let tracks = std::fs::read_to_string(dir.path().join("an/tracks.csv")).unwrap();
     assert_eq!(tracks.lines().count(), 3, "{tracks}");
 }
+
+#[test]
+fn a_self_check_report_so_far_names_what_is_missing_and_writes_nothing() {
+    // No run started in `run`, and a report so far into the run's own folder: both refused,
+    // naming the folder, before any work, and nothing is created.
+    let dir = tempfile::tempdir().unwrap();
+    let args = |into: &str| {
+        [
+            "diagnose-selfcheck",
+            "--quick",
+            "--out",
+            "run",
+            "--report-so-far",
+            into,
+        ]
+        .map(String::from)
+    };
+    let o = geneva(dir.path(), &args("so-far").each_ref().map(String::as_str));
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("run: no run of this study has started there"),
+        "{e}"
+    );
+    assert!(repeated(&e).is_empty(), "{e}");
+    let o = geneva(dir.path(), &args("run").each_ref().map(String::as_str));
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("apart from the run's own"), "{e}");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+    assert!(left.is_empty(), "{left:?}");
+}

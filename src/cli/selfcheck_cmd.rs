@@ -7,7 +7,7 @@
 use anyhow::Result;
 use clap::Args;
 use geneva_vision::pipeline::diagnose::selfcheck::{
-    cases, phone_logs, suite_base, suite_base_from, Level, SelfCheck, SuitePlan,
+    cases, phone_logs, suite_base, suite_base_from, Level, SelfCheck, SoFar, SuitePlan,
 };
 use geneva_vision::pipeline::diagnose::DiagnoseOptions;
 use geneva_vision::pipeline::render_job::Renderer;
@@ -93,6 +93,11 @@ pub struct SelfCheckArgs {
     /// time or memory limits.
     #[arg(long)]
     yes: bool,
+    /// Run nothing: write the report of the cases that the run of this plan into `--out` has
+    /// finished so far (the run may go on) into this folder, saying how many of the plan's
+    /// cases it holds. Give the plan's options as that run was started with.
+    #[arg(long, conflicts_with_all = ["shard", "restart"])]
+    report_so_far: Option<std::path::PathBuf>,
 }
 
 pub fn run(a: SelfCheckArgs) -> Result<()> {
@@ -154,6 +159,10 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         }
         all.retain(|c| only.contains(&c.name));
     }
+    let text = plan.describe(&base, &options);
+    if let Some(into) = &a.report_so_far {
+        return report_so_far(&SelfCheck::new(all, options, text), &a.out, into);
+    }
     // A lower bound: each case's footage rendered once and its nominal simulated per seed.
     let work = geneva_vision::pipeline::workload::Workload::of(&base, true)
         .times((all.len() * (1 + options.seeds)) as f64);
@@ -165,7 +174,6 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         &work,
         a.yes,
     )?;
-    let text = plan.describe(&base, &options);
     eprintln!("diagnose-selfcheck: {} case(s). {text}", all.len());
     let study = SelfCheck::new(all, options, text);
     let progress =
@@ -180,6 +188,31 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     };
     for f in &report.files {
         println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `--report-so-far INTO`: the report of the cases the run into `run_dir` has finished.
+fn report_so_far(study: &SelfCheck, run_dir: &Path, into: &Path) -> Result<()> {
+    match study.report_so_far(run_dir, into)? {
+        SoFar::Complete => eprintln!(
+            "diagnose-selfcheck: {} is complete for this plan: its report is {}",
+            run_dir.display(),
+            run_dir.join("README.md").display()
+        ),
+        SoFar::Written {
+            finished,
+            total,
+            files,
+        } => {
+            eprintln!(
+                "diagnose-selfcheck: {finished} of {total} cases finished so far in {}",
+                run_dir.display()
+            );
+            for f in &files {
+                println!("wrote {}", f.display());
+            }
+        }
     }
     Ok(())
 }

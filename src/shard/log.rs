@@ -50,10 +50,8 @@ pub fn read_records(
     units: usize,
     repair: bool,
 ) -> Result<BTreeMap<usize, String>, ShardError> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeMap::new()),
-        Err(e) => return Err(io_err(path, "read")(e)),
+    let Some(text) = read_log(path)? else {
+        return Ok(BTreeMap::new());
     };
     let complete = match text.rfind('\n') {
         Some(i) => &text[..=i],
@@ -74,6 +72,37 @@ pub fn read_records(
         f.set_len(complete.len() as u64)
             .map_err(io_err(path, "truncate the cut last line of"))?;
     }
+    parse_records(path, complete, units)
+}
+
+/// The records of a log that another process may still be appending to, read without
+/// changing it: a last line without its end of line is the record being written, left out.
+pub fn read_finished_records(
+    path: &Path,
+    units: usize,
+) -> Result<BTreeMap<usize, String>, ShardError> {
+    let Some(text) = read_log(path)? else {
+        return Ok(BTreeMap::new());
+    };
+    let complete = text.rfind('\n').map_or("", |i| &text[..=i]);
+    parse_records(path, complete, units)
+}
+
+/// The log's text, `None` when there is no log yet.
+fn read_log(path: &Path) -> Result<Option<String>, ShardError> {
+    match std::fs::read_to_string(path) {
+        Ok(t) => Ok(Some(t)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(io_err(path, "read")(e)),
+    }
+}
+
+/// `unit<TAB>record` lines, each ended: a unit twice or out of range is an error.
+fn parse_records(
+    path: &Path,
+    complete: &str,
+    units: usize,
+) -> Result<BTreeMap<usize, String>, ShardError> {
     let mut records = BTreeMap::new();
     for (i, line) in complete.lines().enumerate() {
         let bad = |message: String| ShardError::Log {

@@ -34,7 +34,10 @@ mod tests;
 pub use adaptive::{run_adaptive, AdaptiveReport, AdaptiveStudy};
 pub use log::UnitLog;
 pub use manifest::Manifest;
-pub use study::{merge, run_shard, run_whole, shard_records, Control, RunReport, Study, UnitDirs};
+pub use study::{
+    merge, progress, run_shard, run_whole, shard_records, Control, Progress, RunReport, Study,
+    UnitDirs,
+};
 
 use std::path::PathBuf;
 
@@ -138,6 +141,13 @@ pub enum ShardError {
     },
     #[error("{dir}: {message}")]
     Mixed { dir: PathBuf, message: String },
+    #[error("{dir}: no run of this study has started there (no {staging}, no shard folders)")]
+    NoRun { dir: PathBuf, staging: PathBuf },
+    #[error("{place}: the run there has other inputs ({}): give the options that run was started with", changes.join("; "))]
+    OtherRun {
+        place: PathBuf,
+        changes: Vec<String>,
+    },
 }
 
 fn list_units(names: &[String]) -> String {

@@ -2,7 +2,7 @@
 //! the shards. All three finalise through the same [`Study::finalize`] from the same records in
 //! unit order, which is what makes a merged folder byte-identical to a one-machine folder.
 
-use super::log::{read_records, write_records, UnitLog};
+use super::log::{read_finished_records, read_records, write_records, UnitLog};
 use super::{io_err, Manifest, Shard, ShardError, LOG, RECORDS, SHARDS, SHARD_INFO};
 use crate::io::output_dir::{DirLock, OutputDir, MARKER};
 use rayon::prelude::*;
@@ -188,6 +188,80 @@ pub fn run_whole<S: Study>(
     report.files = out.commit().map_err(ShardError::from)?;
     report.complete = true;
     Ok(report)
+}
+
+/// How far a whole run of a study into `DIR` has got: read without taking its lock or writing
+/// anything, so that it can be asked while the run goes on.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Progress {
+    /// `DIR` is complete for these inputs: its outputs are final.
+    Complete,
+    /// The records finished so far (unit → record); a record still being written is left out.
+    Running(BTreeMap<usize, String>),
+}
+
+/// The records a run of `study` into `dir` has finished so far: a whole run's
+/// ([`run_whole`]) and its shards' ([`run_shard`]: complete or still running), together. A
+/// folder of other inputs (a different manifest) is an error naming what differs, and so is a
+/// `dir` with no run started.
+pub fn progress<S: Study>(study: &S, dir: &Path) -> Result<Progress, ShardError> {
+    let now = study.manifest();
+    if dir.join(MARKER).is_file() && Manifest::read(dir)?.is_some_and(|m| m.matches(now)) {
+        return Ok(Progress::Complete);
+    }
+    let staging = crate::io::output_dir::sibling(dir, "partial")?;
+    // (folder, its records): the whole run's log, then each shard's records or log.
+    let mut folders = vec![(staging.clone(), staging.join(LOG))];
+    let shards = dir.join(SHARDS);
+    if let Ok(entries) = std::fs::read_dir(&shards) {
+        let mut names: Vec<String> = entries
+            .flatten()
+            .filter_map(|e| e.file_name().to_str().map(str::to_string))
+            .collect();
+        names.sort();
+        for name in names {
+            let folder = shards.join(&name);
+            if name.parse::<usize>().is_ok() {
+                folders.push((folder.clone(), folder.join(RECORDS)));
+            } else if name.starts_with('.') && name.ends_with(".partial") {
+                folders.push((folder.clone(), folder.join(LOG)));
+            }
+        }
+    }
+    let mut records: BTreeMap<usize, String> = BTreeMap::new();
+    let mut started = false;
+    for (folder, file) in folders {
+        // No manifest: nothing started there yet (or a folder being set up).
+        let Some(m) = Manifest::read(&folder)? else {
+            continue;
+        };
+        if !m.matches(now) {
+            return Err(ShardError::OtherRun {
+                place: folder,
+                changes: m.changes(now),
+            });
+        }
+        started = true;
+        for (unit, record) in read_finished_records(&file, now.units)? {
+            if records.get(&unit).is_some_and(|r| *r != record) {
+                return Err(ShardError::Mixed {
+                    dir: folder,
+                    message: format!(
+                        "{} has another record here than in another folder of this run",
+                        study.unit_name(unit)
+                    ),
+                });
+            }
+            records.insert(unit, record);
+        }
+    }
+    if !started {
+        return Err(ShardError::NoRun {
+            dir: dir.to_path_buf(),
+            staging,
+        });
+    }
+    Ok(Progress::Running(records))
 }
 
 fn shard_dirs(dir: &Path, shard: Shard) -> (PathBuf, PathBuf, PathBuf) {

@@ -59,6 +59,34 @@ impl Study for Toy {
     }
 }
 
+/// `run` on one thread with a control that stops it once `toy` has run `calls` units in all
+/// (on one thread, exactly that many).
+fn on_one_thread_until<R: Send>(
+    toy: &Toy,
+    calls: usize,
+    run: impl FnOnce(&Control) -> R + Send,
+) -> R {
+    let stop = || toy.calls() >= calls;
+    let c = Control {
+        progress: &|_, _| {},
+        stop: &stop,
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run(&c))
+}
+
+/// Shard 0 of `count` run to its end, then shard 1 stopped once `toy` has run `calls` units.
+fn first_shard_then_second_until(toy: &Toy, dir: &Path, count: usize, calls: usize) {
+    let shard = |i| Shard::new(i, count).unwrap();
+    run_shard(toy, dir, shard(0), false, &Control::none()).unwrap();
+    on_one_thread_until(toy, calls, |c| {
+        run_shard(toy, dir, shard(1), false, c).unwrap()
+    });
+}
+
 fn read(dir: &Path, f: &str) -> Vec<u8> {
     std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(f).display()))
 }
@@ -139,25 +167,8 @@ fn a_missing_shard_names_the_missing_units_and_writes_nothing() {
     let root = tempfile::tempdir().unwrap();
     let dir = root.path().join("d");
     let toy = Toy::new(10, 1);
-    run_shard(
-        &toy,
-        &dir,
-        Shard::new(0, 3).unwrap(),
-        false,
-        &Control::none(),
-    )
-    .unwrap();
     // Shard 1 stops after one unit; shard 2 never starts.
-    let stop = || toy.calls() >= 5;
-    let c = Control {
-        progress: &|_, _| {},
-        stop: &stop,
-    };
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| run_shard(&toy, &dir, Shard::new(1, 3).unwrap(), false, &c).unwrap());
+    first_shard_then_second_until(&toy, &dir, 3, 5);
     let e = merge(&toy, &dir).unwrap_err();
     let msg = e.to_string();
     assert!(
@@ -235,4 +246,43 @@ fn changed_inputs_are_refused_naming_the_change_unless_restarted() {
     run_shard(&Toy::new(4, 9), &dir, Shard::WHOLE, false, &Control::none()).unwrap();
     let e = merge(&Toy::new(4, 2), &dir).unwrap_err();
     assert!(e.to_string().contains("`k` 9 → 2"), "{e}");
+}
+
+#[test]
+fn progress_reads_a_run_without_touching_it_and_knows_a_complete_one() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("d");
+    let toy = Toy::new(5, 1);
+    assert!(matches!(
+        progress(&toy, &dir),
+        Err(ShardError::NoRun { .. })
+    ));
+    on_one_thread_until(&toy, 2, |c| run_whole(&toy, &dir, false, c).unwrap());
+    let log = crate::io::output_dir::sibling(&dir, "partial")
+        .unwrap()
+        .join(LOG);
+    let before = std::fs::read(&log).unwrap();
+    let Ok(Progress::Running(records)) = progress(&toy, &dir) else {
+        panic!("a run in progress")
+    };
+    assert_eq!(records.len(), 2);
+    for (u, r) in &records {
+        assert_eq!(*r, toy.run_unit(*u, root.path()).unwrap());
+    }
+    assert_eq!(std::fs::read(&log).unwrap(), before);
+    let e = progress(&Toy::new(5, 2), &dir).unwrap_err().to_string();
+    assert!(e.contains("`k` 1 → 2") && !e.contains("--restart"), "{e}");
+    run_whole(&toy, &dir, false, &Control::none()).unwrap();
+    assert_eq!(progress(&toy, &dir).unwrap(), Progress::Complete);
+
+    // A sharded run: shard 0 of 2 complete, shard 1 stopped after one unit; both counted.
+    let sharded = root.path().join("s");
+    let toy = Toy::new(5, 1);
+    first_shard_then_second_until(&toy, &sharded, 2, 4);
+    let Ok(Progress::Running(records)) = progress(&toy, &sharded) else {
+        panic!("a sharded run in progress")
+    };
+    assert_eq!(records.keys().copied().collect::<Vec<_>>(), [0, 1, 2, 4]);
+    let e = progress(&Toy::new(5, 3), &sharded).unwrap_err().to_string();
+    assert!(e.contains("`k` 1 → 3"), "{e}");
 }

@@ -181,6 +181,10 @@ pub enum DiagnoseError {
     },
     #[error(transparent)]
     Shard(#[from] crate::shard::ShardError),
+    #[error("{}: no case of the self-check's {total} has finished yet", dir.display())]
+    NoCaseFinished { dir: PathBuf, total: usize },
+    #[error("{}: the report so far goes into a folder apart from the run's own and its staging folder (neither inside nor around them)", dir.display())]
+    SoFarInto { dir: PathBuf },
     #[error(transparent)]
     Image(#[from] crate::io::images::ImageError),
     #[error(transparent)]

@@ -831,6 +831,93 @@ impl SelfCheck {
     }
 }
 
+/// The cases' records (JSON [`CaseOutcome`]s), read from `place`.
+fn parse_outcomes<'a>(
+    records: impl Iterator<Item = &'a String>,
+    place: &Path,
+) -> Result<Vec<CaseOutcome>, DiagnoseError> {
+    records
+        .map(|r| {
+            serde_json::from_str(r).map_err(|source| DiagnoseError::Record {
+                place: place.to_path_buf(),
+                what: "a case record does not parse".into(),
+                source,
+            })
+        })
+        .collect()
+}
+
+/// What [`SelfCheck::report_so_far`] found.
+#[derive(Debug)]
+pub enum SoFar {
+    /// The run is complete: its own report is the final one.
+    Complete,
+    /// The report of the cases finished so far, written.
+    Written {
+        finished: usize,
+        total: usize,
+        files: Vec<PathBuf>,
+    },
+}
+
+impl SelfCheck {
+    /// The report (`README.md`, `summary.json`, `cases.csv`, `confusion.csv`) of the cases that
+    /// a run of this plan into `run_dir` has finished so far, written into `into` all at once.
+    /// `run_dir` and its staging folder are only read, so the run may go on; the README says
+    /// how many of the plan's cases it holds and names the others, since a figure over some of
+    /// the cases is not the plan's figure.
+    pub fn report_so_far(&self, run_dir: &Path, into: &Path) -> Result<SoFar, DiagnoseError> {
+        // Written in, around or beside the run's folders, the report would replace them (the
+        // run's staging, with every case finished) or stop the run from committing.
+        let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        let target = absolute(into);
+        let staging = crate::io::output_dir::sibling(run_dir, "partial")?;
+        if [absolute(run_dir), staging]
+            .iter()
+            .any(|own| target.starts_with(own) || own.starts_with(&target))
+        {
+            return Err(DiagnoseError::SoFarInto {
+                dir: into.to_path_buf(),
+            });
+        }
+        let records = match crate::shard::progress(self, run_dir)? {
+            crate::shard::Progress::Complete => return Ok(SoFar::Complete),
+            crate::shard::Progress::Running(r) => r,
+        };
+        let total = self.cases.len();
+        if records.is_empty() {
+            return Err(DiagnoseError::NoCaseFinished {
+                dir: run_dir.to_path_buf(),
+                total,
+            });
+        }
+        let outcomes = parse_outcomes(records.values(), run_dir)?;
+        let waiting: Vec<&str> = self
+            .cases
+            .iter()
+            .enumerate()
+            .filter(|(u, _)| !records.contains_key(u))
+            .map(|(_, c)| c.name.as_str())
+            .collect();
+        let text = format!(
+            "{}\n\n**So far: {} of the plan's {total} cases finished** (read from the run in \
+             progress into `{}`); not finished yet: {}.",
+            self.plan_text,
+            records.len(),
+            run_dir.display(),
+            waiting.join(", ")
+        );
+        let out = crate::io::output_dir::OutputDir::create(into)?;
+        write_summary(&outcomes, &text, out.path())?;
+        let files = out.commit()?;
+        Ok(SoFar::Written {
+            finished: records.len(),
+            total,
+            files,
+        })
+    }
+}
+
 impl Study for SelfCheck {
     type Error = DiagnoseError;
 
@@ -854,17 +941,11 @@ impl Study for SelfCheck {
         _unit_dirs: UnitDirs,
         out_dir: &Path,
     ) -> Result<(), DiagnoseError> {
-        let outcomes: Vec<CaseOutcome> = records
-            .iter()
-            .map(|r| {
-                serde_json::from_str(r).map_err(|source| DiagnoseError::Record {
-                    place: out_dir.to_path_buf(),
-                    what: "a case record does not parse".into(),
-                    source,
-                })
-            })
-            .collect::<Result<_, _>>()?;
-        write_summary(&outcomes, &self.plan_text, out_dir)
+        write_summary(
+            &parse_outcomes(records.iter(), out_dir)?,
+            &self.plan_text,
+            out_dir,
+        )
     }
 
     fn unit_name(&self, unit: usize) -> String {
@@ -1731,6 +1812,111 @@ mod tests {
         for (i, e) in listed.iter().enumerate() {
             assert!(!listed[..i].contains(e), "{} listed twice", e.name());
         }
+        Ok(())
+    }
+
+    /// The report so far of a run in progress: read from its staging folder without changing
+    /// it, the figures over the finished cases only, the README saying how many of the plan's
+    /// cases those are and naming the others. A run of another plan, a folder with no run, no
+    /// finished case or the run's own folder as the target are refused by name.
+    #[test]
+    fn a_report_so_far_holds_the_finished_cases_and_names_the_others() -> Result<(), DiagnoseError>
+    {
+        let base = suite_base(2.0)?;
+        let plan = SuitePlan::quick(Effect::PixelNoise);
+        let all = cases(&base, &plan, &[]);
+        let names: Vec<String> = all.iter().map(|c| c.name.clone()).collect();
+        let text = plan.describe(&base, &DiagnoseOptions::default());
+        let study = SelfCheck::new(all.clone(), DiagnoseOptions::default(), text.clone());
+        let tmp = tempfile::tempdir().map_err(|e| FileError::io(Path::new("tmp"))(e))?;
+        let run = tmp.path().join("run");
+        let into = tmp.path().join("so-far");
+        let err = study.report_so_far(&run, &into).unwrap_err().to_string();
+        assert!(err.contains("no run of this study has started"), "{err}");
+
+        let staging = tmp.path().join(".run.partial");
+        std::fs::create_dir_all(&staging).map_err(FileError::io(&staging))?;
+        study.manifest().write(&staging)?;
+        let err = study.report_so_far(&run, &into).unwrap_err().to_string();
+        assert!(
+            err.contains("no case of the self-check's 3 has finished"),
+            "{err}"
+        );
+
+        // The withheld case finished; another's record is being written (no end of line yet).
+        let w = all
+            .iter()
+            .position(|c| matches!(c.expectation, Expectation::Withheld { .. }))
+            .unwrap_or_default();
+        let cut = (w + 1) % names.len();
+        let finished = CaseOutcome {
+            name: names[w].clone(),
+            expectation: all[w].expectation.clone(),
+            verdict: "explained".into(),
+            ranked: vec![vec!["pixel_noise".into()]],
+            ranked_labels: vec!["pixel_noise".into()],
+            best_shrink: Some(0.9),
+            param_rel_errors: vec![0.05],
+            param_errors_in_sd: vec![0.5],
+            params_in_ci95: vec![true],
+            eval_seeds: 4,
+        };
+        let record = serde_json::to_string(&finished).unwrap_or_default();
+        let log = staging.join(crate::shard::LOG);
+        let lines = format!("{w}\t{record}\n{cut}\t{{\"name\": \"{}\"", names[cut]);
+        std::fs::write(&log, &lines).map_err(FileError::io(&log))?;
+        let SoFar::Written {
+            finished: 1,
+            total: 3,
+            files,
+        } = study.report_so_far(&run, &into)?
+        else {
+            panic!("one of three cases reported")
+        };
+        assert_eq!(files.len(), 4, "{files:?}");
+        let readme = std::fs::read_to_string(into.join("README.md")).unwrap_or_default();
+        assert!(
+            readme.contains("**So far: 1 of the plan's 3 cases finished**"),
+            "{readme}"
+        );
+        let others: Vec<&str> = (0..names.len())
+            .filter(|&u| u != w)
+            .map(|u| names[u].as_str())
+            .collect();
+        let waiting = format!("not finished yet: {}.", others.join(", "));
+        assert!(readme.contains(&waiting), "{readme}");
+        assert!(
+            readme.contains(&format!("| {} | explained |", names[w])),
+            "{readme}"
+        );
+        let summary: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(into.join("summary.json")).unwrap_or_default(),
+        )
+        .unwrap_or_default();
+        assert_eq!(summary["top1_strong"]["n"], 1, "{summary}");
+        // The run's own files are as they were: the record being written is not touched.
+        assert_eq!(std::fs::read_to_string(&log).ok(), Some(lines.clone()));
+        assert!(!run.exists());
+        // Asked again, the report is replaced.
+        study.report_so_far(&run, &into)?;
+
+        for own in [
+            run.clone(),
+            run.join("so-far"),
+            staging.clone(),
+            tmp.path().into(),
+        ] {
+            let err = study.report_so_far(&run, &own).unwrap_err().to_string();
+            assert!(
+                err.contains("apart from the run's own"),
+                "{}: {err}",
+                own.display()
+            );
+        }
+        assert_eq!(std::fs::read_to_string(&log).ok(), Some(lines.clone()));
+        let other = SelfCheck::new(all[..2].to_vec(), DiagnoseOptions::default(), text);
+        let err = other.report_so_far(&run, &into).unwrap_err().to_string();
+        assert!(err.contains("the run there has other inputs"), "{err}");
         Ok(())
     }
 }
