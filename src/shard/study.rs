@@ -206,7 +206,11 @@ pub enum Progress {
 /// `dir` with no run started.
 pub fn progress<S: Study>(study: &S, dir: &Path) -> Result<Progress, ShardError> {
     let now = study.manifest();
-    if dir.join(MARKER).is_file() && Manifest::read(dir)?.is_some_and(|m| m.matches(now)) {
+    let complete = match dir.join(MARKER).is_file() {
+        true => Manifest::read(dir)?,
+        false => None,
+    };
+    if complete.as_ref().is_some_and(|m| m.matches(now)) {
         return Ok(Progress::Complete);
     }
     let staging = crate::io::output_dir::sibling(dir, "partial")?;
@@ -256,6 +260,13 @@ pub fn progress<S: Study>(study: &S, dir: &Path) -> Result<Progress, ShardError>
         }
     }
     if !started {
+        // No run of these inputs anywhere, but a finished one of others: name what differs.
+        if let Some(m) = complete {
+            return Err(ShardError::OtherRun {
+                place: dir.to_path_buf(),
+                changes: m.changes(now),
+            });
+        }
         return Err(ShardError::NoRun {
             dir: dir.to_path_buf(),
             staging,

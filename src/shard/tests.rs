@@ -65,26 +65,31 @@ fn on_one_thread_until<R: Send>(
     toy: &Toy,
     calls: usize,
     run: impl FnOnce(&Control) -> R + Send,
-) -> R {
+) -> Result<R, TestError> {
     let stop = || toy.calls() >= calls;
     let c = Control {
         progress: &|_, _| {},
         stop: &stop,
     };
-    rayon::ThreadPoolBuilder::new()
+    Ok(rayon::ThreadPoolBuilder::new()
         .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| run(&c))
+        .build()?
+        .install(|| run(&c)))
 }
 
+type TestError = Box<dyn std::error::Error>;
+
 /// Shard 0 of `count` run to its end, then shard 1 stopped once `toy` has run `calls` units.
-fn first_shard_then_second_until(toy: &Toy, dir: &Path, count: usize, calls: usize) {
-    let shard = |i| Shard::new(i, count).unwrap();
-    run_shard(toy, dir, shard(0), false, &Control::none()).unwrap();
-    on_one_thread_until(toy, calls, |c| {
-        run_shard(toy, dir, shard(1), false, c).unwrap()
-    });
+fn first_shard_then_second_until(
+    toy: &Toy,
+    dir: &Path,
+    count: usize,
+    calls: usize,
+) -> Result<(), TestError> {
+    run_shard(toy, dir, Shard::new(0, count)?, false, &Control::none())?;
+    let second = Shard::new(1, count)?;
+    on_one_thread_until(toy, calls, |c| run_shard(toy, dir, second, false, c))??;
+    Ok(())
 }
 
 fn read(dir: &Path, f: &str) -> Vec<u8> {
@@ -168,7 +173,7 @@ fn a_missing_shard_names_the_missing_units_and_writes_nothing() {
     let dir = root.path().join("d");
     let toy = Toy::new(10, 1);
     // Shard 1 stops after one unit; shard 2 never starts.
-    first_shard_then_second_until(&toy, &dir, 3, 5);
+    first_shard_then_second_until(&toy, &dir, 3, 5).unwrap();
     let e = merge(&toy, &dir).unwrap_err();
     let msg = e.to_string();
     assert!(
@@ -249,40 +254,52 @@ fn changed_inputs_are_refused_naming_the_change_unless_restarted() {
 }
 
 #[test]
-fn progress_reads_a_run_without_touching_it_and_knows_a_complete_one() {
-    let root = tempfile::tempdir().unwrap();
+fn progress_reads_a_run_without_touching_it_and_knows_a_complete_one() -> Result<(), TestError> {
+    let root = tempfile::tempdir()?;
     let dir = root.path().join("d");
     let toy = Toy::new(5, 1);
     assert!(matches!(
         progress(&toy, &dir),
         Err(ShardError::NoRun { .. })
     ));
-    on_one_thread_until(&toy, 2, |c| run_whole(&toy, &dir, false, c).unwrap());
-    let log = crate::io::output_dir::sibling(&dir, "partial")
-        .unwrap()
-        .join(LOG);
-    let before = std::fs::read(&log).unwrap();
-    let Ok(Progress::Running(records)) = progress(&toy, &dir) else {
+    on_one_thread_until(&toy, 2, |c| run_whole(&toy, &dir, false, c))??;
+    let log = crate::io::output_dir::sibling(&dir, "partial")?.join(LOG);
+    let before = std::fs::read(&log)?;
+    let Progress::Running(records) = progress(&toy, &dir)? else {
         panic!("a run in progress")
     };
     assert_eq!(records.len(), 2);
     for (u, r) in &records {
-        assert_eq!(*r, toy.run_unit(*u, root.path()).unwrap());
+        assert_eq!(*r, toy.run_unit(*u, root.path())?);
     }
-    assert_eq!(std::fs::read(&log).unwrap(), before);
-    let e = progress(&Toy::new(5, 2), &dir).unwrap_err().to_string();
-    assert!(e.contains("`k` 1 → 2") && !e.contains("--restart"), "{e}");
-    run_whole(&toy, &dir, false, &Control::none()).unwrap();
-    assert_eq!(progress(&toy, &dir).unwrap(), Progress::Complete);
+    assert_eq!(std::fs::read(&log)?, before);
+    let e = progress(&Toy::new(5, 2), &dir)
+        .map(|_| ())
+        .map_err(|e| e.to_string());
+    assert!(
+        e.as_ref()
+            .is_err_and(|e| e.contains("`k` 1 → 2") && !e.contains("--restart")),
+        "{e:?}"
+    );
+    run_whole(&toy, &dir, false, &Control::none())?;
+    assert_eq!(progress(&toy, &dir)?, Progress::Complete);
+    // That folder, complete, asked about for other inputs: what differs is named.
+    let e = progress(&Toy::new(5, 4), &dir)
+        .map(|_| ())
+        .map_err(|e| e.to_string());
+    assert!(e.as_ref().is_err_and(|e| e.contains("`k` 1 → 4")), "{e:?}");
 
     // A sharded run: shard 0 of 2 complete, shard 1 stopped after one unit; both counted.
     let sharded = root.path().join("s");
     let toy = Toy::new(5, 1);
-    first_shard_then_second_until(&toy, &sharded, 2, 4);
-    let Ok(Progress::Running(records)) = progress(&toy, &sharded) else {
+    first_shard_then_second_until(&toy, &sharded, 2, 4)?;
+    let Progress::Running(records) = progress(&toy, &sharded)? else {
         panic!("a sharded run in progress")
     };
     assert_eq!(records.keys().copied().collect::<Vec<_>>(), [0, 1, 2, 4]);
-    let e = progress(&Toy::new(5, 3), &sharded).unwrap_err().to_string();
-    assert!(e.contains("`k` 1 → 3"), "{e}");
+    let e = progress(&Toy::new(5, 3), &sharded)
+        .map(|_| ())
+        .map_err(|e| e.to_string());
+    assert!(e.as_ref().is_err_and(|e| e.contains("`k` 1 → 3")), "{e:?}");
+    Ok(())
 }
