@@ -12,7 +12,9 @@
 //!
 //! Also the least-squares amplitude of one sinusoid at a known frequency ([`sinusoid_fit`]): a
 //! vibration's amplitude read directly, where a band's power would also hold the detector's
-//! error, whose size differs between renderers and rigs.
+//! error, whose size differs between renderers and rigs; and that amplitude inverted through a
+//! pipeline's gain simulated on several placements ([`invert_through_gain`]), whose spread the
+//! amplitude's ± holds.
 
 /// The highest peak of a periodogram.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -193,6 +195,98 @@ pub fn sinusoid_fit_refined(
     }
 }
 
+/// A sinusoid's amplitude read through a measurement pipeline ([`invert_through_gain`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GainInversion {
+    /// The input amplitude that explains the measured sinusoid, |c − c̄₀| / |h̄|.
+    pub amplitude: f64,
+    /// Its standard uncertainty: the measured sinusoid's own (through the mean gain) and the
+    /// gain's spread from one simulated placement to the next, in quadrature.
+    pub amplitude_std: f64,
+    /// |h̄|: the mean complex gain's modulus.
+    pub gain: f64,
+    /// Sample standard deviation of the per-placement gains |h_k| (n − 1 degrees of freedom).
+    pub gain_spread: f64,
+    /// |c̄₀|: the mean content at that frequency with no input.
+    pub content_without: f64,
+}
+
+/// Inverts a measured sinusoid `measured` (complex amplitude: sin and cos coefficients, with
+/// standard uncertainty `measured_std` of its amplitude) through a pipeline simulated on n ≥ 2
+/// placements: `without[k]` and `with[k]` are the complex amplitudes the k-th simulation
+/// measured at input amplitude 0 and `probe`, on common random numbers. Each gives a complex
+/// gain h_k = (with_k − without_k) / probe; the amplitude is |c − c̄₀| / |h̄|.
+///
+/// Why the gain's spread enters the ±: the corners of an unrefined detector are whole pixels,
+/// so a motion of a fraction of a pixel (a 2 mrad vibration moves a marker 200 px from the
+/// axis by 0.4 px) passes through a quantiser whose gain depends on where the edges sit on the
+/// pixel grid. The same scenario with its rotation centre moved by 0.2–0.8 px read one
+/// vibration with gains 0.97–1.14, and three fits on 2 placements each agreed on a gain of about
+/// 0.9 while the footage's own placement had about 1.09: an amplitude 20 % high, 3.9 of its ±
+/// from the truth, when the ± held the footage's noise only (`reports/diagnosis-stop67/`). The
+/// footage's placement is one draw of what the simulations' placements sample, known only to a
+/// fraction of a pixel, so its gain is uncertain by their spread s_g, not by s_g/√n:
+/// σ_A² = (σ_c / |h̄|)² + (A · s_g / |h̄|)². The spread also holds the simulations' detection
+/// noise at that frequency (common random numbers do not cancel it where the marker sits on
+/// other pixels), which the measured sinusoid's own σ_c counts again: the ± errs wide, not
+/// narrow. `None` when fewer than two placements, the lists differ in length, any value is
+/// not finite, or the probe or the gain is not positive.
+pub fn invert_through_gain(
+    measured: [f64; 2],
+    measured_std: f64,
+    without: &[[f64; 2]],
+    with: &[[f64; 2]],
+    probe: f64,
+) -> Option<GainInversion> {
+    let n = without.len();
+    let finite = |c: &[f64; 2]| c[0].is_finite() && c[1].is_finite();
+    let usable = n >= 2
+        && with.len() == n
+        && probe.is_finite()
+        && probe > 0.0
+        && measured_std.is_finite()
+        && finite(&measured)
+        && without.iter().chain(with).all(finite);
+    if !usable {
+        return None;
+    }
+    let nf = n as f64;
+    let gains: Vec<[f64; 2]> = with
+        .iter()
+        .zip(without)
+        .map(|(c1, c0)| [(c1[0] - c0[0]) / probe, (c1[1] - c0[1]) / probe])
+        .collect();
+    let mean = |v: &[[f64; 2]]| {
+        [
+            v.iter().map(|c| c[0]).sum::<f64>() / nf,
+            v.iter().map(|c| c[1]).sum::<f64>() / nf,
+        ]
+    };
+    let h = mean(&gains);
+    let c0 = mean(without);
+    let gain = h[0].hypot(h[1]);
+    if gain.is_nan() || gain <= 0.0 {
+        return None;
+    }
+    let moduli: Vec<f64> = gains.iter().map(|g| g[0].hypot(g[1])).collect();
+    let mean_modulus = moduli.iter().sum::<f64>() / nf;
+    let gain_spread = (moduli
+        .iter()
+        .map(|g| (g - mean_modulus).powi(2))
+        .sum::<f64>()
+        / (nf - 1.0))
+        .sqrt();
+    let amplitude = (measured[0] - c0[0]).hypot(measured[1] - c0[1]) / gain;
+    let amplitude_std = (measured_std / gain).hypot(amplitude * gain_spread / gain);
+    Some(GainInversion {
+        amplitude,
+        amplitude_std,
+        gain,
+        gain_spread,
+        content_without: c0[0].hypot(c0[1]),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -343,5 +437,55 @@ mod tests {
         x[3] = f64::NAN;
         assert!(highest_peak(&t, &x, 1.5, 15.0).is_some());
         assert!(highest_peak(&t, &x, 15.0, 1.5).is_none());
+    }
+    #[test]
+    fn a_sinusoid_is_inverted_through_the_mean_gain_and_its_spread_widens_the_plus_minus(
+    ) -> Result<(), String> {
+        // Four placements with gains 0.9, 1.1, 1.0, 1.0 (all at phase π/2: cos coefficient),
+        // each with its own content 0.1 at phase 0 without input.
+        let probe = 2e-3;
+        let without = [[1e-4, 0.0]; 4];
+        let with: Vec<[f64; 2]> = [0.9, 1.1, 1.0, 1.0]
+            .iter()
+            .map(|g| [1e-4, g * probe])
+            .collect();
+        // A footage of amplitude 1.5e-3 through a gain of 1.0, plus the same content.
+        let inv = invert_through_gain([1e-4, 1.5e-3], 5e-5, &without, &with, probe)
+            .ok_or("no inversion")?;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-12);
+        assert!(close(inv.gain, 1.0), "{inv:?}");
+        assert!(close(inv.amplitude, 1.5e-3), "{inv:?}");
+        assert!(close(inv.content_without, 1e-4), "{inv:?}");
+        // Gains 0.9, 1.1, 1.0, 1.0: sample sd √(0.02/3).
+        let s_g = (0.02f64 / 3.0).sqrt();
+        assert!(close(inv.gain_spread, s_g), "{inv:?}");
+        assert!(
+            close(inv.amplitude_std, (5e-5f64).hypot(1.5e-3 * s_g)),
+            "{inv:?}"
+        );
+        // The same placements all at one gain: the ± is the footage's own, through the gain.
+        let same: Vec<[f64; 2]> = (0..4).map(|_| [1e-4, 0.8 * probe]).collect();
+        let inv = invert_through_gain([1e-4, 1.2e-3], 5e-5, &without, &same, probe)
+            .ok_or("no inversion")?;
+        assert!(
+            close(inv.amplitude, 1.5e-3) && close(inv.amplitude_std, 5e-5 / 0.8),
+            "{inv:?}"
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn a_gain_inversion_refuses_what_it_cannot_invert() {
+        let one = [[0.0, 1e-3]];
+        let two = [[0.0, 0.0]; 2];
+        let with = [[0.0, 2e-3]; 2];
+        // One placement has no spread; lists of unequal length; no gain; a bad probe; NaN.
+        assert!(invert_through_gain([0.0, 1e-3], 1e-5, &one, &one, 2e-3).is_none());
+        assert!(invert_through_gain([0.0, 1e-3], 1e-5, &two, &with[..1], 2e-3).is_none());
+        assert!(invert_through_gain([0.0, 1e-3], 1e-5, &two, &two, 2e-3).is_none());
+        assert!(invert_through_gain([0.0, 1e-3], 1e-5, &two, &with, 0.0).is_none());
+        assert!(invert_through_gain([0.0, f64::NAN], 1e-5, &two, &with, 2e-3).is_none());
+        assert!(invert_through_gain([0.0, 1e-3], f64::NAN, &two, &with, 2e-3).is_none());
+        assert!(invert_through_gain([0.0, 1e-3], 1e-5, &two, &with, 2e-3).is_some());
     }
 }

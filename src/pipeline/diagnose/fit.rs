@@ -2023,9 +2023,12 @@ impl<'a> Fitter<'a> {
     /// The residual's sinusoid is a complex amplitude c (amplitude and phase), linear in the
     /// vibration's: c(A) = c₀ + h·A, where c₀ is what the residual holds at that frequency with no
     /// vibration (the motion's own content there, which adds to the vibration with its phase)
-    /// and h the pipeline's complex gain. Two simulations on the fit seeds, at A = 0 and at the
-    /// footage's amplitude, give c₀ and h (common random numbers: the noise cancels in their
-    /// difference), and the footage's c then gives A = |(c − c₀) / h|. `None` when the residual
+    /// and h the pipeline's complex gain. Simulations at A = 0 and at the footage's amplitude on
+    /// [`GAIN_PLACEMENTS`] seeds (the fit seeds first), each its own sub-pixel placement, give
+    /// c₀ and h (common random numbers), and the footage's c then gives A = |(c − c₀) / h|, with
+    /// the gain's spread over the placements in its ± ([`spectrum::invert_through_gain`]: the
+    /// gain of an unrefined detector to a sub-pixel motion depends on the placement, and the
+    /// footage's is one of them). `None` when the residual
     /// gives no sinusoid, the gain vanishes or A leaves its search range (the caller then
     /// searches Σ z²).
     ///
@@ -2055,54 +2058,57 @@ impl<'a> Fitter<'a> {
         let f = real.frequency_hz;
         let (lo, hi) = e.params()[0].search;
         let probe = real.amplitude.clamp(lo, hi);
-        // Mean complex amplitude (sin, cos coefficients) of the simulations at amplitude `a`.
-        let simulated = |a: f64| -> Result<Option<[f64; 2]>, DiagnoseError> {
+        let seeds = gain_placement_seeds(&self.fit_seeds);
+        // Complex amplitudes (sin, cos coefficients) of the simulations at amplitude `a`, one
+        // per placement seed.
+        let simulated = |a: f64| -> Result<Option<Vec<[f64; 2]>>, DiagnoseError> {
             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
             applied.push((e, vec![a, f]));
             let trial = self.trial_with(&applied)?;
-            *self.simulations.borrow_mut() += self.fit_seeds.len();
-            let sims = trial_theta_residuals(&self.ctx, &trial, &self.fit_seeds)?;
+            *self.simulations.borrow_mut() += seeds.len();
+            let sims = trial_theta_residuals(&self.ctx, &trial, &seeds)?;
             let fits: Vec<[f64; 2]> = sims
                 .iter()
                 .filter_map(|(t, r)| spectrum::sinusoid_fit(t, r, f))
                 .map(|s| complex(s.amplitude, s.phase_rad))
                 .collect();
-            if fits.len() < sims.len() || fits.is_empty() {
-                return Ok(None);
-            }
-            let n = fits.len() as f64;
-            Ok(Some([
-                fits.iter().map(|c| c[0]).sum::<f64>() / n,
-                fits.iter().map(|c| c[1]).sum::<f64>() / n,
-            ]))
+            Ok((fits.len() == sims.len()).then_some(fits))
         };
-        let (Some(c0), Some(c1)) = (simulated(0.0)?, simulated(probe)?) else {
+        let (Some(without), Some(with)) = (simulated(0.0)?, simulated(probe)?) else {
             return Ok(None);
         };
-        let h = [(c1[0] - c0[0]) / probe, (c1[1] - c0[1]) / probe];
-        let gain = h[0].hypot(h[1]);
+        let c = complex(real.amplitude, real.phase_rad);
+        let Some(inv) =
+            spectrum::invert_through_gain(c, real.amplitude_std, &without, &with, probe)
+        else {
+            return Ok(None);
+        };
+        let gain = inv.gain;
         // A pipeline that passes less than a tenth of the vibration cannot be inverted.
-        if gain.is_nan() || gain <= 0.1 {
+        if gain <= 0.1 {
             return Ok(None);
         }
-        let c = complex(real.amplitude, real.phase_rad);
-        let d = [c[0] - c0[0], c[1] - c0[1]];
-        let amplitude = d[0].hypot(d[1]) / gain;
+        let amplitude = inv.amplitude;
         if !(amplitude > lo && amplitude < hi) {
             return Ok(None);
         }
-        let sd_amplitude = real.amplitude_std / gain;
+        let sd_amplitude = inv.amplitude_std;
         // Cramér–Rao for a sinusoid's frequency over T s: √6·σ_A / (2π A T).
         let sd_frequency =
             6.0f64.sqrt() * real.amplitude_std / (std::f64::consts::TAU * real.amplitude * span_s);
         let method = format!(
             "amplitude of the sinusoid at {f:.3} Hz in the angle residual (least squares; \
              frequency refined on the footage's residual), inverted through the pipeline's \
-             complex gain {gain:.3} and the residual's own content there ({:.3} mrad), both \
-             from 2 simulations of {} fit seeds at 0 and {:.3} mrad; footage {:.3} ± {:.3} mrad",
-            1e3 * c0[0].hypot(c0[1]),
-            self.fit_seeds.len(),
+             complex gain {gain:.3} (sd {:.3} from one placement on the pixel grid to the next, \
+             which the ± holds: the footage's placement is one of them) and the residual's own \
+             content there ({:.3} mrad), from simulations at 0 and {:.3} mrad on {} placements \
+             (the {} fit seeds and {} more); footage {:.3} ± {:.3} mrad",
+            inv.gain_spread,
+            1e3 * inv.content_without,
             1e3 * probe,
+            seeds.len(),
+            self.fit_seeds.len(),
+            seeds.len().saturating_sub(self.fit_seeds.len()),
             1e3 * real.amplitude,
             1e3 * real.amplitude_std
         );
@@ -2170,6 +2176,35 @@ fn complex(amplitude: f64, phase_rad: f64) -> [f64; 2] {
     [amplitude * phase_rad.cos(), amplitude * phase_rad.sin()]
 }
 
+/// Placements (simulation seeds, each with its own sub-pixel placement) a vibration's gain is
+/// measured on ([`spectrum::invert_through_gain`]): its spread from one placement to the next
+/// is part of the amplitude's ±, so it needs more draws than a fit's few seeds give it (with
+/// 2, its sd rests on one degree of freedom). A simulation of the angle alone costs about a
+/// second of 180 frames.
+pub const GAIN_PLACEMENTS: usize = 8;
+
+/// Offset between the fit seeds and the further placement seeds derived from them: far above
+/// any seed the diagnosis draws otherwise, so a refit's set stays disjoint from the others'.
+const PLACEMENT_SEED_STRIDE: u64 = 1 << 40;
+
+/// The fit seeds, then seeds derived from them (each fit seed plus a multiple of
+/// [`PLACEMENT_SEED_STRIDE`], in turn) up to [`GAIN_PLACEMENTS`] in all: disjoint fit-seed sets
+/// give disjoint placement sets.
+pub fn gain_placement_seeds(fit_seeds: &[u64]) -> Vec<u64> {
+    let mut seeds = fit_seeds.to_vec();
+    let mut round: u64 = 1;
+    while seeds.len() < GAIN_PLACEMENTS && !fit_seeds.is_empty() {
+        for &s in fit_seeds {
+            if seeds.len() == GAIN_PLACEMENTS {
+                break;
+            }
+            seeds.push(s.wrapping_add(round.wrapping_mul(PLACEMENT_SEED_STRIDE)));
+        }
+        round += 1;
+    }
+    seeds
+}
+
 /// Δ Σ z² of χ² with 2 degrees of freedom at 95 %: two tilts the moments cannot tell apart.
 pub const POSE_DELTA_CHI2: f64 = 5.99;
 
@@ -2229,6 +2264,26 @@ fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_vibrations_gain_is_measured_on_the_fit_seeds_and_placements_derived_from_them(
+    ) -> Result<(), String> {
+        let a = gain_placement_seeds(&[2007, 2008]);
+        let b = gain_placement_seeds(&[3007, 3008]);
+        if a.len() != GAIN_PLACEMENTS || a[..2] != [2007, 2008] {
+            return Err(format!("{a:?}"));
+        }
+        let distinct: std::collections::BTreeSet<u64> = a.iter().chain(&b).copied().collect();
+        if distinct.len() != 2 * GAIN_PLACEMENTS {
+            return Err(format!("not disjoint: {a:?} {b:?}"));
+        }
+        // More fit seeds than placements: the fit seeds alone; three: 8 from them in turn.
+        let many: Vec<u64> = (0..10).collect();
+        if gain_placement_seeds(&many) != many || gain_placement_seeds(&[1, 2, 3]).len() != 8 {
+            return Err("wrong count".into());
+        }
+        Ok(())
+    }
 
     #[test]
     fn an_older_records_fit_kind_is_read_off_the_method_its_build_wrote() {
