@@ -229,7 +229,9 @@ pub struct GainInversion {
 /// σ_A² = (σ_c / |h̄|)² + (A · s_g / |h̄|)². The spread also holds the simulations' detection
 /// noise at that frequency (common random numbers do not cancel it where the marker sits on
 /// other pixels), which the measured sinusoid's own σ_c counts again: the ± errs wide, not
-/// narrow. `None` when fewer than two placements, the lists differ in length, any value is
+/// narrow. The 95 % interval (`fit_noise::interval95`) counts s_g as known, though it rests on
+/// n − 1 degrees of freedom (7 at 8 placements per fit, about 21 pooled over three fits:
+/// Student's k 2.08 where 1.96 is taken, an interval about 6 % too short on that part). `None` when fewer than two placements, the lists differ in length, any value is
 /// not finite, or the probe or the gain is not positive.
 pub fn invert_through_gain(
     measured: [f64; 2],

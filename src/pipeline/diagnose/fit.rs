@@ -2191,18 +2191,14 @@ const PLACEMENT_SEED_STRIDE: u64 = 1 << 40;
 /// [`PLACEMENT_SEED_STRIDE`], in turn) up to [`GAIN_PLACEMENTS`] in all: disjoint fit-seed sets
 /// give disjoint placement sets.
 pub fn gain_placement_seeds(fit_seeds: &[u64]) -> Vec<u64> {
-    let mut seeds = fit_seeds.to_vec();
-    let mut round: u64 = 1;
-    while seeds.len() < GAIN_PLACEMENTS && !fit_seeds.is_empty() {
-        for &s in fit_seeds {
-            if seeds.len() == GAIN_PLACEMENTS {
-                break;
-            }
-            seeds.push(s.wrapping_add(round.wrapping_mul(PLACEMENT_SEED_STRIDE)));
-        }
-        round += 1;
-    }
-    seeds
+    let n = fit_seeds.len();
+    (0..GAIN_PLACEMENTS.max(n))
+        .filter_map(|k| {
+            let round = (k / n.max(1)) as u64;
+            let seed = fit_seeds.get(k % n.max(1))?;
+            Some(seed.wrapping_add(round.wrapping_mul(PLACEMENT_SEED_STRIDE)))
+        })
+        .collect()
 }
 
 /// Δ Σ z² of χ² with 2 degrees of freedom at 95 %: two tilts the moments cannot tell apart.
@@ -2281,6 +2277,9 @@ mod tests {
         let many: Vec<u64> = (0..10).collect();
         if gain_placement_seeds(&many) != many || gain_placement_seeds(&[1, 2, 3]).len() != 8 {
             return Err("wrong count".into());
+        }
+        if !gain_placement_seeds(&[]).is_empty() {
+            return Err("seeds from no fit seed".into());
         }
         Ok(())
     }
