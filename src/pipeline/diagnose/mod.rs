@@ -736,6 +736,12 @@ pub fn diagnose_with(
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
         .map(|k| nominal.seed.wrapping_add(2000 + k))
         .collect();
+    // The nominal without its clearance and the footage aligned to it, declared here so that
+    // the backlash's fitter can borrow them ([`Fitter::with_clearance_free`]); aligned only
+    // when the backlash is fitted.
+    let mut nominal_free = nominal.clone();
+    Effect::Backlash.switch_off(&mut nominal_free);
+    let footing_free: std::cell::OnceCell<Footing> = std::cell::OnceCell::new();
     progress("simulating the nominal", 0, seeds.len());
     let mut fitter = footing.fitter(
         nominal,
@@ -800,6 +806,22 @@ pub fn diagnose_with(
     if units.contains(&Effect::AxisRunout) {
         progress("refining the runout form's phase", 0, 1);
         fitter.refine_runout_phase();
+    }
+    if units.contains(&Effect::Backlash) && Effect::Backlash.is_on(nominal) {
+        progress(
+            "aligning the nominal without its clearance (the backlash is fitted against it)",
+            0,
+            1,
+        );
+        let aligned = Footing::new(&nominal_free, &real, &layout, Some(&[Effect::Backlash]))?;
+        let free = footing_free.get_or_init(|| aligned).fitter(
+            &nominal_free,
+            &layout,
+            fit_seeds.clone(),
+            seeds.clone(),
+            options.gap,
+        )?;
+        fitter = fitter.with_clearance_free(free);
     }
     let fitter = fitter;
     let stored = match mode {

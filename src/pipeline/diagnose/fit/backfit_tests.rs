@@ -5,10 +5,7 @@
 
 use super::*;
 use crate::diagnose::gap::GapOptions;
-use crate::pipeline::analyze::Source;
 use crate::pipeline::diagnose::footing::Footing;
-use crate::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, SuitePlan};
-use crate::pipeline::diagnose::{image, real};
 
 /// `effect` at `values`, as a fit of `kind` would state it.
 fn stated(effect: Effect, values: Vec<f64>, kind: FitKind) -> Fitted {
@@ -28,36 +25,14 @@ fn stated(effect: Effect, values: Vec<f64>, kind: FitKind) -> Fitted {
 fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
 ) -> Result<(), Box<dyn std::error::Error>> {
     let tmp = tempfile::tempdir()?;
-    let plan = SuitePlan {
-        null_cases: 0,
-        flicker_cases: 0,
-        ..SuitePlan::quick(Effect::Backlash)
-    };
     // The plan's strong backlash, on 2 s of footage.
-    let case = cases(&suite_base(2.0)?, &plan, &[])
-        .into_iter()
-        .find(|c| c.name.starts_with("withheld-backlash-strong"))
-        .ok_or("the plan's backlash case")?;
+    let (case, layout, measured) = super::test_footage::withheld_backlash(tmp.path())?;
     let nominal = case.nominal.clone();
     let clearance: Vec<f64> = Effect::Backlash
         .nominal_values(&case.data, nominal.frame_timing.fps)
         .into_iter()
         .map(|v| v.ok_or("the footage's clearance"))
         .collect::<Result<_, _>>()?;
-    let frames = tmp.path().join("frames");
-    render_case(&case, &frames)?;
-    let source = Source::Frames {
-        dir: frames.clone(),
-        timestamps: frames.join("timestamps.csv"),
-    };
-    let layout = image::marker_layout(&nominal)?;
-    let measured = real::measure_real(
-        &nominal,
-        &source,
-        &layout,
-        &tmp.path().join("real"),
-        &|_, _| {},
-    )?;
     let effects = [Effect::Backlash, Effect::Timebase];
     let footing = Footing::new(&nominal, &measured, &layout, Some(&effects))?;
     let fitter = footing.fitter(
