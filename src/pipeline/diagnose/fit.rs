@@ -671,14 +671,19 @@ impl<'a> Fitter<'a> {
             simulations: RefCell::new(0),
             base_centre_px: self.base_centre_px.clone(),
             objective_memo: ObjectiveMemo::default(),
-            clearance_free: self.clearance_free.as_ref().map(|f| {
-                // Its nominal simulations go along: a bootstrap footage fitted there is compared
-                // with them ([`Self::fit_on_simulated_footage`]).
-                let mut fork = f.fork();
-                fork.nominal_sims = f.nominal_sims.clone();
-                Box::new(fork)
-            }),
+            clearance_free: self
+                .clearance_free
+                .as_ref()
+                .map(|f| Box::new(f.fork_keeping_sims())),
         }
+    }
+
+    /// [`Self::fork`] with the nominal simulations kept: the clearance-free fitter's, which a
+    /// bootstrap footage fitted there is compared with ([`Self::fit_on_simulated_footage`]).
+    fn fork_keeping_sims(&self) -> Fitter<'a> {
+        let mut fork = self.fork();
+        fork.nominal_sims = self.nominal_sims.clone();
+        fork
     }
 
     /// This fitter with `free` to fit the backlash on: a fitter of the same footage whose
@@ -702,8 +707,7 @@ impl<'a> Fitter<'a> {
             .clearance_free
             .as_ref()
             .filter(|_| e == Effect::Backlash)?;
-        let mut fork = free.fork();
-        fork.nominal_sims = free.nominal_sims.clone();
+        let mut fork = free.fork_keeping_sims();
         fork.fit_seeds = self.fit_seeds.clone();
         Some(fork)
     }
@@ -885,18 +889,17 @@ impl<'a> Fitter<'a> {
         }
         // A clearance fitted against the clearance-free motion is bootstrapped there too: its
         // footages are drawn and measured as that fitter sees the real one.
-        if truth.iter().any(|(e, _)| *e == Effect::Backlash) {
-            if let Some(free) = self.delegate(Effect::Backlash) {
-                let sims = free.nominal_sims.clone();
-                let (fits, simulations) = free.fit_on_simulated_footage(&sims, truth, footage_seed);
-                let fits = fits.map(|mut fits| {
-                    for f in fits.iter_mut().filter(|f| f.effect == Effect::Backlash) {
-                        f.method.push_str(&clearance_free_note(self.nominal));
-                    }
-                    fits
-                });
-                return (fits, self.simulations() + simulations);
-            }
+        let delegated = truth.iter().any(|(e, _)| *e == Effect::Backlash);
+        if let Some(free) = delegated.then(|| self.delegate(Effect::Backlash)).flatten() {
+            let sims = free.nominal_sims.clone();
+            let (fits, simulations) = free.fit_on_simulated_footage(&sims, truth, footage_seed);
+            let fits = fits.map(|mut fits| {
+                for f in fits.iter_mut().filter(|f| f.effect == Effect::Backlash) {
+                    f.method.push_str(&clearance_free_note(self.nominal));
+                }
+                fits
+            });
+            return (fits, self.simulations() + simulations);
         }
         let footage = match self.trial_with(truth).and_then(|trial| {
             *self.simulations.borrow_mut() += 1;
@@ -2270,7 +2273,11 @@ pub fn gain_placement_seeds(fit_seeds: &[u64]) -> Vec<u64> {
 /// What a backlash fitted against the clearance-free motion adds to its method
 /// ([`Fitter::with_clearance_free`]).
 pub fn clearance_free_note(nominal: &Scenario) -> String {
-    let stated_mm = nominal.mechanism.slot_width_mm - nominal.mechanism.pin_diameter_mm;
+    let stated_mm = Effect::Backlash
+        .values(nominal)
+        .first()
+        .copied()
+        .unwrap_or(0.0);
     format!(
         "; fitted against the nominal's motion without a clearance (`dynamics.enabled = false`, \
          aligned to the footage on its own), as a withheld clearance is: the nominal states \
@@ -2295,7 +2302,11 @@ pub fn stated_clearance_caveat(e: Effect, nominal: &Scenario) -> Option<String> 
     if !matches!(e, Effect::Backlash | Effect::Overrotation) || !Effect::Backlash.is_on(nominal) {
         return None;
     }
-    let stated_mm = nominal.mechanism.slot_width_mm - nominal.mechanism.pin_diameter_mm;
+    let stated_mm = Effect::Backlash
+        .values(nominal)
+        .first()
+        .copied()
+        .unwrap_or(0.0);
     let what = match e {
         Effect::Backlash => "the clearance refitted from it",
         _ => "the friction fitted against it (the clearance held at the stated value)",
