@@ -19,6 +19,7 @@ pub mod imagestats;
 pub mod io;
 pub mod marker;
 pub mod mechanism;
+pub mod numeric;
 pub mod pipeline;
 pub mod plot;
 pub mod render;

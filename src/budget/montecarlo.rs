@@ -1,6 +1,7 @@
 //! Monte Carlo aggregation: a metric measured once per seed, summarised with a 95 % confidence
 //! interval for its mean (Student's t for small N).
 
+use crate::numeric::robust;
 use serde::{Deserialize, Serialize};
 
 /// Mean of a per-seed metric with its 95 % confidence interval.
@@ -45,7 +46,7 @@ impl MeanCi {
                 n,
             };
         }
-        let mean = v.iter().sum::<f64>() / n as f64;
+        let mean = robust::mean(&v);
         if n == 1 {
             return Self {
                 mean,
@@ -54,7 +55,7 @@ impl MeanCi {
                 n,
             };
         }
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        let var = robust::sample_variance(&v);
         let half = t975(n - 1) * (var / n as f64).sqrt();
         Self {
             mean,

@@ -2,6 +2,7 @@
 //!
 //! Missing values (NaN) are skipped and counted, never imputed.
 
+use crate::numeric::robust::percentile_sorted;
 use serde::{Deserialize, Serialize};
 
 /// Statistics of an error series `e = measured − truth` (units of the quantity).
@@ -70,21 +71,6 @@ impl ErrorStats {
     }
 }
 
-/// Percentile `q` (0–100) of an ascending slice, numpy's "linear" method.
-pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
-    match sorted.len() {
-        0 => f64::NAN,
-        1 => sorted[0],
-        n => {
-            let pos = (q / 100.0).clamp(0.0, 1.0) * (n - 1) as f64;
-            let lo = pos.floor() as usize;
-            let hi = (lo + 1).min(n - 1);
-            let frac = pos - lo as f64;
-            sorted[lo] + (sorted[hi] - sorted[lo]) * frac
-        }
-    }
-}
-
 /// Largest |value| over the finite entries (the "peak true value" used for relative errors).
 pub fn peak_abs(values: &[f64]) -> f64 {
     values
@@ -109,15 +95,6 @@ mod tests {
         // |e| sorted = 1,1,3,3; pos = 0.95·3 = 2.85 → 3.
         assert_eq!(s.p95, 3.0);
         assert!(ErrorStats::of(&[f64::NAN]).rms.is_nan());
-    }
-
-    #[test]
-    fn percentile_matches_numpy_linear() {
-        let v = [1.0, 2.0, 3.0, 4.0, 5.0];
-        assert_eq!(percentile_sorted(&v, 50.0), 3.0);
-        assert!((percentile_sorted(&v, 95.0) - 4.8).abs() < 1e-12);
-        assert_eq!(percentile_sorted(&v, 0.0), 1.0);
-        assert_eq!(percentile_sorted(&v, 100.0), 5.0);
     }
 
     proptest! {

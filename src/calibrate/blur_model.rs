@@ -14,8 +14,8 @@
 //! codec at the footage's quality and levels (the quantised block DCT coefficients sharpen or
 //! smear an edge a little, which the fit reads as blur).
 
-use crate::estimate::golden::golden_section_min;
 use crate::imagestats::step_response;
+use crate::numeric::minimize::golden_section_min;
 use crate::render::effects::compression::jpeg_round_trip;
 use crate::render::effects::optical_blur::{kernel, OpticalBlurConfig};
 

@@ -15,10 +15,10 @@ use crate::estimate::circle_fit::fit_rotation_centre;
 use crate::estimate::lm;
 use crate::estimate::RotationCentreMethod;
 use crate::imagestats::square_fit;
+use crate::numeric::angle::{unwrap_in_place, wrap_pi};
 use crate::scenario::Scenario;
 use crate::scene::PlacedMarker;
 use glam::DVec2;
-use std::f64::consts::{PI, TAU};
 
 /// Perspective tilt from the pose fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,16 +99,6 @@ fn centre_of(c: &Corners) -> [f64; 2] {
         c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
         c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
     ]
-}
-
-fn wrap_pi(a: f64) -> f64 {
-    (a + PI).rem_euclid(TAU) - PI
-}
-
-fn unwrap_all(a: &mut [f64]) {
-    for k in 1..a.len() {
-        a[k] = a[k - 1] + wrap_pi(a[k] - a[k - 1]);
-    }
 }
 
 /// Merges consecutive poses whose centre moved less than 0.3 px (repeated poses would count as
@@ -319,7 +309,7 @@ pub fn fit_geometry(
             (m[1] - centre0[1]).atan2(m[0] - centre0[0])
         })
         .collect();
-    unwrap_all(&mut phis);
+    unwrap_in_place(&mut phis);
     let r0 = poses
         .iter()
         .map(|p| {
@@ -506,7 +496,7 @@ pub fn fit_geometry(
             (m[1] - centre_used[1]).atan2(m[0] - centre_used[0])
         })
         .collect();
-    unwrap_all(&mut raw);
+    unwrap_in_place(&mut raw);
     let raw_track = detected.iter().map(|d| d.0).zip(raw).collect();
     Ok(GeometryFit {
         side_px,

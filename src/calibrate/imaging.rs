@@ -4,6 +4,7 @@
 
 use super::{blur_model, CalibrateError, Fitted, FootageStats};
 use crate::imagestats::{EdgeProfile, RegionStats};
+use crate::numeric::robust::{median_in_place as median, sample_sd};
 use crate::render::effects::compression::jpeg_round_trip;
 use crate::render::effects::pixel_noise::{frame_key, normal_at};
 
@@ -123,16 +124,6 @@ pub struct ImagingFit {
     pub reference_blur_sigma_px: Option<Fitted>,
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Median over frames with U = 2·1.2533·sd/√n (the median's standard error), floored.
 fn robust_level(values: &[f64], floor: f64) -> Option<Fitted> {
     if values.is_empty() {
@@ -141,12 +132,7 @@ fn robust_level(values: &[f64], floor: f64) -> Option<Fitted> {
     let mut v = values.to_vec();
     let m = median(&mut v);
     let n = v.len() as f64;
-    let sd = if v.len() > 1 {
-        let mean = v.iter().sum::<f64>() / n;
-        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
+    let sd = sample_sd(&v);
     Some(Fitted::from_sigma(m, 1.2533 * sd / n.sqrt(), floor))
 }
 

@@ -7,6 +7,7 @@ use crate::estimate::lm;
 use crate::mechanism::drive_speed::CrankMotion;
 use crate::mechanism::kinematics::{Geneva, GenevaKind};
 use crate::mechanism::DriveSpeedConfig;
+use crate::numeric::angle::wrap_pi_upper;
 use crate::scenario::Scenario;
 use std::f64::consts::{PI, TAU};
 
@@ -64,15 +65,6 @@ pub struct MotionFit {
     /// RMS residual of the angle fit and the angle noise from second differences, rad.
     pub rms_residual_rad: f64,
     pub angle_noise_rad: f64,
-}
-
-fn wrap_pi(a: f64) -> f64 {
-    let w = (a + PI).rem_euclid(TAU) - PI;
-    if w <= -PI {
-        w + TAU
-    } else {
-        w
-    }
 }
 
 /// θ2(t) − θ2(0) for a crank motion.
@@ -224,10 +216,10 @@ pub fn fit_motion(
     }
     // Floors for what the residuals do not show: pose errors that do not average out.
     let floor_th = (noise / n.sqrt()).max(5e-4);
-    let theta1 = Fitted::from_sigma(wrap_pi(th0), se[0], floor_th);
+    let theta1 = Fitted::from_sigma(wrap_pi_upper(th0), se[0], floor_th);
     let omega = Fitted::from_sigma(dir * w, se[1], 1e-4 * w);
     let angle_first = Fitted::from_sigma(
-        wrap_pi(fit.params[2]).to_degrees(),
+        wrap_pi_upper(fit.params[2]).to_degrees(),
         se[2].to_degrees(),
         noise.to_degrees() / n.sqrt(),
     );
@@ -271,9 +263,9 @@ pub fn fit_motion(
                 polynomial_difference = Some(d);
                 if diff.abs() > d.u95 && pf.cost < fit.cost {
                     let pse: Vec<f64> = pf.std_errors().iter().map(|s| s * pinflate).collect();
-                    theta1 = Fitted::from_sigma(wrap_pi(pf.params[0]), pse[0], floor_th);
+                    theta1 = Fitted::from_sigma(wrap_pi_upper(pf.params[0]), pse[0], floor_th);
                     angle_first = Fitted::from_sigma(
-                        wrap_pi(pf.params[3]).to_degrees(),
+                        wrap_pi_upper(pf.params[3]).to_degrees(),
                         pse[3].to_degrees(),
                         noise.to_degrees() / n.sqrt(),
                     );

@@ -50,15 +50,12 @@ fn motion_fit_recovers_phase_speed_and_angle_within_its_uncertainty() {
         };
         let mut notes = Vec::new();
         let m = fit_motion(&input, &mut notes).unwrap();
-        let wrap = |x: f64| {
-            (x + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-        };
         assert!(
             m.omega1_rad_s.covers(w) && (m.omega1_rad_s.value - w).abs() < 0.01,
             "{kind:?} {slots}: ω {} vs {w}",
             m.omega1_rad_s
         );
-        let dth = wrap(m.theta1_start_rad.value - th0);
+        let dth = crate::numeric::angle::wrap_pi(m.theta1_start_rad.value - th0);
         assert!(
             dth.abs() <= m.theta1_start_rad.u95 && dth.abs() < 0.02,
             "{kind:?}: θ1 {} vs {th0}",

@@ -13,8 +13,9 @@
 //! (θ1₀, s) is followed by a compass search around the best grid points, in the crank angle at
 //! mid-footage and ln |s| (where start and speed do not trade), with diagonal steps.
 
-use super::cells::median;
 use crate::mechanism::{DriveSpeedConfig, Mechanism, Phase};
+use crate::numeric::angle::wrap_tau;
+use crate::numeric::robust::upper_median_finite as median;
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use std::f64::consts::TAU;
@@ -259,7 +260,7 @@ pub fn align_motion(
                 }
             }
             let k = sense * ln_k.exp();
-            (f, start_of(mid, k).rem_euclid(TAU), k)
+            (f, wrap_tau(start_of(mid, k)), k)
         })
         .collect();
     let mut best = (f64::INFINITY, 0.0, 1.0);
@@ -327,8 +328,7 @@ mod tests {
         theta[200] -= 0.05;
         let a = align_motion(&nominal, &t, &theta, -1.0).unwrap();
         assert!((a.speed_scale - truth_k).abs() < 2e-3, "{a:?}");
-        let d = (a.theta1_start_rad - truth_start + std::f64::consts::PI).rem_euclid(TAU)
-            - std::f64::consts::PI;
+        let d = crate::numeric::angle::wrap_pi(a.theta1_start_rad - truth_start);
         assert!(d.abs() < 5e-3, "{a:?}");
         assert!((a.offset_rad - 0.7).abs() < 2e-3, "{a:?}");
         assert!(a.rms_residual_rad < 1.5e-3, "{a:?}");
@@ -369,8 +369,7 @@ mod tests {
             })
             .collect();
         let a = align_motion(&nominal, &t, &theta, -1.0).unwrap();
-        let start_err = (a.theta1_start_rad - start + std::f64::consts::PI).rem_euclid(TAU)
-            - std::f64::consts::PI;
+        let start_err = crate::numeric::angle::wrap_pi(a.theta1_start_rad - start);
         assert!(start_err.abs() < 1e-3, "{a:?}");
         assert!((a.speed_scale - k).abs() < 2e-4, "{a:?}");
         assert!(a.rms_residual_rad < 1.5e-3, "{a:?}");
@@ -411,8 +410,7 @@ mod tests {
             .unzip();
         assert_eq!(t.len(), 240);
         let a = align_motion(&nominal, &t, &theta, -1.0).unwrap();
-        let start_err = (a.theta1_start_rad + 0.154_010_127 + std::f64::consts::PI).rem_euclid(TAU)
-            - std::f64::consts::PI;
+        let start_err = crate::numeric::angle::wrap_pi(a.theta1_start_rad + 0.154_010_127);
         assert!(start_err.abs() < 3e-3, "{a:?}");
         assert!((a.speed_scale - 1.005_149_854).abs() < 1e-3, "{a:?}");
     }

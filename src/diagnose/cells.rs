@@ -24,6 +24,8 @@ use super::record::Record;
 use super::shape::{marker_shape, MarkerShape};
 use crate::estimate::{circle_fit, Estimate, RotationCentreMethod};
 use crate::mechanism::Phase;
+// The upper median: the one median of the diagnosis's robust scales.
+use crate::numeric::robust::upper_median_finite as median;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use std::collections::BTreeMap;
@@ -296,17 +298,6 @@ fn mean(v: impl Iterator<Item = f64>) -> Option<f64> {
         s += x;
     }
     (n >= MIN_FRAMES).then(|| s / n as f64)
-}
-
-/// The upper median of the finite values of `v` (`None` when there are none): the one median
-/// of the diagnosis's robust scales.
-pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
 }
 
 /// How far from a phase change a still marker's frames are kept out of the dwell cells: the

@@ -28,6 +28,8 @@
 //! fitted as the real one was, on the same fit seeds ([`from_footage_fits`]); their mean also
 //! shows the fit's bias at the stated value, which is taken off when it is significant.
 
+use crate::numeric::robust;
+
 /// One effect's parameters fitted on disjoint seed sets, pooled. `first` is the first fit's
 /// (values, σ) and `refits` each refit's, all in the effect's parameter order. Per parameter:
 /// the mean of the fits' values, with σ = √(mean σᵢ² + s²/n) (module docs). A parameter the
@@ -82,8 +84,9 @@ pub fn pools(first: (&[f64], &[f64]), refits: &[(&[f64], &[f64])]) -> Vec<Pool> 
                 return alone;
             }
             let n = fits.len() as f64;
-            let mean = fits.iter().map(|f| f.0).sum::<f64>() / n;
-            let seed_var = fits.iter().map(|f| (f.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            let values: Vec<f64> = fits.iter().map(|f| f.0).collect();
+            let mean = robust::mean(&values);
+            let seed_var = robust::sample_variance(&values);
             let curvature_var = fits.iter().map(|f| f.1 * f.1).sum::<f64>() / n;
             Pool {
                 value: mean,
@@ -173,9 +176,9 @@ pub fn from_footage_fits(
         return None;
     }
     let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
+    let mean = robust::mean(&values);
     let rounding = REPRODUCED_REL * (value.abs() + stated_std);
-    let footage_var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let footage_var = robust::sample_variance(&values);
     let footage_var = if footage_var.sqrt() <= rounding {
         0.0
     } else {

@@ -22,6 +22,7 @@
 //! gives D → 0 and `shrink = 1 − D_k / D₀` → 1.
 
 use super::cells::{CellKey, Cells, Compare, SlowShape};
+use crate::numeric::robust;
 
 /// Options of the comparison.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -312,14 +313,14 @@ fn compared_cells<'a>(
         }
         let spec = key.spec();
         let n = ys.len() as f64;
-        let raw_mean = ys.iter().sum::<f64>() / n;
-        let raw_std = (ys.iter().map(|y| (y - raw_mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let raw_mean = robust::mean(&ys);
+        let raw_std = robust::sample_sd(&ys);
         let t: Vec<f64> = ys
             .iter()
             .map(|&y| transform(spec.compare, spec.tol_abs, y))
             .collect();
-        let m = t.iter().sum::<f64>() / n;
-        let s2 = t.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (n - 1.0);
+        let m = robust::mean(&t);
+        let s2 = robust::sample_variance(&t);
         let x_t = transform(spec.compare, spec.tol_abs, x);
         let tol = match spec.compare {
             Compare::Log if x_t < m => match tolerance {

@@ -251,8 +251,7 @@ mod tests {
                 .unwrap();
             prop_assert_eq!(f.cycles_per_wheel_rev, n);
             prop_assert!((f.amplitude_m / (amplitude_mm * 1e-3) - 1.0).abs() < 0.02, "{:?}", f);
-            let dphi = (f.phase_rad - phase + std::f64::consts::PI)
-                .rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+            let dphi = crate::numeric::angle::wrap_pi(f.phase_rad - phase);
             prop_assert!(dphi.abs() < 0.02, "{:?} vs phase {}", f, phase);
             prop_assert!(f.rss_reduction_frac > 0.99);
         }

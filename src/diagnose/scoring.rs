@@ -2,6 +2,7 @@
 //! judged (top-1/top-3, false alarms, out-of-vocabulary recall, shrink, parameter errors) and
 //! the confusion matrix. Pure: the cases' outcomes in, the figures out.
 
+use crate::numeric::robust::median_finite as median;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -245,20 +246,6 @@ pub struct Scores {
     pub params_within_ci95_pair: Rate,
     /// Withheld effect → (answer → count).
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
 }
 
 /// How a withheld case's level is named in reports.

@@ -188,7 +188,7 @@ pub fn sinusoid_fit_refined(
     let lo = (frequency_hz - half_width_hz.abs()).max(0.5 * frequency_hz);
     let hi = frequency_hz + half_width_hz.abs();
     let amplitude = |f: f64| sinusoid_fit(t_s, x, f).map_or(f64::INFINITY, |s| -s.amplitude);
-    let f = crate::estimate::golden::golden_section_min(amplitude, lo, hi, 30);
+    let f = crate::numeric::minimize::golden_section_min(amplitude, lo, hi, 30);
     match sinusoid_fit(t_s, x, f) {
         Some(refined) if refined.amplitude > at.amplitude => Some(refined),
         _ => Some(at),

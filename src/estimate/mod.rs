@@ -19,7 +19,6 @@ pub mod compensate;
 pub mod config;
 pub mod differentiate;
 pub mod error;
-pub mod golden;
 pub mod kalman;
 pub(crate) mod linalg;
 pub(crate) mod lm;

@@ -469,10 +469,7 @@ fn unwrap_follows_many_turns_with_gaps() {
             if k % 7 == 3 {
                 None
             } else {
-                Some(
-                    (t + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                        - std::f64::consts::PI,
-                )
+                Some(crate::numeric::angle::wrap_pi(*t))
             }
         })
         .collect();

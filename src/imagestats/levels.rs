@@ -6,7 +6,7 @@ use super::edge::normal_cdf;
 use super::grid::{Homography, MarkerLayout, Material};
 use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
-use crate::estimate::golden::golden_section_min;
+use crate::numeric::minimize::golden_section_min;
 
 /// Which pixels count as "well inside" a region.
 #[derive(Debug, Clone, PartialEq)]

@@ -318,7 +318,7 @@ impl PolyMotion {
         pm.engage_time_s = 2.0 * beta * (pm.integral(1.0) - pm.integral(-1.0));
         pm.rev_time_s = pm.engage_time_s + (2.0 * PI - 2.0 * beta) / pm.end;
         let u0 = dir * theta1_start_rad;
-        let v0 = (u0 + beta).rem_euclid(2.0 * PI);
+        let v0 = crate::numeric::angle::wrap_tau(u0 + beta);
         pm.u_ref = u0 - v0;
         pm.tau0_s = pm.time_in_rev(v0);
         pm

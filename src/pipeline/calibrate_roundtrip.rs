@@ -9,6 +9,7 @@ use super::calibrate::{calibrate, CalibrateJobError, CalibrateOutput, Footage};
 use super::render_job::{render_job, RenderJob};
 use crate::calibrate::CalibrateOptions;
 use crate::calibrate::{sensor_sigma, Fitted};
+use crate::numeric::angle::wrap_180_deg;
 use crate::rng::{stream, Stream};
 use crate::scenario::Scenario;
 use rand::Rng;
@@ -117,10 +118,6 @@ fn base_toml(truth: &Scenario) -> String {
         truth.mechanism.slots,
         truth.scene.marker.size_mm
     )
-}
-
-fn wrap_deg(a: f64) -> f64 {
-    (a + 180.0).rem_euclid(360.0) - 180.0
 }
 
 fn check(
@@ -244,7 +241,7 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         "marker orientation (deg)",
         m.orientation_deg,
         g.orientation_deg,
-        wrap_deg(g.orientation_deg.value - m.orientation_deg),
+        wrap_180_deg(g.orientation_deg.value - m.orientation_deg),
         None,
     ));
     if let Some(mo) = &cal.motion {
@@ -252,7 +249,7 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
             "marker angle at frame 0 (deg)",
             m.angle_on_disc_deg,
             mo.angle_first_deg,
-            wrap_deg(mo.angle_first_deg.value - m.angle_on_disc_deg),
+            wrap_180_deg(mo.angle_first_deg.value - m.angle_on_disc_deg),
             None,
         ));
         let th0 = truth.mechanism.theta1_start_rad.unwrap_or(0.0);
@@ -260,7 +257,7 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
             "crank angle at frame 0 (rad)",
             th0,
             mo.theta1_start_rad,
-            wrap_deg((mo.theta1_start_rad.value - th0).to_degrees()).to_radians(),
+            wrap_180_deg((mo.theta1_start_rad.value - th0).to_degrees()).to_radians(),
             None,
         ));
         let w = match truth.drive_speed {

@@ -5,8 +5,9 @@ use std::fmt;
 
 use super::config::{FrameTimingConfig, TimingModel, VfrModel};
 use super::error::TimingError;
-use super::stats::{median, DROP_THRESHOLD};
+use super::stats::DROP_THRESHOLD;
 use super::timestamps::Timestamps;
+use crate::numeric::robust::median;
 
 /// The fitted model and how well it explains the data.
 #[derive(Debug, Clone, PartialEq)]

@@ -5,6 +5,7 @@ use std::fmt;
 
 use super::error::TimingError;
 use super::timestamps::Timestamps;
+use crate::numeric::robust::{mean, median, sample_sd};
 
 /// An interval longer than this multiple of the nominal interval counts as a dropped frame.
 pub const DROP_THRESHOLD: f64 = 1.5;
@@ -44,19 +45,6 @@ pub struct TimingStats {
     pub dropped_frames: usize,
 }
 
-fn mean(xs: &[f64]) -> f64 {
-    xs.iter().sum::<f64>() / xs.len() as f64
-}
-
-/// Sample standard deviation (n − 1); 0 for fewer than two values.
-pub(crate) fn sample_std(xs: &[f64]) -> f64 {
-    if xs.len() < 2 {
-        return 0.0;
-    }
-    let m = mean(xs);
-    (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt()
-}
-
 /// Median of the positive intervals between consecutive times (NaN for fewer than 2 times).
 pub fn median_interval_s(times_s: &[f64]) -> f64 {
     let d: Vec<f64> = times_s
@@ -68,17 +56,6 @@ pub fn median_interval_s(times_s: &[f64]) -> f64 {
         return f64::NAN;
     }
     median(&d)
-}
-
-pub(crate) fn median(xs: &[f64]) -> f64 {
-    let mut v = xs.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 impl TimingStats {
@@ -127,7 +104,7 @@ impl TimingStats {
             mean_fps: d.len() as f64 / span_s,
             steady_fps: later.len() as f64 / (t[t.len() - 1] - t[1]),
             median_interval_s,
-            interval_std_s: sample_std(&steady),
+            interval_std_s: sample_sd(&steady),
             min_interval_s: later.iter().copied().fold(f64::INFINITY, f64::min),
             max_interval_s: later.iter().copied().fold(f64::NEG_INFINITY, f64::max),
             first_interval_s: d[0],

@@ -109,7 +109,7 @@ fn the_median_sample_of_a_long_log_is_bounded_and_matches_the_exact_median() {
         sample.push(d);
         assert!(sample.len() <= MEDIAN_SAMPLE);
     }
-    assert_eq!(stats::median(&all), 0.033);
+    assert_eq!(crate::numeric::robust::median(&all), 0.033);
     assert_eq!(sample.median(), 0.033);
     // Short logs keep every interval: the median is the exact one.
     let mut short = fit::IntervalSample::default();

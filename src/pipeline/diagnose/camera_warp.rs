@@ -33,13 +33,13 @@
 //! not a nuisance) when it has a clearance. (The self-check's 0.5 mm clearance, 12–18 % low
 //! before, is still 11–16 % low with the refit: the crank was not the main cause.)
 
-use super::nominal::wrap;
 use super::DiagnoseError;
 use crate::camera::Camera;
 use crate::diagnose::align::{align_motion, apply_motion, MotionAlignment};
 use crate::estimate::{estimate, Corners, Differentiator, ReferenceCompensation, Timebase};
 use crate::mechanism::effects::axis_runout_offset_m;
 use crate::mechanism::Mechanism;
+use crate::numeric::angle::wrap_pi as wrap;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::scene::{Scene, WheelPose};

@@ -12,11 +12,11 @@ use crate::diagnose::shape::marker_shape;
 use crate::estimate::angle::screen_angle_rad;
 use crate::estimate::{circle_fit, Estimate, RotationCentreMethod};
 use crate::mechanism::Mechanism;
+use crate::numeric::angle::wrap_pi as wrap;
 use crate::scenario::Scenario;
 use crate::scene::{Scene, WheelPose};
 use crate::timing::{LogModel, Timestamps, TimingModel};
 use serde::Serialize;
-use std::f64::consts::{PI, TAU};
 
 /// The image-geometry nuisance fitted to the real marker track.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -48,11 +48,6 @@ pub struct Aligned {
     pub screen_sign: f64,
     /// The aligned motion on a fine grid, for the residual channels.
     pub reference: ReferenceTable,
-}
-
-/// `a` wrapped into [−π, π).
-pub(super) fn wrap(a: f64) -> f64 {
-    (a + PI).rem_euclid(TAU) - PI
 }
 
 fn circular_median(v: &[f64]) -> f64 {
@@ -523,7 +518,7 @@ pub fn motion_reference(
         }
     }
     // Golden section around the best grid point; kept only when it improves on that point.
-    let refined = crate::estimate::golden::golden_section_min(loss, best.1 - h, best.1 + h, 30);
+    let refined = crate::numeric::minimize::golden_section_min(loss, best.1 - h, best.1 + h, 30);
     let shift = if loss(refined) < best.0 {
         refined
     } else {
