@@ -1,7 +1,8 @@
-//! Writing CSV tables with a fixed header; numbers in full precision (`{}` of f64 round-trips).
+//! Writing CSV tables with a fixed header through the `csv` crate (cells holding a comma, a quote
+//! or a line break are quoted); numbers in full precision (`{}` of f64 round-trips).
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -14,7 +15,7 @@ pub struct CsvError {
 /// A CSV file being written row by row (streaming: memory stays flat in the row count).
 pub struct CsvWriter {
     path: PathBuf,
-    out: BufWriter<File>,
+    out: csv::Writer<BufWriter<File>>,
     columns: usize,
 }
 
@@ -26,10 +27,12 @@ impl CsvWriter {
         })?;
         let mut w = Self {
             path: path.into(),
-            out: BufWriter::new(file),
+            out: csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(BufWriter::new(file)),
             columns: header.len(),
         };
-        w.line(&header.iter().map(|s| s.to_string()).collect::<Vec<_>>())?;
+        w.record(header)?;
         Ok(w)
     }
 
@@ -41,12 +44,11 @@ impl CsvWriter {
                 message: format!("row has {} cells, header has {}", cells.len(), self.columns),
             });
         }
-        self.line(cells)
+        self.record(cells)
     }
 
-    fn line(&mut self, cells: &[String]) -> Result<(), CsvError> {
-        let text = cells.join(",");
-        writeln!(self.out, "{text}").map_err(|e| CsvError {
+    fn record<T: AsRef<[u8]>>(&mut self, cells: &[T]) -> Result<(), CsvError> {
+        self.out.write_record(cells).map_err(|e| CsvError {
             file: self.path.clone(),
             message: e.to_string(),
         })
@@ -88,5 +90,27 @@ mod tests {
         assert_eq!(lines[1], "0.1,");
         let back: f64 = lines[2].split(',').next().unwrap().parse().unwrap();
         assert_eq!(back, 1.0 / 3.0);
+    }
+
+    #[test]
+    fn a_cell_with_a_comma_or_a_quote_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        let cells = [
+            "frames, cropped".to_string(),
+            "the \"reference\" marker".to_string(),
+            "two\nlines".to_string(),
+        ];
+        let mut w = CsvWriter::create(&p, &["a", "b", "c"]).unwrap();
+        w.row(&cells).unwrap();
+        w.finish().unwrap();
+        let mut r = csv::Reader::from_path(&p).unwrap();
+        assert_eq!(r.headers().unwrap(), vec!["a", "b", "c"]);
+        let rows: Vec<csv::StringRecord> = r.records().map(|r| r.unwrap()).collect();
+        assert_eq!(rows.len(), 1);
+        assert_eq!(
+            rows[0].iter().collect::<Vec<_>>(),
+            cells.iter().map(String::as_str).collect::<Vec<_>>()
+        );
     }
 }
