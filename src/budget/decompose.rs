@@ -14,7 +14,8 @@
 //! means of paired values, whose interval is the delta-method (linearisation) one:
 //! R = Ā / B̄, Var R ≈ Var(A_i − R·B_i) / (n B̄²).
 
-use super::montecarlo::{t975, MeanCi};
+use super::montecarlo::MeanCi;
+use crate::numeric::dist::t975;
 use serde::{Deserialize, Serialize};
 
 /// Per-seed error variances (mean square errors) of every configuration for one quantity, in
@@ -349,10 +350,10 @@ mod tests {
 
     /// Three seeds worked by hand, with per-seed spread and an interaction, so the shares are
     /// ratios of sums (not means of per-seed ratios) and the intervals the delta-method ones with
-    /// Student's t for 2 dof (4.303, tables). V(none) = 1 each seed, V(all) = 4, 5, 6; `a` alone
+    /// Student's t for 2 dof (4.3027). V(none) = 1 each seed, V(all) = 4, 5, 6; `a` alone
     /// 2, 2, 3 (contributions 1, 1, 2), `b` alone 2, 3, 3 (1, 2, 2); the interaction is what
     /// is left, 1 per seed. Share of `a` = 4/15; its residuals a_i − (4/15)·all_i are −1/15, −1/3,
-    /// 2/5, whose squares sum to 62/225, variance 31/225; half-width 4.303·√(31/225/3)/5.
+    /// 2/5, whose squares sum to 62/225, variance 31/225; half-width t·√(31/225/3)/5.
     /// Interaction share 3/15; residuals 1 − all_i/5 = 0.2, 0, −0.2, variance 0.04.
     #[test]
     fn shares_and_intervals_match_a_hand_computed_case() {
@@ -384,28 +385,18 @@ mod tests {
                 r.share
             );
         };
-        check(
-            QUANTISATION,
-            3.0 / 15.0,
-            4.303 * (0.04f64 / 3.0).sqrt() / 5.0,
-        );
-        check(
-            "a",
-            4.0 / 15.0,
-            4.303 * (31.0f64 / 225.0 / 3.0).sqrt() / 5.0,
-        );
+        // Student's t on 2 degrees of freedom: 4.3027.
+        let t2 = t975(2);
+        check(QUANTISATION, 3.0 / 15.0, t2 * (0.04f64 / 3.0).sqrt() / 5.0);
+        check("a", 4.0 / 15.0, t2 * (31.0f64 / 225.0 / 3.0).sqrt() / 5.0);
         // b: residuals 1 − (5/15)·4, 2 − (5/15)·5, 2 − (5/15)·6 = −1/3, 1/3, 0; variance 1/9.
-        check("b", 5.0 / 15.0, 4.303 * (1.0f64 / 9.0 / 3.0).sqrt() / 5.0);
-        check(
-            INTERACTION,
-            3.0 / 15.0,
-            4.303 * (0.04f64 / 3.0).sqrt() / 5.0,
-        );
+        check("b", 5.0 / 15.0, t2 * (1.0f64 / 9.0 / 3.0).sqrt() / 5.0);
+        check(INTERACTION, 3.0 / 15.0, t2 * (0.04f64 / 3.0).sqrt() / 5.0);
         // Row variances: plain means with t intervals; a's contributions 1, 1, 2 have mean 4/3
         // and standard deviation 1/√3. Its left-out cost: all − (all without a) = 1, 1, 2.
         let a = d.row("a").unwrap();
         assert!(close(a.variance.mean, 4.0 / 3.0), "{:?}", a.variance);
-        let half = 4.303 * (1.0f64 / 3.0).sqrt() / 3f64.sqrt();
+        let half = t2 * (1.0f64 / 3.0).sqrt() / 3f64.sqrt();
         assert!(
             close(a.variance.ci95_high - a.variance.mean, half),
             "{:?}",

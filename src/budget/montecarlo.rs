@@ -1,6 +1,7 @@
 //! Monte Carlo aggregation: a metric measured once per seed, summarised with a 95 % confidence
 //! interval for its mean (Student's t for small N).
 
+use crate::numeric::dist::t975;
 use crate::numeric::robust;
 use serde::{Deserialize, Serialize};
 
@@ -11,26 +12,6 @@ pub struct MeanCi {
     pub ci95_low: f64,
     pub ci95_high: f64,
     pub n: usize,
-}
-
-/// Two-sided 97.5 % quantile of Student's t with `dof` degrees of freedom (table + asymptote).
-pub fn t975(dof: usize) -> f64 {
-    const TABLE: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-        2.052, 2.048, 2.045, 2.042,
-    ];
-    match dof {
-        0 => f64::INFINITY,
-        d if d <= 30 => TABLE[d - 1],
-        // Cornish–Fisher style expansion; error < 1e-3 beyond 30 dof.
-        d => {
-            let z: f64 = 1.959964;
-            let d = d as f64;
-            z + (z.powi(3) + z) / (4.0 * d)
-                + (5.0 * z.powi(5) + 16.0 * z.powi(3) + 3.0 * z) / (96.0 * d * d)
-        }
-    }
 }
 
 impl MeanCi {
@@ -69,13 +50,6 @@ impl MeanCi {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn t_quantiles() {
-        assert_eq!(t975(1), 12.706);
-        assert!((t975(1000) - 1.962).abs() < 1e-3);
-        assert!((t975(31) - 2.040).abs() < 2e-3);
-    }
 
     /// Coverage check: over many repetitions the 95 % interval contains the true mean ~95 % of
     /// the time (binomial tolerance for 2000 repetitions: ±3σ = ±1.5 %).

@@ -16,6 +16,7 @@ use crate::estimate::lm;
 use crate::estimate::RotationCentreMethod;
 use crate::imagestats::square_fit;
 use crate::numeric::angle::{unwrap_in_place, wrap_pi};
+use crate::numeric::dist::t975;
 use crate::scenario::Scenario;
 use crate::scene::PlacedMarker;
 use glam::DVec2;
@@ -75,20 +76,6 @@ type Corners = [[f64; 2]; 4];
 
 /// Groups of consecutive poses left out in turn for the tilt's jackknife interval.
 const JACKKNIFE_GROUPS: usize = 8;
-
-/// Two-sided 95 % quantile of Student's t with `dof` degrees of freedom.
-pub(crate) fn student_t95(dof: usize) -> f64 {
-    const T: [f64; 10] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-    ];
-    match dof {
-        0 => f64::INFINITY,
-        1..=10 => T[dof - 1],
-        11..=20 => 2.228 - (dof - 10) as f64 * (2.228 - 2.086) / 10.0,
-        21..=30 => 2.086 - (dof - 20) as f64 * (2.086 - 2.042) / 10.0,
-        _ => 1.96 + 2.5 / dof as f64,
-    }
-}
 
 /// Corner error the pose fit assumes at least, px: edge-fitted corners agree with the renderer
 /// to a few hundredths of a pixel, an error that does not average out over poses.
@@ -419,7 +406,7 @@ pub fn fit_geometry(
                 let mean = reps.iter().map(|r| r[i]).sum::<f64>() / g as f64;
                 let var = reps.iter().map(|r| (r[i] - mean).powi(2)).sum::<f64>() * (g - 1) as f64
                     / g as f64;
-                Some((var.sqrt(), student_t95(g - 1)))
+                Some((var.sqrt(), t975(g - 1)))
             };
             let u = |i: usize| match jack(i - 1) {
                 Some((sj, t)) => Fitted::new(tf.params[i], t * sj.max(se[i]).hypot(0.02)),

@@ -258,7 +258,10 @@ pub fn fit_motion(
             if let Some(cov) = pf.covariance() {
                 let pinflate = ar1_inflation(&pf.residuals);
                 let diff = pf.params[2] - pf.params[1];
-                let sd = (cov[1][1] + cov[2][2] - 2.0 * cov[1][2]).max(0.0).sqrt() * pinflate;
+                let sd = (cov[(1, 1)] + cov[(2, 2)] - 2.0 * cov[(1, 2)])
+                    .max(0.0)
+                    .sqrt()
+                    * pinflate;
                 let d = Fitted::from_sigma(dir * diff, sd, 1e-4 * (pf.params[1] + pf.params[2]));
                 polynomial_difference = Some(d);
                 if diff.abs() > d.u95 && pf.cost < fit.cost {
@@ -274,12 +277,12 @@ pub fn fit_motion(
                         // The same floor as the constant speed's.
                         Fitted::from_sigma(
                             dir * pf.params[1],
-                            cov[1][1].max(0.0).sqrt() * pinflate,
+                            cov[(1, 1)].max(0.0).sqrt() * pinflate,
                             1e-4 * pf.params[1],
                         ),
                         Fitted::from_sigma(
                             dir * pf.params[2],
-                            cov[2][2].max(0.0).sqrt() * pinflate,
+                            cov[(2, 2)].max(0.0).sqrt() * pinflate,
                             1e-4 * pf.params[2],
                         ),
                     ));

@@ -9,7 +9,7 @@
 //! A correction that moves a corner by more than [`MAX_ALIGNMENT_PX`] is no nuisance: then the
 //! residual stays unaligned.
 
-use crate::estimate::linalg::solve;
+use crate::numeric::linalg::solve_rows;
 
 /// Largest movement of a marker corner the alignment may make, px. Four times the largest
 /// correction the calibration round trip needed (0.05 px): the aligned residual also feeds
@@ -67,7 +67,7 @@ pub fn align(pixels: &[PixelResidual], half_diagonal_px: f64) -> Alignment {
             }
         }
     }
-    let correction = solve(&normal, &rhs)
+    let correction = solve_rows(&normal, &rhs)
         .filter(|c| c.iter().all(|v| v.is_finite()))
         .filter(|c| {
             c[0].hypot(c[1]) + half_diagonal_px * (c[2].abs() + c[3].abs()) <= MAX_ALIGNMENT_PX
@@ -102,20 +102,9 @@ mod tests {
         let (c, s) = (rot.cos(), rot.sin());
         let (u, v) = (c * dx + s * dy, -s * dx + c * dy);
         let h = 20.0 * (1.0 + scale);
-        let edge = |t: f64| 0.5 * (1.0 + libm_erf((h - t.abs()) / (1.2 * 2f64.sqrt())));
+        let edge =
+            |t: f64| 0.5 * (1.0 + crate::numeric::dist::erf((h - t.abs()) / (1.2 * 2f64.sqrt())));
         40.0 + 150.0 * edge(u) * edge(v)
-    }
-
-    fn libm_erf(x: f64) -> f64 {
-        // Abramowitz–Stegun 7.1.26 (|error| < 1.5e-7): enough for a test image.
-        let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
-        let y = 1.0
-            - (((((1.061_405_429 * t - 1.453_152_027) * t) + 1.421_413_741) * t - 0.284_496_736)
-                * t
-                + 0.254_829_592)
-                * t
-                * (-x * x).exp();
-        y.copysign(x)
     }
 
     fn pixels(truth: ([f64; 2], f64, f64)) -> Vec<PixelResidual> {

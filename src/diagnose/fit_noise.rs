@@ -202,7 +202,7 @@ pub fn from_footage_fits(
     };
     let bias_std = (footage_var / n).sqrt();
     let bias_p = if bias_std > 0.0 {
-        crate::diagnose::gap::two_sided_p_student(bias / bias_std, n - 1.0)
+        crate::numeric::dist::two_sided_p_student(bias / bias_std, n - 1.0)
     } else if bias == 0.0 {
         1.0
     } else {
@@ -298,7 +298,7 @@ pub fn interval95(
         f64::INFINITY
     };
     let k = if dof.is_finite() {
-        crate::budget::montecarlo::t975(truncated_dof(dof))
+        crate::numeric::dist::t975(truncated_dof(dof))
     } else {
         1.959964
     };
@@ -525,14 +525,15 @@ mod tests {
         // A σ² that is one part on 7 but for rounding keeps its 7 degrees of freedom.
         let sd = 0.1f64;
         let i = interval95(1.0, sd, &[(sd * sd * (1.0 + 3e-16), 7)], ANY).unwrap();
-        assert!(i.dof < 7.0 && i.k == 2.365, "{i:?}");
+        let t = crate::numeric::dist::t975;
+        assert!(i.dof < 7.0 && i.k == t(7), "{i:?}");
         // All of σ² from 8 footages: t on 7, 2.365.
         let i = interval95(1.0, 0.1, &[(0.01, 7)], ANY).unwrap();
-        assert!(close(i.dof, 7.0) && i.k == 2.365, "{i:?}");
+        assert!(close(i.dof, 7.0) && i.k == t(7), "{i:?}");
         // Two parts of 1 on 2 and 7: ν = 2² / (1/2 + 1/7) = 6.22, truncated to 6: 2.447.
         let i = interval95(0.0, 2f64.sqrt(), &[(1.0, 2), (1.0, 7)], ANY).unwrap();
         assert!(
-            close(i.dof, 4.0 / (0.5 + 1.0 / 7.0)) && i.k == 2.447,
+            close(i.dof, 4.0 / (0.5 + 1.0 / 7.0)) && i.k == t(6),
             "{i:?}"
         );
         // A part of σ² that is small leaves it near the normal: ν = 1/(0.01²/2) = 20000.

@@ -22,6 +22,7 @@
 //! gives D → 0 and `shrink = 1 − D_k / D₀` → 1.
 
 use super::cells::{CellKey, Cells, Compare, SlowShape};
+use crate::numeric::dist::{two_sided_p_normal, two_sided_p_student};
 use crate::numeric::robust;
 
 /// Options of the comparison.
@@ -103,100 +104,6 @@ pub fn excess(z: f64, z0: f64) -> f64 {
     e * e
 }
 
-/// Two-sided standard-normal p-value of `z`.
-pub fn two_sided_p(z: f64) -> f64 {
-    crate::imagestats::erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0)
-}
-
-/// ln Γ(x), x > 0 (Lanczos, g = 7, 9 terms; relative error ~1e-15).
-fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        let pi = std::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Continued fraction of the regularised incomplete beta function (modified Lentz).
-fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
-    let tiny = 1e-300;
-    let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
-    let mut c = 1.0;
-    let mut d = 1.0 - qab * x / qap;
-    if d.abs() < tiny {
-        d = tiny;
-    }
-    d = 1.0 / d;
-    let mut h = d;
-    for m in 1..300 {
-        let m = m as f64;
-        let m2 = 2.0 * m;
-        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-        d = 1.0 + aa * d;
-        d = if d.abs() < tiny { tiny } else { d };
-        c = 1.0 + aa / c;
-        c = if c.abs() < tiny { tiny } else { c };
-        d = 1.0 / d;
-        h *= d * c;
-        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-        d = 1.0 + aa * d;
-        d = if d.abs() < tiny { tiny } else { d };
-        c = 1.0 + aa / c;
-        c = if c.abs() < tiny { tiny } else { c };
-        d = 1.0 / d;
-        let del = d * c;
-        h *= del;
-        if (del - 1.0).abs() < 1e-14 {
-            break;
-        }
-    }
-    h
-}
-
-/// Regularised incomplete beta I_x(a, b).
-fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let front =
-        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
-    if x < (a + 1.0) / (a + b + 2.0) {
-        front * beta_cf(a, b, x) / a
-    } else {
-        1.0 - front * beta_cf(b, a, 1.0 - x) / b
-    }
-}
-
-/// Two-sided p-value of `t` under Student's t with `dof` degrees of freedom (the normal for
-/// `dof` = ∞ or above 1e6).
-pub fn two_sided_p_student(t: f64, dof: f64) -> f64 {
-    if !dof.is_finite() || dof > 1e6 {
-        return two_sided_p(t);
-    }
-    let dof = dof.max(1.0);
-    inc_beta(0.5 * dof, 0.5, dof / (dof + t * t)).clamp(0.0, 1.0)
-}
-
 /// Benjamini–Hochberg: which of `p` are discoveries at false-discovery rate `q`.
 pub fn benjamini_hochberg(p: &[f64], q: f64) -> Vec<bool> {
     let m = p.len();
@@ -236,7 +143,7 @@ pub fn seed_limited(map: &GapMap) -> Vec<CellGap> {
     if map.n_significant() > 0 {
         return Vec::new();
     }
-    let p: Vec<f64> = map.cells.iter().map(|c| two_sided_p(c.z)).collect();
+    let p: Vec<f64> = map.cells.iter().map(|c| two_sided_p_normal(c.z)).collect();
     let mut limited: Vec<CellGap> = map
         .cells
         .iter()
@@ -423,40 +330,6 @@ mod tests {
     use crate::diagnose::cells::CellKey;
 
     #[test]
-    fn p_values_match_known_normal_tails() {
-        for (z, p) in [
-            (0.0, 1.0),
-            (1.959964, 0.05),
-            (3.290527, 0.001),
-            (5.326724, 1e-7),
-        ] {
-            let got = two_sided_p(z);
-            assert!(
-                (got - p).abs() <= 1e-6 * p.max(1e-3) + 1e-12,
-                "z {z}: {got} vs {p}"
-            );
-        }
-    }
-
-    #[test]
-    fn student_p_values_match_tables() {
-        // t_{0.975} for 3, 7 and 30 degrees of freedom; t_{0.9995} for 5.
-        for (t, dof, p) in [
-            (3.182446, 3.0, 0.05),
-            (2.364624, 7.0, 0.05),
-            (2.042272, 30.0, 0.05),
-            (6.868827, 5.0, 0.001),
-        ] {
-            let got = two_sided_p_student(t, dof);
-            assert!(
-                (got - p).abs() < 1e-5 * p.max(1e-2),
-                "t {t}, ν {dof}: {got} vs {p}"
-            );
-        }
-        assert!((two_sided_p_student(2.0, 1e7) - two_sided_p(2.0)).abs() < 1e-12);
-    }
-
-    #[test]
     fn benjamini_hochberg_step_up() {
         // m = 5, q = 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05; the largest rank under
         // its threshold is 3 (0.029 ≤ 0.03), so ranks 1–3 are discoveries.
@@ -472,7 +345,7 @@ mod tests {
     fn map_of(zs: &[(f64, f64)], m: usize) -> GapMap {
         let cells: Vec<CellGap> = (0..m)
             .map(|i| {
-                let (z, p) = zs.get(i).copied().unwrap_or((0.5, two_sided_p(0.5)));
+                let (z, p) = zs.get(i).copied().unwrap_or((0.5, two_sided_p_normal(0.5)));
                 CellGap {
                     key: CellKey {
                         channel: "theta",

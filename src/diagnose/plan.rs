@@ -4,7 +4,7 @@
 
 use super::cells::CellKey;
 use super::gap::{excess, GapMap};
-use crate::imagestats::{normal_cdf, normal_pdf};
+use crate::numeric::dist::{normal_cdf, normal_pdf};
 use crate::scenario::effects::Effect;
 
 /// Channels an effect changes and its fit aims at (Σ z² over them is the fit objective).

@@ -128,7 +128,7 @@ fn fit(samples: &[RunoutSample], cycles: Option<f64>) -> Option<(f64, Vec<f64>)>
             }
         }
     }
-    let x = crate::estimate::linalg::solve(&ata, &atb)?;
+    let x = crate::numeric::linalg::solve_rows(&ata, &atb)?;
     let rss = rows
         .iter()
         .map(|(row, y)| {

@@ -192,14 +192,7 @@ impl Rate {
 
     /// 95 % Wilson score interval.
     pub fn wilson95(&self) -> Option<(f64, f64)> {
-        if self.n == 0 {
-            return None;
-        }
-        let (n, p, z) = (self.n as f64, self.k as f64 / self.n as f64, 1.96);
-        let d = 1.0 + z * z / n;
-        let c = (p + z * z / (2.0 * n)) / d;
-        let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
-        Some(((c - h).max(0.0), (c + h).min(1.0)))
+        crate::numeric::dist::wilson_interval(self.k, self.n, 1.96)
     }
 }
 

@@ -143,7 +143,7 @@ pub fn sinusoid_fit(t_s: &[f64], x: &[f64], frequency_hz: f64) -> Option<Sinusoi
             }
         }
     }
-    let inv = crate::estimate::linalg::invert(&ata)?;
+    let inv = crate::numeric::linalg::invert_rows(&ata)?;
     let beta: Vec<f64> = (0..P)
         .map(|i| (0..P).map(|j| inv[i][j] * atb[j]).sum())
         .collect();

@@ -3,30 +3,9 @@
 //! Sign convention: image y points down, so θ = atan2(−(y − c_y), x − c_x): counter-clockwise *as
 //! seen on screen* is positive. (The seed used atan2(y − c_y, x − c_x), clockwise-positive.)
 
-use std::f64::consts::{PI, TAU};
-
 /// Wrapped angle of `p` about `c`, counter-clockwise on screen positive, in (−π, π].
 pub fn screen_angle_rad(p: [f64; 2], c: [f64; 2]) -> f64 {
     (-(p[1] - c[1])).atan2(p[0] - c[0])
-}
-
-/// Unwraps a series of wrapped angles (missing samples `None` are skipped and stay `None`):
-/// each step between consecutive *present* samples is taken as the representative in [−π, π),
-/// so any number of turns is followed as long as the true change between detected frames is < π.
-pub fn unwrap(wrapped: &[Option<f64>]) -> Vec<Option<f64>> {
-    let mut prev: Option<(f64, f64)> = None; // (wrapped, unwrapped)
-    wrapped
-        .iter()
-        .map(|w| {
-            let w = (*w)?;
-            let u = match prev {
-                None => w,
-                Some((pw, pu)) => pu + (w - pw + PI).rem_euclid(TAU) - PI,
-            };
-            prev = Some((w, u));
-            Some(u)
-        })
-        .collect()
 }
 
 /// Fused angle from per-signal unwrapped angles `theta[s][k]` (all present in the same frames)

@@ -8,7 +8,7 @@
 
 use super::config::RotationCentreMethod;
 use super::error::EstimateError;
-use super::linalg;
+use crate::numeric::linalg;
 
 /// A fitted rotation centre (pixels, OpenCV convention).
 #[derive(Debug, Clone, PartialEq)]
@@ -162,7 +162,7 @@ pub fn kasa(tracks: &[Vec<[f64; 2]>]) -> Result<[f64; 2], EstimateError> {
     let (mom, _) = centred_moments(tracks, m, s);
     let a = vec![vec![mom[1][1], mom[1][2]], vec![mom[2][1], mom[2][2]]];
     let b = vec![-mom[1][0], -mom[2][0]];
-    let de = linalg::solve(&a, &b).ok_or_else(|| {
+    let de = linalg::solve_rows(&a, &b).ok_or_else(|| {
         EstimateError::Degenerate(
             "points are collinear or coincident (Kasa system singular)".into(),
         )
@@ -177,12 +177,10 @@ pub fn taubin(tracks: &[Vec<[f64; 2]>]) -> Result<[f64; 2], EstimateError> {
     let (m, s) = normalisation(tracks);
     let (mom, z_mean) = centred_moments(tracks, m, s);
     let nd = [(4.0 * z_mean).sqrt(), 1.0, 1.0];
-    let sym: Vec<Vec<f64>> = (0..3)
-        .map(|a| (0..3).map(|b| mom[a][b] / (nd[a] * nd[b])).collect())
-        .collect();
+    let sym = nalgebra::DMatrix::from_fn(3, 3, |a, b| mom[a][b] / (nd[a] * nd[b]));
     let (w, v) = linalg::sym_eigen(&sym);
     let k = (0..3).min_by(|&i, &j| w[i].total_cmp(&w[j])).unwrap_or(0);
-    let coef = [v[0][k] / nd[0], v[1][k] / nd[1], v[2][k] / nd[2]];
+    let coef = [v[(0, k)] / nd[0], v[(1, k)] / nd[1], v[(2, k)] / nd[2]];
     let scale = coef.iter().fold(0.0_f64, |a, c| a.max(c.abs()));
     if coef[0].abs() <= 1e-12 * scale {
         return Err(EstimateError::Degenerate(
@@ -271,7 +269,7 @@ pub fn geometric(tracks: &[Vec<[f64; 2]>], start: [f64; 2]) -> Result<[f64; 2], 
             row[i] += lambda * jtj[i][i].max(1e-12);
         }
         let neg: Vec<f64> = jtd.iter().map(|v| -v).collect();
-        let Some(step) = linalg::solve(&damped, &neg) else {
+        let Some(step) = linalg::solve_rows(&damped, &neg) else {
             lambda *= 10.0;
             continue;
         };
@@ -327,7 +325,7 @@ fn with_uncertainty(
     let n_pts: usize = tracks.iter().map(|t| t.len()).sum();
     let dof = n_pts.saturating_sub(2 + tracks.len()).max(1) as f64;
     let s2 = ssr / dof;
-    let cov = linalg::invert(&jtj).map(|inv| match frame_clustered_meat(tracks, c, &radii) {
+    let cov = linalg::invert_rows(&jtj).map(|inv| match frame_clustered_meat(tracks, c, &radii) {
         Some((meat, scale)) => sandwich(&inv, &meat, scale),
         None => inv
             .iter()

@@ -23,7 +23,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::EstimateError;
-use super::{kalman, linalg};
+use super::kalman;
+use crate::numeric::linalg;
 use crate::validation::{join, Problems};
 
 /// Numerical differentiator (`[estimator.differentiator]`, `kind = ...`).
@@ -380,7 +381,7 @@ fn sg_weights(t: &[f64], te: f64, order: usize) -> Option<(Vec<f64>, Vec<f64>)> 
             }
         }
     }
-    let inv = linalg::invert(&ata)?;
+    let inv = linalg::invert_rows(&ata)?;
     // Coefficient c_k = Σ_j (inv · Vᵀ)[k][j] f_j; p'(te) = c1/scale, p''(te) = 2 c2/scale².
     let coef_row = |k: usize| -> Vec<f64> {
         vand.iter()

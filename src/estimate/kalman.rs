@@ -52,7 +52,7 @@ fn mv(a: &M3, v: &V3) -> V3 {
 }
 
 fn inv3(a: &M3) -> Option<M3> {
-    super::linalg::invert_fixed(a)
+    crate::numeric::linalg::invert3(a)
 }
 
 fn transition(h: f64, lambda: f64) -> (M3, M3) {
@@ -171,28 +171,9 @@ pub fn choose_lambda(t: &[f64], y: &[f64]) -> f64 {
     let best = (0..grid.len())
         .max_by(|&a, &b| vals[a].total_cmp(&vals[b]))
         .unwrap_or(0);
-    let mut lo = grid[best.saturating_sub(1)];
-    let mut hi = grid[(best + 1).min(grid.len() - 1)];
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut a = hi - g * (hi - lo);
-    let mut b = lo + g * (hi - lo);
-    let (mut fa, mut fb) = (ll(a), ll(b));
-    for _ in 0..30 {
-        if fa > fb {
-            hi = b;
-            b = a;
-            fb = fa;
-            a = hi - g * (hi - lo);
-            fa = ll(a);
-        } else {
-            lo = a;
-            a = b;
-            fa = fb;
-            b = lo + g * (hi - lo);
-            fb = ll(b);
-        }
-    }
-    ((lo + hi) / 2.0).exp()
+    let lo = grid[best.saturating_sub(1)];
+    let hi = grid[(best + 1).min(grid.len() - 1)];
+    crate::numeric::minimize::golden_section_max(ll, lo, hi, 30).exp()
 }
 
 /// (σ_ω/σ_θ, σ_α/σ_θ) for uniform steps `h` and ratio `lambda`, from the impulse response.

@@ -1,8 +1,10 @@
-//! A small Levenberg–Marquardt least-squares minimiser with a forward-difference Jacobian, for
-//! fits of a handful of parameters (edge profiles, motion models). Also returns the Jacobian's
-//! normal matrix at the solution, so callers get the usual covariance s²·(JᵀJ)⁻¹.
+//! Levenberg–Marquardt least squares with a forward-difference Jacobian, on `nalgebra` matrices:
+//! fits of a few parameters (edge profiles, motion models) up to the pose fit's ~160 (one angle
+//! per pose, ~1200 corner residuals). Also returns the Jacobian's normal matrix at the solution,
+//! so callers get the usual covariance s²·(JᵀJ)⁻¹.
 
-use super::linalg;
+use crate::numeric::linalg;
+use nalgebra::{DMatrix, DVector};
 
 /// The minimum found and what is needed for its uncertainty.
 #[derive(Debug, Clone, PartialEq)]
@@ -13,25 +15,20 @@ pub struct LmFit {
     /// Σ residual².
     pub cost: f64,
     /// JᵀJ at `params`.
-    pub jtj: Vec<Vec<f64>>,
+    pub jtj: DMatrix<f64>,
     pub iterations: usize,
 }
 
 impl LmFit {
     /// Covariance s²·(JᵀJ)⁻¹ with s² = cost / (n − p); `None` when JᵀJ is singular or there are
     /// no degrees of freedom.
-    pub fn covariance(&self) -> Option<Vec<Vec<f64>>> {
+    pub fn covariance(&self) -> Option<DMatrix<f64>> {
         let (n, p) = (self.residuals.len(), self.params.len());
         if n <= p {
             return None;
         }
         let s2 = self.cost / (n - p) as f64;
-        let inv = linalg::invert(&self.jtj)?;
-        Some(
-            inv.into_iter()
-                .map(|r| r.into_iter().map(|v| v * s2).collect())
-                .collect(),
-        )
+        Some(linalg::invert(&self.jtj)? * s2)
     }
 
     /// 1-σ standard errors with the residual σ taken as at least `min_sigma` (for data whose
@@ -44,7 +41,7 @@ impl LmFit {
             f64::INFINITY
         };
         match linalg::invert(&self.jtj) {
-            Some(inv) => (0..p).map(|i| (s2 * inv[i][i]).max(0.0).sqrt()).collect(),
+            Some(inv) => (0..p).map(|i| (s2 * inv[(i, i)]).max(0.0).sqrt()).collect(),
             None => vec![f64::INFINITY; p],
         }
     }
@@ -53,7 +50,7 @@ impl LmFit {
     pub fn std_errors(&self) -> Vec<f64> {
         match self.covariance() {
             Some(c) => (0..self.params.len())
-                .map(|i| c[i][i].max(0.0).sqrt())
+                .map(|i| c[(i, i)].max(0.0).sqrt())
                 .collect(),
             None => vec![f64::INFINITY; self.params.len()],
         }
@@ -62,7 +59,8 @@ impl LmFit {
 
 /// Minimises Σ r(p)² from `start`. `residuals(p, out)` fills `out` (always the same length) and
 /// returns false where `p` is not admissible. `steps[i]` is the forward-difference step of
-/// parameter i. `None` when the start is not admissible or no finite cost is found.
+/// parameter i. `None` when the start is not admissible, no finite cost is found or the
+/// residuals change length.
 pub fn minimise(
     residuals: &dyn Fn(&[f64], &mut Vec<f64>) -> bool,
     start: &[f64],
@@ -87,20 +85,20 @@ pub fn minimise(
     let mut trial = Vec::with_capacity(r.len());
     while iterations < max_iterations {
         iterations += 1;
-        let (jtj, jtr) = normal(&jac, &r);
+        let (jtj, jtr) = linalg::normal_equations(&jac, &DVector::from_column_slice(&r));
+        let neg = -jtr;
         let mut improved = false;
         while lambda < 1e12 {
             let mut damped = jtj.clone();
-            for (i, row) in damped.iter_mut().enumerate() {
-                row[i] += lambda * jtj[i][i].max(1e-12);
+            for i in 0..damped.nrows() {
+                damped[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
             }
-            let neg: Vec<f64> = jtr.iter().map(|v| -v).collect();
             let Some(step) = linalg::solve(&damped, &neg) else {
                 lambda *= 10.0;
                 continue;
             };
-            let x_new: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
-            if residuals(&x_new, &mut trial) {
+            let x_new: Vec<f64> = x.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+            if residuals(&x_new, &mut trial) && trial.len() == r.len() {
                 let c = sum_sq(&trial);
                 if c.is_finite() && c <= cost {
                     let small = step
@@ -128,7 +126,7 @@ pub fn minimise(
     if !jac_at_x {
         jac = jacobian(residuals, &x, &r, steps)?;
     }
-    let (jtj, _) = normal(&jac, &r);
+    let jtj = jac.tr_mul(&jac);
     Some(LmFit {
         params: x,
         residuals: r,
@@ -142,19 +140,20 @@ fn sum_sq(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
 }
 
-/// Column-major forward-difference Jacobian (`jac[i]` = ∂r/∂p_i).
+/// Forward-difference Jacobian: one row per residual, one column per parameter; `None` when a
+/// parameter can be stepped neither way or the residuals change length.
 fn jacobian(
     residuals: &dyn Fn(&[f64], &mut Vec<f64>) -> bool,
     x: &[f64],
     r: &[f64],
     steps: &[f64],
-) -> Option<Vec<Vec<f64>>> {
-    let mut out = Vec::with_capacity(x.len());
+) -> Option<DMatrix<f64>> {
+    let mut jac = DMatrix::zeros(r.len(), x.len());
     let mut buf = Vec::with_capacity(r.len());
+    let mut xp = x.to_vec();
     for i in 0..x.len() {
-        let mut xp = x.to_vec();
         let mut h = steps[i];
-        xp[i] += h;
+        xp[i] = x[i] + h;
         if !residuals(&xp, &mut buf) {
             // At a bound: difference backwards.
             h = -h;
@@ -163,123 +162,20 @@ fn jacobian(
                 return None;
             }
         }
-        out.push(buf.iter().zip(r).map(|(a, b)| (a - b) / h).collect());
-    }
-    Some(out)
-}
-
-/// JᵀJ and Jᵀr. Every entry is the sum of its products in residual order from −0.0, which is
-/// what `Iterator::sum` computes ([`normal_by_entry`]), so the result is the same bits. But the
-/// entries of a row of JᵀJ are accumulated side by side, one residual at a time, from the
-/// Jacobian laid out residual-major: their additions are independent (each entry's sum no
-/// longer waits on its own previous addition, and the compiler can vectorise across entries),
-/// and a block of rows shares every load. A pose fit has ~160 parameters (one angle per pose)
-/// and ~1200 corner residuals: 12 000 entries of 1200 products each, at every iteration.
-fn normal(jac: &[Vec<f64>], r: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
-    const BLOCK: usize = 4;
-    let p = jac.len();
-    let n = r.len();
-    if jac.iter().any(|row| row.len() != n) {
-        return normal_by_entry(jac, r);
-    }
-    // by_residual[k * p + j] = ∂r_k/∂p_j.
-    let mut by_residual = vec![0.0f64; n * p];
-    for (j, row) in jac.iter().enumerate() {
-        for (k, &v) in row.iter().enumerate() {
-            by_residual[k * p + j] = v;
+        xp[i] = x[i];
+        if buf.len() != r.len() {
+            return None;
+        }
+        for (dst, (a, b)) in jac.column_mut(i).iter_mut().zip(buf.iter().zip(r)) {
+            *dst = (a - b) / h;
         }
     }
-    let mut jtr = vec![-0.0f64; p];
-    for (k, &rk) in r.iter().enumerate() {
-        for (s, &a) in jtr.iter_mut().zip(&by_residual[k * p..(k + 1) * p]) {
-            *s += a * rk;
-        }
-    }
-    let mut jtj = vec![vec![0.0; p]; p];
-    let mut acc = vec![-0.0f64; BLOCK * p];
-    for i0 in (0..p).step_by(BLOCK) {
-        let rows = BLOCK.min(p - i0);
-        acc.fill(-0.0);
-        for k in 0..n {
-            let grad = &by_residual[k * p..(k + 1) * p];
-            for b in 0..rows {
-                let i = i0 + b;
-                let a = grad[i];
-                // Entries j ≥ i of row i; row b of the block keeps them at b·p + j.
-                for (s, &g) in acc[b * p + i..(b + 1) * p].iter_mut().zip(&grad[i..]) {
-                    *s += a * g;
-                }
-            }
-        }
-        for b in 0..rows {
-            let i = i0 + b;
-            for j in i..p {
-                let v = acc[b * p + j];
-                jtj[i][j] = v;
-                jtj[j][i] = v;
-            }
-        }
-    }
-    (jtj, jtr)
-}
-
-/// [`normal`] one entry at a time: its reference, and what it does with rows of other lengths
-/// (each sum then runs over the shorter of its two rows).
-fn normal_by_entry(jac: &[Vec<f64>], r: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
-    let p = jac.len();
-    let mut jtj = vec![vec![0.0; p]; p];
-    let mut jtr = vec![0.0; p];
-    for i in 0..p {
-        jtr[i] = jac[i].iter().zip(r).map(|(a, b)| a * b).sum();
-        for j in i..p {
-            let v: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
-            jtj[i][j] = v;
-            jtj[j][i] = v;
-        }
-    }
-    (jtj, jtr)
+    Some(jac)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::prelude::*;
-
-    proptest! {
-        #[test]
-        fn the_one_pass_normal_equations_are_the_per_entry_sums_bit_for_bit(
-            p in 1usize..23,
-            n in 0usize..60,
-            seed in any::<u64>(),
-        ) {
-            use rand::Rng;
-            let mut rng = crate::rng::stream(seed, crate::rng::Stream::MonteCarlo, 0);
-            // Magnitudes over many decades, exact zeros of both signs and a rare infinity,
-            // where rounding, the sign of zero and NaN would show any change in the order of
-            // the additions.
-            let mut value = || match rng.gen_range(0..40) {
-                0..=3 => 0.0,
-                4..=7 => -0.0,
-                8 => f64::INFINITY,
-                _ => rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-8..9)),
-            };
-            let jac: Vec<Vec<f64>> = (0..p).map(|_| (0..n).map(|_| value()).collect()).collect();
-            let r: Vec<f64> = (0..n).map(|_| value()).collect();
-            let bits = |(jtj, jtr): (Vec<Vec<f64>>, Vec<f64>)| -> Vec<u64> {
-                jtj.into_iter().flatten().chain(jtr).map(f64::to_bits).collect()
-            };
-            prop_assert_eq!(bits(normal(&jac, &r)), bits(normal_by_entry(&jac, &r)));
-        }
-    }
-
-    #[test]
-    fn rows_of_other_lengths_are_summed_as_before() {
-        let jac = vec![vec![1.0, 2.0, 3.0], vec![4.0, 5.0]];
-        let r = [1.0, 1.0, 1.0];
-        let (jtj, jtr) = normal(&jac, &r);
-        assert_eq!(jtr, vec![6.0, 9.0]);
-        assert_eq!(jtj, vec![vec![14.0, 14.0], vec![14.0, 41.0]]);
-    }
 
     #[test]
     fn fits_an_exponential_and_reports_sensible_errors() {
@@ -326,8 +222,8 @@ mod tests {
         for (start, cap) in [([1.0, 0.2], 2), ([1.0, 0.2], 100), ([2.0, 0.7], 100)] {
             let fit = minimise(&f, &start, &steps, cap).unwrap();
             let jac = jacobian(&f, &fit.params, &fit.residuals, &steps).unwrap();
-            let (jtj, _) = normal(&jac, &fit.residuals);
-            for (got, want) in fit.jtj.iter().flatten().zip(jtj.iter().flatten()) {
+            let jtj = jac.tr_mul(&jac);
+            for (got, want) in fit.jtj.iter().zip(jtj.iter()) {
                 assert_eq!(got.to_bits(), want.to_bits(), "start {start:?}, cap {cap}");
             }
         }

@@ -20,7 +20,6 @@ pub mod config;
 pub mod differentiate;
 pub mod error;
 pub mod kalman;
-pub(crate) mod linalg;
 pub(crate) mod lm;
 pub mod marker_centre;
 pub mod measured;
@@ -145,7 +144,12 @@ pub fn estimate(
             .iter()
             .map(|p| Some(angle::screen_angle_rad(*p, rc.centre_px)))
             .collect();
-        theta.push(angle::unwrap(&wrapped).into_iter().flatten().collect());
+        theta.push(
+            crate::numeric::angle::unwrap(&wrapped)
+                .into_iter()
+                .flatten()
+                .collect(),
+        );
     }
     theta.push(angle::fuse(&theta, &rc.radii_px, Signal::Centre.index()));
 

@@ -473,7 +473,7 @@ fn unwrap_follows_many_turns_with_gaps() {
             }
         })
         .collect();
-    let u = angle::unwrap(&wrapped);
+    let u = crate::numeric::angle::unwrap(&wrapped);
     for (k, (a, t)) in u.iter().zip(&truth).enumerate() {
         match a {
             Some(a) => assert!((a - t).abs() < 1e-9, "frame {k}"),

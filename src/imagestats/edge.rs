@@ -13,6 +13,7 @@ use super::grid::{Homography, MarkerLayout, Material};
 use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
 use crate::estimate::lm;
+use crate::numeric::dist::{normal_cdf, normal_pdf};
 
 /// Sampling and guard settings of an edge fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,41 +115,6 @@ pub struct EdgeProfile {
     pub samples: usize,
     /// Length of the segment in the image, px.
     pub length_px: f64,
-}
-
-/// Standard normal CDF Φ, from erfc (Numerical Recipes' Chebyshev fit, fractional error
-/// < 1.2·10⁻⁷ everywhere).
-pub fn normal_cdf(z: f64) -> f64 {
-    0.5 * erfc(-z * std::f64::consts::FRAC_1_SQRT_2)
-}
-
-/// The complementary error function, fractional error < 1.2·10⁻⁷ everywhere (Numerical
-/// Recipes' `erfcc`); accurate in the far tail, where the p-values of large z live.
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
-/// Standard normal density φ.
-#[inline]
-pub fn normal_pdf(z: f64) -> f64 {
-    (-0.5 * z * z).exp() * 0.398_942_280_401_432_7
 }
 
 /// Response of a pixel centred at signed distance `x` (px) from an ideal 0 → 1 step, for a
@@ -670,7 +636,7 @@ impl EdgeModel<'_> {
             .map(|&i| active.iter().map(|&j| ata[i][j]).collect())
             .collect();
         let sub_b: Vec<f64> = active.iter().map(|&i| atb[i]).collect();
-        let sol = crate::estimate::linalg::solve(&sub_a, &sub_b)?;
+        let sol = crate::numeric::linalg::solve_rows(&sub_a, &sub_b)?;
         let mut levels = vec![f64::NAN; k];
         for (&i, v) in active.iter().zip(sol) {
             levels[i] = v;

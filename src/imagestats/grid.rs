@@ -173,11 +173,11 @@ impl Homography {
             a[2 * k + 1] = vec![0.0, 0.0, 0.0, x, y, 1.0, -v * x, -v * y];
             b[2 * k + 1] = v;
         }
-        let p = crate::estimate::linalg::solve(&a, &b)
+        let p = crate::numeric::linalg::solve_rows(&a, &b)
             .ok_or_else(|| degenerate("no homography maps the square onto them"))?;
         let h = [[p[0], p[1], p[2]], [p[3], p[4], p[5]], [p[6], p[7], 1.0]];
-        let inv = crate::estimate::linalg::invert3(&h)
-            .ok_or_else(|| degenerate("singular homography"))?;
+        let inv =
+            crate::numeric::linalg::invert3(&h).ok_or_else(|| degenerate("singular homography"))?;
         Ok(Self { h, inv })
     }
 

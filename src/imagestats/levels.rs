@@ -2,10 +2,10 @@
 //! the surround beyond the paper, from pixels at least a guard distance from every material
 //! boundary; and noise from the variation of static pixels over frames.
 
-use super::edge::normal_cdf;
 use super::grid::{Homography, MarkerLayout, Material};
 use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
+use crate::numeric::dist::normal_cdf;
 use crate::numeric::minimize::golden_section_min;
 
 /// Which pixels count as "well inside" a region.
@@ -467,7 +467,7 @@ fn plane_residual_sigma(values: &[(f64, f64, f64)]) -> Option<f64> {
             return None;
         }
         // A degenerate layout (one row or column) cannot fix a plane: fit the mean only.
-        let c = crate::estimate::linalg::solve(&a, &b)
+        let c = crate::numeric::linalg::solve_rows(&a, &b)
             .unwrap_or_else(|| vec![b[0] / m as f64, 0.0, 0.0]);
         let res = |v: &(f64, f64, f64)| v.2 - c[0] - c[1] * (v.0 - mx) - c[2] * (v.1 - my);
         let ss: f64 = values

@@ -45,8 +45,8 @@ mod tests;
 
 pub(crate) use edge::step_response;
 pub use edge::{
-    erfc, fit_grid_edge, inner_edge_profiles, normal_cdf, normal_pdf, outer_edge_profiles,
-    refined_corners, EdgeOptions, EdgeProfile, GridEdge,
+    fit_grid_edge, inner_edge_profiles, outer_edge_profiles, refined_corners, EdgeOptions,
+    EdgeProfile, GridEdge,
 };
 pub use grid::{Homography, MarkerLayout, Material};
 pub use jpeg::{blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality};

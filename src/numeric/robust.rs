@@ -63,6 +63,13 @@ pub fn upper_median_finite(mut v: Vec<f64>) -> Option<f64> {
     Some(v[v.len() / 2])
 }
 
+/// The median absolute deviation from the median, `median(|x − median(xs)|)` (NaN for no
+/// values); × [`MAD_TO_SD`] it estimates the standard deviation of normal data.
+pub fn mad(xs: &[f64]) -> f64 {
+    let m = median(xs);
+    median_in_place(&mut xs.iter().map(|x| (x - m).abs()).collect::<Vec<f64>>())
+}
+
 /// Percentile `q` (0–100) of an ascending slice, numpy's "linear" method (NaN for no values).
 pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
     match sorted.len() {
@@ -98,6 +105,8 @@ mod tests {
         assert_eq!(sample_sd(&[1.0]), 0.0);
         assert!((sample_sd(&[1.0, 2.0, 3.0, 4.0]) - (5.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert!(sample_variance(&[1.0]).is_nan());
+        assert_eq!(mad(&[1.0, 2.0, 4.0, 8.0, 100.0]), 3.0);
+        assert!(mad(&[]).is_nan());
         // numpy's "linear" method.
         let v = [1.0, 2.0, 3.0, 4.0, 5.0];
         assert_eq!(percentile_sorted(&v, 50.0), 3.0);

@@ -32,7 +32,7 @@ use super::image::GrayImage;
 use super::raster::PixelRect;
 use super::shapes::{SceneAt, SceneSnapshot};
 use super::tiny_skia_ref::opencv_to_tiny_skia;
-use crate::imagestats::normal_cdf;
+use crate::numeric::dist::normal_cdf;
 use rand::Rng;
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Transform};
 

@@ -82,25 +82,10 @@ pub fn flat_level_and_noise(img: &GrayImage, rect: &PixelRect) -> Result<(f64, f
     Ok((median, (var / 2.0).sqrt()))
 }
 
-/// Standard normal CDF (Abramowitz–Stegun 7.1.26 erf, |error| < 1.5·10⁻⁷).
-fn phi_cdf(x: f64) -> f64 {
-    let z = x.abs() / std::f64::consts::SQRT_2;
-    let t = 1.0 / (1.0 + 0.3275911 * z);
-    let poly = t
-        * (0.254829592
-            + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
-    let erf = 1.0 - poly * (-z * z).exp();
-    if x >= 0.0 {
-        0.5 * (1.0 + erf)
-    } else {
-        0.5 * (1.0 - erf)
-    }
-}
-
 /// Pixel-box-integrated blurred step (see module docs).
 fn edge_model(u: f64, sigma: f64) -> f64 {
     let g = |s: f64| {
-        s * phi_cdf(s / sigma)
+        s * crate::numeric::dist::normal_cdf(s / sigma)
             + sigma * (-(s * s) / (2.0 * sigma * sigma)).exp() / (2.0 * std::f64::consts::PI).sqrt()
     };
     g(u + 0.5) - g(u - 0.5)

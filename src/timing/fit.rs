@@ -336,7 +336,7 @@ impl Sums {
                 scaled[i][j] = a[i][j] / (d[i] * d[j]);
             }
         }
-        let inv_scaled = crate::estimate::linalg::invert3(&scaled)?;
+        let inv_scaled = crate::numeric::linalg::invert3(&scaled)?;
         let mut inverse = [[0.0; 3]; 3];
         for i in 0..3 {
             for j in 0..3 {

@@ -269,7 +269,7 @@ pub fn check_ci95(entry: &serde_json::Value) -> Result<usize, String> {
             f64::INFINITY
         };
         let k = if dof.is_finite() {
-            geneva_vision::budget::montecarlo::t975(((dof * (1.0 + 1e-9)).floor() as usize).max(1))
+            geneva_vision::numeric::dist::t975(((dof * (1.0 + 1e-9)).floor() as usize).max(1))
         } else {
             1.959964
         };

@@ -541,30 +541,24 @@ pub struct FittedRunoutForm {
 /// clock gives (a constant-rate footage's intervals differ only by rounding; a zero sd claimed
 /// a rate 10⁻¹³ fps off to be exact).
 fn median_interval_sd_s(t_s: &[f64]) -> f64 {
-    let d = sorted_intervals_s(t_s);
+    let d: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
     if d.is_empty() {
         return f64::INFINITY;
     }
-    let median = d[d.len() / 2];
-    let mut dev: Vec<f64> = d.iter().map(|x| (x - median).abs()).collect();
-    dev.sort_by(f64::total_cmp);
-    let mad = dev[dev.len() / 2];
-    (1.2533 * 1.4826 * mad / (d.len() as f64).sqrt()).max(1e-9)
+    let mad = crate::numeric::robust::mad(&d);
+    (1.2533 * crate::numeric::robust::MAD_TO_SD * mad / (d.len() as f64).sqrt()).max(1e-9)
 }
 
-/// The intervals between consecutive times `t_s`, in ascending order.
-fn sorted_intervals_s(t_s: &[f64]) -> Vec<f64> {
-    let mut d: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    d.sort_by(f64::total_cmp);
-    d
-}
-
-/// The median interval between consecutive times `t_s` (the upper one of an even count), or
-/// 1/30 s when there is no interval: the one rate the footing's Nyquist band and the fit's
-/// frame-rate parameters both read, so the two can never disagree.
+/// The footage's median frame interval ([`crate::timing::median_interval_s`]), or 1/30 s when
+/// there is no interval: the one rate the footing's Nyquist band and the fit's frame-rate
+/// parameters both read, so the two can never disagree.
 pub(crate) fn median_interval_s(t_s: &[f64]) -> f64 {
-    let d = sorted_intervals_s(t_s);
-    d.get(d.len() / 2).copied().unwrap_or(1.0 / 30.0)
+    let h = crate::timing::median_interval_s(t_s);
+    if h.is_finite() {
+        h
+    } else {
+        1.0 / 30.0
+    }
 }
 
 fn aligned_of<'a>(f: &'a Fitter<'a>) -> &'a Aligned {
@@ -2618,8 +2612,8 @@ mod tests {
         // of the unsorted intervals would be 80 ms.
         let t_s = [0.0, 0.04, 0.12, 0.2, 0.24, 0.28];
         assert!((median_interval_s(&t_s) - 0.04).abs() < 1e-12);
-        // Intervals 10 and 30 ms: the upper one of an even count.
-        assert!((median_interval_s(&[0.0, 0.03, 0.04]) - 0.03).abs() < 1e-12);
+        // Intervals 30 and 10 ms: the mean of the two middle ones of an even count.
+        assert!((median_interval_s(&[0.0, 0.03, 0.04]) - 0.02).abs() < 1e-12);
         assert_eq!(median_interval_s(&[1.0]), 1.0 / 30.0);
         assert_eq!(median_interval_s(&[]), 1.0 / 30.0);
     }

@@ -2008,7 +2008,7 @@ mod tests {
         );
         let dof = var * var / (0.0003f64.powi(2) / 2.0 + footage_var * footage_var / 7.0);
         assert_eq!(dof.floor(), 8.0, "{dof}");
-        let k = crate::budget::montecarlo::t975(8);
+        let k = crate::numeric::dist::t975(8);
         let json = ranked_json(&best, 15.0);
         let ci = &json["params_ci95"]["clearance_mm"];
         assert!(

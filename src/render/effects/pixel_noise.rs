@@ -2,6 +2,7 @@
 //! plus Gaussian read noise, drawn from a counter-based generator keyed by
 //! (seed, frame index, x, y) so every pixel's noise is a pure function of its position.
 
+use crate::numeric::dist::normal_quantile;
 use crate::validation::{join, Problems};
 use serde::{Deserialize, Serialize};
 
@@ -103,7 +104,7 @@ fn table() -> &'static [f32; TABLE_LEN + 1] {
     TABLE.get_or_init(|| {
         let mut t = Box::new([0.0f32; TABLE_LEN + 1]);
         for (i, v) in t.iter_mut().enumerate().take(TABLE_LEN).skip(1) {
-            *v = inverse_normal_cdf(i as f64 / TABLE_LEN as f64) as f32;
+            *v = normal_quantile(i as f64 / TABLE_LEN as f64) as f32;
         }
         t
     })
@@ -149,66 +150,12 @@ fn normal_from_hash(h: u64, t: &[f32; TABLE_LEN + 1]) -> f32 {
 #[inline(never)]
 fn tail_normal(h: u64) -> f32 {
     let u = ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64);
-    inverse_normal_cdf(u) as f32
-}
-
-/// Acklam's rational approximation of Φ⁻¹ (relative error < 1.2·10⁻⁹); the central region,
-/// 95 % of calls, needs no logarithm, which keeps per-pixel noise cheap.
-pub fn inverse_normal_cdf(p: f64) -> f64 {
-    const A: [f64; 6] = [
-        -3.969683028665376e1,
-        2.209460984245205e2,
-        -2.759285104469687e2,
-        1.38357751867269e2,
-        -3.066479806614716e1,
-        2.506628277459239,
-    ];
-    const B: [f64; 5] = [
-        -5.447609879822406e1,
-        1.615858368580409e2,
-        -1.556989798598866e2,
-        6.680131188771972e1,
-        -1.328068155288572e1,
-    ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-3,
-        -3.223964580411365e-1,
-        -2.400758277161838,
-        -2.549732539343734,
-        4.374664141464968,
-        2.938163982698783,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-3,
-        3.224671290700398e-1,
-        2.445134137142996,
-        3.754408661907416,
-    ];
-    const P_LOW: f64 = 0.02425;
-    if p < P_LOW {
-        let q = (-2.0 * p.ln()).sqrt();
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
-            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
-    } else if p <= 1.0 - P_LOW {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    } else {
-        -inverse_normal_cdf(1.0 - p)
-    }
+    normal_quantile(u) as f32
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn inverse_cdf_matches_known_quantiles() {
-        assert!(inverse_normal_cdf(0.5).abs() < 1e-12);
-        assert!((inverse_normal_cdf(0.975) - 1.959963984540054).abs() < 1e-8);
-        assert!((inverse_normal_cdf(0.001) + 3.090232306167813).abs() < 1e-8);
-    }
 
     #[test]
     fn pixel_normals_have_unit_moments_and_no_neighbour_correlation() {
