@@ -129,32 +129,30 @@ struct PoseModel<'a> {
 impl PoseModel<'_> {
     /// Global parameters before the per-pose angles.
     fn globals(&self) -> usize {
-        3 + if self.tilt { 2 } else { 0 }
-            + if self.centre.is_none() { 2 } else { 0 }
-            + usize::from(self.inset)
+        self.shape().globals
     }
 
-    /// (scale, tx, ty, cx, cy, R_mm, orientation, inset) from a parameter vector.
+    /// Which globals the parameter vector holds.
+    fn shape(&self) -> PoseModelShape {
+        PoseModelShape {
+            globals: 3
+                + if self.tilt { 2 } else { 0 }
+                + if self.centre.is_none() { 2 } else { 0 }
+                + usize::from(self.inset),
+            tilt: self.tilt,
+            centre: self.centre.is_none(),
+            inset: self.inset,
+        }
+    }
+
+    /// (scale, tx, ty, cx, cy, R_mm, orientation, inset) from a parameter vector, the centre
+    /// the given one when it is not fitted.
     fn unpack(&self, p: &[f64]) -> [f64; 8] {
-        let mut i = 0;
-        let mut next = || {
-            i += 1;
-            p[i - 1]
-        };
-        let scale = next();
-        let (tx, ty) = if self.tilt {
-            (next(), next())
-        } else {
-            (0.0, 0.0)
-        };
-        let (cx, cy) = match self.centre {
-            None => (next(), next()),
-            Some(c) => (c[0], c[1]),
-        };
-        let r = next();
-        let o = next();
-        let inset = if self.inset { next() } else { 0.0 };
-        [scale, tx, ty, cx, cy, r, o, inset]
+        let mut g = self.shape().values(p);
+        if let Some(c) = self.centre {
+            (g[3], g[4]) = (c[0], c[1]);
+        }
+        g
     }
 
     fn camera(&self, g: &[f64; 8]) -> Option<Camera> {
@@ -348,13 +346,7 @@ pub fn fit_geometry(
         steps.extend(std::iter::repeat_n(1e-7, poses.len()));
         let f = |q: &[f64], out: &mut Vec<f64>| model.residuals(q, out);
         let fit = lm::minimise(&f, &p, &steps, 60)?;
-        let shape = PoseModelShape {
-            globals: model.globals(),
-            tilt,
-            centre: !single_frame,
-            inset: !from_edges,
-        };
-        Some((fit, shape))
+        Some((fit, model.shape()))
     };
     let mut start = vec![scale0, 0.0, 0.0, centre0[0], centre0[1], r0, o0, 0.5];
     start.extend_from_slice(&phis);
