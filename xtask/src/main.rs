@@ -208,7 +208,7 @@ fn reports(extra: &[String]) -> Result<(), String> {
 }
 
 /// The diagnosis self-check suites committed under `reports/`: each suite's name, the folder it
-/// writes, what it shows and the `geneva diagnose-selfcheck` arguments that make it. Every suite
+/// writes, what it shows and the `geneva diagnose-selfcheck` plan that makes it. Every suite
 /// films 6 s of 1280×720 footage at 30 fps on the built-in `fast` rig; "independent" suites draw
 /// the footage with the second renderer (`render::independent`), the others with the project's
 /// own, and the nominal is always simulated by the project's renderer. A whole suite takes from
@@ -217,8 +217,20 @@ struct Suite {
     name: &'static str,
     folder: &'static str,
     shows: &'static str,
-    args: &'static [&'static str],
-    /// Run only the strong single-effect cases of these seeds (`--only`), all effects.
+    plan: Plan,
+}
+
+/// A self-check plan: `--levels` (`strong`, `weak` = near the detection limit, `form` = in a form
+/// the candidate does not parametrise), withheld single-effect cases per effect and level, null,
+/// mains-flicker, excluded-candidate and two-effect cases, and the seeds whose strong single
+/// cases alone are run (`--only`; empty: the whole plan).
+struct Plan {
+    levels: &'static str,
+    seeds_per_case: usize,
+    nulls: usize,
+    flicker: usize,
+    excluded: usize,
+    pairs: usize,
     only_seeds: &'static [usize],
 }
 
@@ -241,219 +253,152 @@ const WITHHELD_EFFECTS: &[&str] = &[
     "lighting",
 ];
 
+/// Only single-effect cases: `seeds` per effect at `levels`.
+const fn singles(levels: &'static str, seeds: usize) -> Plan {
+    Plan {
+        levels,
+        seeds_per_case: seeds,
+        nulls: 0,
+        flicker: 0,
+        excluded: 0,
+        pairs: 0,
+        only_seeds: &[],
+    }
+}
+
 /// Every withheld effect at the strong level, 1 seed; 4 null, 1 flicker, 2 excluded-candidate
 /// cases.
-const STRONG_PLAN: &[&str] = &[
-    "--levels",
-    "strong",
-    "--seeds-per-case",
-    "1",
-    "--nulls",
-    "4",
-    "--flicker",
-    "1",
-    "--excluded",
-    "2",
-    "--duration-s",
-    "6",
-];
+const STRONG: Plan = Plan {
+    nulls: 4,
+    flicker: 1,
+    excluded: 2,
+    ..singles("strong", 1)
+};
 
-/// Every withheld effect at the strong level, 3 seeds per effect (run with `only_seeds`).
-const SEEDS_PLAN: &[&str] = &[
-    "--levels",
-    "strong",
-    "--seeds-per-case",
-    "3",
-    "--nulls",
-    "0",
-    "--flicker",
-    "0",
-    "--excluded",
-    "0",
-    "--pairs",
-    "0",
-    "--duration-s",
-    "6",
-];
+/// The strong single cases of some seeds of a 3-seed plan.
+const fn seeds(only_seeds: &'static [usize]) -> Plan {
+    Plan {
+        only_seeds,
+        ..singles("strong", 3)
+    }
+}
 
-/// The weak level ("near the detection limit": 0.3 of the way from the value at which each
-/// parameter does nothing to the strong probe, `selfcheck::level_values`), 1 seed per effect.
-const NEAR_LIMIT_PLAN: &[&str] = &[
-    "--levels",
-    "weak",
-    "--seeds-per-case",
-    "1",
-    "--nulls",
-    "0",
-    "--flicker",
-    "0",
-    "--excluded",
-    "0",
-    "--duration-s",
-    "6",
-];
-
-/// Null cases only: nothing withheld, each its own seed, nuisance and rendering perturbation.
-const NULLS_PLAN: &[&str] = &[
-    "--levels",
-    "strong",
-    "--seeds-per-case",
-    "0",
-    "--nulls",
-    "48",
-    "--flicker",
-    "0",
-    "--excluded",
-    "0",
-    "--pairs",
-    "0",
-    "--duration-s",
-    "6",
-];
+/// 48 null cases: nothing withheld, each its own seed, nuisance and rendering perturbation.
+const NULLS: Plan = Plan {
+    nulls: 48,
+    ..singles("strong", 0)
+};
 
 /// Causes outside the vocabulary: 4 mains-flicker beats and 12 effects excluded from the
 /// candidates (`selfcheck::excluded_effects`).
-const OUT_OF_VOCABULARY_PLAN: &[&str] = &[
-    "--levels",
-    "strong",
-    "--seeds-per-case",
-    "0",
-    "--nulls",
-    "0",
-    "--flicker",
-    "4",
-    "--excluded",
-    "12",
-    "--pairs",
-    "0",
-    "--duration-s",
-    "6",
-];
+const OUT_OF_VOCABULARY: Plan = Plan {
+    flicker: 4,
+    excluded: 12,
+    ..singles("strong", 0)
+};
 
-const INDEPENDENT: &[&str] = &["--renderer", "independent"];
+/// Two effects withheld at once (`selfcheck::withheld_pairs`), both at the strong level.
+const PAIRS: Plan = Plan {
+    pairs: 5,
+    ..singles("strong", 0)
+};
 
 const SUITES: &[Suite] = &[
     Suite {
         name: "strong",
         folder: "reports/diagnosis",
         shows: "every effect withheld at the strong level, null and out-of-vocabulary cases, project's renderer",
-        args: STRONG_PLAN,
-        only_seeds: &[],
+        plan: STRONG,
     },
     Suite {
         name: "independent",
         folder: "reports/diagnosis-independent",
         shows: "the same plan on footage drawn by the independent renderer",
-        args: STRONG_PLAN,
-        only_seeds: &[],
+        plan: STRONG,
     },
     Suite {
         name: "seed-1",
         folder: "reports/diagnosis-seed-1",
         shows: "every effect at the strong level at a second seed, project's renderer",
-        args: SEEDS_PLAN,
-        only_seeds: &[1],
+        plan: seeds(&[1]),
     },
     Suite {
         name: "independent-seeds-1-2",
         folder: "reports/diagnosis-independent-seeds-1-2",
         shows: "every effect at the strong level at seeds 1 and 2, independent renderer",
-        args: SEEDS_PLAN,
-        only_seeds: &[1, 2],
+        plan: seeds(&[1, 2]),
     },
     Suite {
         name: "near-limit",
         folder: "reports/diagnosis-near-limit",
         shows: "every effect near the detection limit, project's renderer",
-        args: NEAR_LIMIT_PLAN,
-        only_seeds: &[],
+        plan: singles("weak", 1),
     },
     Suite {
         name: "near-limit-independent",
         folder: "reports/diagnosis-near-limit-independent",
         shows: "every effect near the detection limit, independent renderer",
-        args: NEAR_LIMIT_PLAN,
-        only_seeds: &[],
+        plan: singles("weak", 1),
     },
     Suite {
         name: "forms-independent",
         folder: "reports/diagnosis-forms-independent",
         shows: "effects in forms their candidates do not parametrise, independent renderer",
-        args: &[
-            "--levels",
-            "form",
-            "--seeds-per-case",
-            "1",
-            "--nulls",
-            "0",
-            "--flicker",
-            "0",
-            "--excluded",
-            "0",
-            "--duration-s",
-            "6",
-        ],
-        only_seeds: &[],
+        plan: singles("form", 1),
     },
     Suite {
         name: "pairs-independent",
         folder: "reports/diagnosis-pairs-independent",
-        shows: "two effects withheld at once (`selfcheck::withheld_pairs`), independent renderer",
-        args: &[
-            "--seeds-per-case",
-            "0",
-            "--nulls",
-            "0",
-            "--flicker",
-            "0",
-            "--excluded",
-            "0",
-            "--pairs",
-            "5",
-            "--duration-s",
-            "6",
-        ],
-        only_seeds: &[],
+        shows: "two effects withheld at once, independent renderer",
+        plan: PAIRS,
     },
     Suite {
         name: "nulls",
         folder: "reports/diagnosis-nulls",
         shows: "48 null cases (the false-alarm rate), project's renderer",
-        args: NULLS_PLAN,
-        only_seeds: &[],
+        plan: NULLS,
     },
     Suite {
         name: "nulls-independent",
         folder: "reports/diagnosis-nulls-independent",
         shows: "the same 48 null cases, independent renderer",
-        args: NULLS_PLAN,
-        only_seeds: &[],
+        plan: NULLS,
     },
     Suite {
         name: "out-of-vocabulary",
         folder: "reports/diagnosis-out-of-vocabulary",
         shows: "16 causes outside the candidates, project's renderer",
-        args: OUT_OF_VOCABULARY_PLAN,
-        only_seeds: &[],
+        plan: OUT_OF_VOCABULARY,
     },
     Suite {
         name: "out-of-vocabulary-independent",
         folder: "reports/diagnosis-out-of-vocabulary-independent",
         shows: "the same 16 causes, independent renderer",
-        args: OUT_OF_VOCABULARY_PLAN,
-        only_seeds: &[],
+        plan: OUT_OF_VOCABULARY,
     },
 ];
 
 impl Suite {
     /// The `geneva diagnose-selfcheck` arguments after `--out`.
     fn arguments(&self) -> Vec<String> {
-        let mut args: Vec<String> = self.args.iter().map(|s| s.to_string()).collect();
+        let p = &self.plan;
+        let mut args: Vec<String> = [
+            ("--levels", p.levels.to_string()),
+            ("--seeds-per-case", p.seeds_per_case.to_string()),
+            ("--nulls", p.nulls.to_string()),
+            ("--flicker", p.flicker.to_string()),
+            ("--excluded", p.excluded.to_string()),
+            ("--pairs", p.pairs.to_string()),
+            ("--duration-s", "6".to_string()),
+        ]
+        .into_iter()
+        .flat_map(|(flag, value)| [flag.to_string(), value])
+        .collect();
         if self.name.contains("independent") {
-            args.extend(INDEPENDENT.iter().map(|s| s.to_string()));
+            args.extend(["--renderer".to_string(), "independent".to_string()]);
         }
-        if !self.only_seeds.is_empty() {
-            let cases: Vec<String> = self
+        if !p.only_seeds.is_empty() {
+            let cases: Vec<String> = p
                 .only_seeds
                 .iter()
                 .flat_map(|seed| {
