@@ -1,4 +1,4 @@
-//! `geneva calibrate` on 300 frames of 4K footage (issue #10's speed target: under a minute on
+//! `geneva calibrate` on 300 frames of 4K footage (speed target: under a minute on
 //! the 2-core machine): `seed-internal-4k` (3840×2160, 10 s at ~30 fps with the phone's VFR
 //! timing, seed effects) rendered once to JPEG frames (quality 95, like the phone's; ~0.5 GB,
 //! where PNGs or a video's intermediate PNGs would need several GB) with their timestamps, then

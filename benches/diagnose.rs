@@ -1,4 +1,4 @@
-//! Wall time of one diagnosis (issue #11's speed figure): 300 frames of 1280×720 footage with a
+//! Wall time of one diagnosis: 300 frames of 1280×720 footage with a
 //! withheld rolling shutter (30 ms readout), all candidates, from the frames and from the
 //! tracks CSV the frame run wrote; then the same footage with a withheld axis runout instead,
 //! whose candidate costs most per trial. Targets on the 2-core reference machine: ≤ 5 min from frames,

@@ -1,6 +1,6 @@
 //! Cost of the work-unit layer itself (no rendering: a trivial evaluator), as the study grows:
 //! per-unit overhead of a whole run (log append + flush per unit), a 64-shard run plus the merge,
-//! merge time, and the output sizes — the "scale on paper" figures of ARCHITECTURE.md.
+//! merge time, and the output sizes — the "scale on paper" figures of docs/studies.md.
 //! Run: `cargo bench --bench shards` (or `cargo xtask bench`); `GENEVA_BENCH_UNITS=1000,10000`
 //! chooses the study sizes (default 1000, 10000, 100000).
 

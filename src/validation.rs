@@ -154,7 +154,7 @@ mod tests {
 
     #[test]
     fn numbers_are_printed_short() {
-        // Issue #14: messages printed 1e308 as 309 digits.
+        // Regression: messages printed 1e308 as 309 digits.
         assert_eq!(short(1e308), "1e308");
         assert_eq!(short(-1e-300), "-1e-300");
         assert_eq!(short(0.00001), "0.00001");

@@ -1,4 +1,4 @@
-//! Input integrity of `analyze` (issue #14): damaged inputs are counted and reported, never
+//! Input integrity of `analyze`: damaged inputs are counted and reported, never
 //! silently used. Each test reproduces one observed failure on frames rendered from `fast`
 //! (1280x720, 60 frames) and checks the result against the undamaged input.
 #![cfg(feature = "opencv-detector")]
@@ -82,7 +82,7 @@ fn centre_shift_px(a: &AnalyzeOutput, b: &AnalyzeOutput) -> f64 {
 
 #[test]
 fn a_frame_of_another_size_is_recorded_unreadable_not_searched() {
-    // Issue #14: one 640x360 PNG in the 1280x720 sequence moved the rotation centre by ~78 px,
+    // Regression: one 640x360 PNG in the 1280x720 sequence moved the rotation centre by ~78 px,
     // exit 0, no warning.
     let dir = tempfile::tempdir().unwrap();
     let frames = copy_frames(dir.path());
@@ -108,7 +108,7 @@ fn a_frame_of_another_size_is_recorded_unreadable_not_searched() {
 
 #[test]
 fn a_zero_byte_png_in_the_middle_is_recorded_and_the_analysis_goes_on() {
-    // Issue #14: a zero-byte PNG aborted the whole analysis.
+    // Regression: a zero-byte PNG aborted the whole analysis.
     let dir = tempfile::tempdir().unwrap();
     let frames = copy_frames(dir.path());
     std::fs::write(frames.join("frame_000020.png"), b"").unwrap();
@@ -142,7 +142,7 @@ fn a_frame_of_another_pixel_format_is_recorded_unreadable() {
 
 #[test]
 fn a_track_keeps_its_frame_numbers_and_counts_its_gaps() {
-    // Issue #14: frames 50–59 came out numbered 10–19 and 40 absent frames were "0 missing".
+    // Regression: frames 50–59 came out numbered 10–19 and 40 absent frames were "0 missing".
     let dir = tempfile::tempdir().unwrap();
     let full = read_tracks(&clean_tracks(), Some(0)).unwrap();
     let text = std::fs::read_to_string(clean_tracks()).unwrap();
@@ -203,7 +203,7 @@ fn ffmpeg(args: &[&str]) {
 
 #[test]
 fn a_truncated_video_is_reported_with_its_last_good_frame() {
-    // Issue #14: an MP4 with the index at the front, cut in half, was analysed as 30 of its
+    // Regression: an MP4 with the index at the front, cut in half, was analysed as 30 of its
     // 60 frames and reported "0 missing".
     let dir = tempfile::tempdir().unwrap();
     let whole = dir.path().join("whole.mp4");

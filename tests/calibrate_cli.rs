@@ -1,6 +1,6 @@
 //! `geneva calibrate` end to end through the binary: rendered footage in, a calibrated scenario
 //! (extending the base, every fitted field with its uncertainty), calibration.md and overlay.png
-//! out, all at once; the bad inputs of issue #10 refused with a message naming what is missing,
+//! out, all at once; bad inputs refused with a message naming what is missing,
 //! and nothing written; the real 4K frame in single-frame mode.
 #![cfg(feature = "opencv-detector")]
 

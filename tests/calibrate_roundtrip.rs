@@ -1,4 +1,4 @@
-//! `geneva calibrate` round trip (issue #10), the small case: footage rendered from random
+//! `geneva calibrate` round trip, the small case: footage rendered from random
 //! scenarios with known parameters (fixed seed) is calibrated and every fitted value compared
 //! with the truth. The whole case (40 scenarios) is `reports/calibration/` (`cargo xtask
 //! reports`), which states every criterion with its measured figure.

@@ -1,4 +1,4 @@
-//! The `geneva` binary's messages (issue #14): every error names what is wrong once, a folder
+//! The `geneva` binary's messages: every error names what is wrong once, a folder
 //! named like a built-in never shadows it, frame ranges say what they hold.
 #![cfg(feature = "opencv-detector")]
 
@@ -18,7 +18,7 @@ fn repeated(text: &str) -> Vec<String> {
 
 #[test]
 fn a_run_into_a_folder_named_like_its_builtin_can_be_repeated() {
-    // Issue #14: `geneva run fast --out fast` failed the second time ("fast: cannot read: Is a
+    // Regression: `geneva run fast --out fast` failed the second time ("fast: cannot read: Is a
     // directory (os error 21): Is a directory (os error 21)").
     let dir = tempfile::tempdir().unwrap();
     for attempt in 0..2 {
@@ -33,7 +33,7 @@ fn a_run_into_a_folder_named_like_its_builtin_can_be_repeated() {
 
 #[test]
 fn an_empty_frame_range_says_so() {
-    // Issue #14: `render fast --frames 5..5` said "outside the scenario's 60 frames".
+    // Regression: `render fast --frames 5..5` said "outside the scenario's 60 frames".
     let dir = tempfile::tempdir().unwrap();
     let o = geneva(dir.path(), &["render", "fast", "--frames", "5..5"]);
     assert!(!o.status.success());
@@ -52,7 +52,7 @@ fn an_empty_frame_range_says_so() {
 
 #[test]
 fn error_messages_state_each_cause_once() {
-    // Issue #14: 62 of about 1,000 messages repeated their text ("Not a directory (os error
+    // Regression: 62 of about 1,000 messages repeated their text ("Not a directory (os error
     // 20): Not a directory (os error 20)").
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("adir")).unwrap();
@@ -94,7 +94,7 @@ fn check_reports_combinations_and_work_and_run_refuses_unbounded_work() {
         out.contains("work: 60 frames of 1280x720 px") && out.contains("rig: 60 frames"),
         "{out}"
     );
-    // Issue #14: accepted by `check`, fatal in `run` (once with its message printed thrice).
+    // Regression: accepted by `check`, fatal in `run` (once with its message printed thrice).
     for (text, field) in [
         ("dynamics.wheel_mass_kg = 1e-300", "dynamics.wheel_mass_kg"),
         ("scene.disc_radius_mm = 1e308", "scene.disc_radius_mm"),
@@ -135,7 +135,7 @@ fn check_reports_combinations_and_work_and_run_refuses_unbounded_work() {
 
 #[test]
 fn a_million_point_sweep_is_refused_before_its_grid_is_built() {
-    // Issue #14: a 10⁶-point grid was neither refused nor warned about (2.3 GB, 60 s before the
+    // Regression: a 10⁶-point grid was neither refused nor warned about (2.3 GB, 60 s before the
     // first row).
     let dir = tempfile::tempdir().unwrap();
     let values = |scale: f64| {
@@ -165,7 +165,7 @@ fn a_million_point_sweep_is_refused_before_its_grid_is_built() {
 
 #[test]
 fn a_reader_that_goes_away_ends_the_process_quietly() {
-    // Issue #14 audit: `geneva … | head` exited 101 with "failed printing to stdout: Broken
+    // Regression: `geneva … | head` exited 101 with "failed printing to stdout: Broken
     // pipe" once `head` had closed the pipe. The read end is closed before the child writes.
     use std::process::{Command, Stdio};
     let dir = tempfile::tempdir().unwrap();
@@ -185,7 +185,7 @@ fn a_reader_that_goes_away_ends_the_process_quietly() {
 
 #[test]
 fn a_failed_estimation_keeps_the_detections_it_names() {
-    // Issue #14 audit: the error named tracks in a staging folder that had just been removed.
+    // Regression: the error named tracks in a staging folder that had just been removed.
     let dir = tempfile::tempdir().unwrap();
     let o = geneva(
         dir.path(),

@@ -308,7 +308,7 @@ fn a_disc_vibration_drawn_by_another_renderer_is_fitted_at_its_amplitude() {
     assert_eq!(o.param_rel_errors.len(), 2, "{o:?}");
     assert!(o.param_rel_errors.iter().all(|e| *e < 0.15), "{o:?}");
     // The amplitude's ± holds the gain's spread over placements on the pixel grid, so its
-    // 95 % interval holds the truth (`reports/diagnosis-stop67/`).
+    // 95 % interval holds the truth (`reports/diagnosis-seed-1/`).
     assert!(o.params_in_ci95.iter().all(|inside| *inside), "{o:?}");
     let entry = ranked_entry(work, &o.name, "disc_vibration");
     assert_eq!(common::check_bootstrap(&entry), Ok(2), "{entry}");

@@ -2,7 +2,7 @@
 //! frame, and the aliasing part that no camera at that rate can. Pure numbers: the truth comes in
 //! as a function θ2(t), the frames as instants.
 //!
-//! Definition (the one place it is written in full is ARCHITECTURE.md, "Resolvable truth"):
+//! Definition (the one place it is written in full is docs/resolvable-truth.md):
 //! for frame k with timestamp t_k, let τ_k be the centre of the marker's exposure in that frame
 //! (timestamp convention and rolling-shutter row time included), E the exposure time, h̃ the
 //! median frame interval and f_N = 1/(2h̃) the footage's Nyquist rate. Then

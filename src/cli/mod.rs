@@ -226,7 +226,7 @@ mod tests {
 
     #[test]
     fn causes_already_in_the_message_are_not_repeated() {
-        // Issue #14: "Is a directory (os error 21): Is a directory (os error 21)".
+        // Regression: "Is a directory (os error 21): Is a directory (os error 21)".
         let dir = tempfile::tempdir().unwrap();
         let missing = dir.path().join("nope.toml");
         let e = anyhow::Error::from(scenario::load(&missing).unwrap_err());

@@ -106,7 +106,7 @@ mod tests {
         assert_eq!(parse_range("5..8").unwrap(), 5..8);
         assert_eq!(parse_range("5..=8").unwrap(), 5..9);
         assert_eq!(parse_range("5").unwrap(), 5..6);
-        // Issue #14: `--frames 5..5` was reported as "outside the scenario's 60 frames".
+        // Regression: `--frames 5..5` was reported as "outside the scenario's 60 frames".
         let e = parse_range("5..5").unwrap_err().to_string();
         assert!(e.contains("holds no frame") && e.contains("5..6"), "{e}");
         assert!(parse_range("7..3").is_err());

@@ -187,9 +187,9 @@ impl ChannelSpec {
     /// The slowest band is the same flicker when the simulations draw no slow shape change
     /// ([`SlowShape::Absent`]): a 0.14 px optical blur in the footage, the size of an
     /// anti-aliasing difference, put the entry phase's slow side band 7× below a sharp
-    /// nominal's (z = −5.4, its only cell, `reports/diagnosis-stop53/`), and the own renderer's
+    /// nominal's (z = −5.4, its only cell, commit `dd41046`), and the own renderer's
     /// 15 ms motion blur, fitted right, left its slow radius band 10× below (z = −4.9,
-    /// `reports/diagnosis-stop52/`). It stays symmetric when the simulations carry a tilt, a
+    /// commit `617faef`). It stays symmetric when the simulations carry a tilt, a
     /// lens or a runout: those draw slow side and radius changes, and a simulation whose value
     /// lies above the real one there overstates them (a tilt fitted 25.6° for 20° when this
     /// side was wide for it).

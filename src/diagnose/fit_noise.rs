@@ -7,8 +7,8 @@
 //! with the seeds' realisation: on one footage of a 0.5 mm clearance, fits on five sets of 3
 //! fit seeds gave 0.465–0.529 mm (spread 0.024) while each stated ± 0.009–0.043, and the
 //! self-check's fixed pair of fit seeds gave 0.434 ± 0.010 on three data seeds alike
-//! (`reports/diagnosis-stop38/`); a drive speed of −0.150 fitted at −0.137, −0.141, −0.153,
-//! −0.140 and −0.156 on five sets (`reports/diagnosis-stop39/`).
+//! (commit `8b8b8cf`); a drive speed of −0.150 fitted at −0.137, −0.141, −0.153, −0.140 and
+//! −0.156 on five sets (commit `e8f8692`).
 //!
 //! The noise a seed set adds is measured directly: the candidate is fitted again on R sets
 //! of fresh seeds, disjoint from the first fit's and from each other's, so the n = R + 1 fits
@@ -23,7 +23,7 @@
 //! That curvature undercounts the footage's noise when the signature's cells move together (a
 //! camera shake's per-band powers in the centre track, the angle and the corners are one draw of
 //! the shake, yet χ² counts each cell as its own): on four footages of a 1 px shake the stated
-//! value spread 2.3× the stated ± (`reports/diagnosis-stop42/`). The footage's noise is then
+//! value spread 2.3× the stated ± (commit `bcab0e1`). The footage's noise is then
 //! measured as it is meant: B footages simulated at the stated values on fresh data seeds, each
 //! fitted as the real one was, on the same fit seeds ([`from_footage_fits`]); their mean also
 //! shows the fit's bias at the stated value, which is taken off when it is significant.
@@ -266,7 +266,7 @@ pub struct Interval95 {
 ///
 /// A σ estimated on ν degrees of freedom makes (value − truth)/σ a Student t on ν, not a
 /// normal: at B = 8 footages the camera shakes' RMS error/± was 1.17, what t₇ gives
-/// (√(7/5) = 1.18; `reports/diagnosis-stop44/`), so a ±1.96σ interval covers less than
+/// (√(7/5) = 1.18; commit `590513e`), so a ±1.96σ interval covers less than
 /// 95 %. The degrees of freedom of a σ² that sums such parts are Welch–Satterthwaite's,
 /// ν = σ⁴ / Σ(uᵢ⁴/νᵢ), truncated to the integer below as the GUM (G.4.1) asks, and k is
 /// Student's t₀.₉₇₅ on it. The interval is clipped to `valid`. `None` when the value or σ is not
@@ -428,8 +428,8 @@ mod tests {
         );
         assert!(close(f.value, 0.25) && close(f.std, 0.011), "{f:?}");
         // The same fits stopped at the search's end bound the bias, not measure it: the value
-        // stands (stop 53: a 15.9 ms exposure's three footage fits all at a 60 fps rig's
-        // 16.7 ms frame interval).
+        // stands (a 15.9 ms exposure's three footage fits all stopped at a 60 fps rig's 16.7 ms
+        // frame interval).
         let f = from_footage_fits(
             value,
             0.011,

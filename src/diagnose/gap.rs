@@ -173,7 +173,7 @@ pub fn compare_with_slow_shape(real: &Cells, sims: &[Cells], options: GapOptions
 /// sides. The wider tolerance below the simulations
 /// ([`super::cells::ChannelSpec::tol_rel_below`]) lets the test accept a cleaner renderer; in a
 /// fit it makes overshooting cheap, and the search then settles above the truth (strong camera
-/// vibration fitted 19–77 % high on every seed of `reports/diagnosis-seeds-independent/`).
+/// vibration fitted 19–77 % high on every seed of the independent renderer's strong runs, commit `cb4f031`).
 pub fn compare_for_fit(real: &Cells, sims: &[Cells], options: GapOptions) -> GapMap {
     compare_with(real, sims, options, Tolerance::Fit)
 }
@@ -382,7 +382,7 @@ mod tests {
 
     #[test]
     fn cells_short_of_significance_for_lack_of_seeds_are_named() {
-        // The two missed strong runouts of reports/diagnosis-seeds-independent: z 4.8 in the
+        // The two missed strong runouts of commit cb4f031: z 4.8 in the
         // angle's low band, Student t on 4 seeds (ν ≈ 3) far from significant among 104 cells,
         // the normal limit at p ≈ 1.6e-6 well inside BH's 0.01/104.
         let z = 4.81;
@@ -520,7 +520,7 @@ mod tests {
 
     #[test]
     fn a_cleaner_slow_side_band_is_tolerated_only_when_the_simulation_draws_no_slow_shape() {
-        // The weak optical blur of reports/diagnosis-stop53/: the entry phase's slow side band
+        // The weak optical blur of commit dd41046's second rig: the entry phase's slow side band
         // 2.8e-4 in the footage against 1.9e-3 ± 3e-4 simulated by a sharp nominal.
         let slow = CellKey {
             channel: "side",

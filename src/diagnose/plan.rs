@@ -233,7 +233,7 @@ pub fn runner_up_second(
 ///
 /// Over 95 independent cells of z ~ N(0, 1) (a gap map's size on the self-check's rigs), D's
 /// 99th percentile is 5.1 and its 99.9th 7.6 (Monte Carlo, 40 000 draws); over the stored
-/// `explained` diagnoses of stops 35–54's self-checks (about 150 distinct single-effect cases,
+/// `explained` diagnoses of the self-checks run before this rule (about 150 distinct single-effect cases,
 /// both renderers, both rigs) the best single left more than 8 twice: a weak tilt (9.3) and an
 /// optical blur of 1.4 px filmed with a JPEG quality of 35 (11.5), which the JPEG quality alone
 /// "explained": its six edge-width cells at |z| ≈ 3.4 each missed Benjamini–Hochberg by a hair.
@@ -637,7 +637,7 @@ mod tests {
 
     #[test]
     fn a_second_effect_counts_only_when_it_lowers_the_fit_below_the_nominal_by_two_per_parameter() {
-        // The runout pairs of stop 56's seed-1 disc vibration + runout footage.
+        // The runout pairs of the seed-1 disc vibration + runout footage (commit e8389b2).
         assert!(
             !second_lowers_fit(78.48, 79.98, 1),
             "drive speed above the nominal's"
@@ -665,7 +665,7 @@ mod tests {
 
     #[test]
     fn a_backfit_keeps_the_refit_only_where_it_does_not_climb() {
-        // Stop 56's runout refitted beside a drive-speed variation: 1.30 mm gave 86.4 where the
+        // The pair footage's runout refitted beside a drive-speed variation: 1.30 mm gave 86.4 where the
         // single's 2.15 mm gave 80.0.
         assert!(!backfit_keeps_refit(80.0, 86.4));
         // The seed-0 shake refitted beside a motion blur: 1.20 → 0.93 px lowered 79.5 → 71.7.

@@ -223,7 +223,7 @@ pub struct GainInversion {
 /// pixel grid. The same scenario with its rotation centre moved by 0.2–0.8 px read one
 /// vibration with gains 0.97–1.14, and three fits on 2 placements each agreed on a gain of about
 /// 0.9 while the footage's own placement had about 1.09: an amplitude 20 % high, 3.9 of its ±
-/// from the truth, when the ± held the footage's noise only (`reports/diagnosis-stop67/`). The
+/// from the truth, when the ± held the footage's noise only (`reports/diagnosis-seed-1/`). The
 /// footage's placement is one draw of what the simulations' placements sample, known only to a
 /// fraction of a pixel, so its gain is uncertain by their spread s_g, not by s_g/√n:
 /// σ_A² = (σ_c / |h̄|)² + (A · s_g / |h̄|)². The spread also holds the simulations' detection

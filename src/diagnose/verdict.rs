@@ -30,8 +30,7 @@ pub const GROUP_MARGIN: f64 = 0.1;
 /// One, not two: this asks whether the fit found any effect at all, not whether it is
 /// significant, and near the detection limit the right effect's fit can be under 2 σ from
 /// doing nothing (a weak JPEG compression at 1.9 σ in the self-check,
-/// `reports/diagnosis-stop53/`). Over the 86 explained cases of stops 48–52's self-check
-/// suites, one candidate fell under it: a lens k1 = 0.006 ± 0.010 that "explained" a weak
+/// commit `dd41046`). Over the 86 explained cases of the self-check suites run before it, one candidate fell under it: a lens k1 = 0.006 ± 0.010 that "explained" a weak
 /// optical blur's footage by closing one side-length cell on fresh seeds, the one wrong
 /// attribution among them.
 pub const DISTINCT_Z: f64 = 1.0;
@@ -182,7 +181,7 @@ pub fn tells_from_nominal_at(values: &[FromNominal], z_min: f64) -> Option<bool>
 /// search range `search` (low, high). Such a fit measured no value: what it closed, switching the
 /// effect on closed, at whatever value the search stopped. An overrotation, whose switch turns the
 /// wheel dynamics on, "explained" a withheld axis runout with its friction at the search's upper
-/// end and no ± when the runout was excluded from the candidates (`reports/diagnosis-stop63/`).
+/// end and no ± when the runout was excluded from the candidates (commit `7284926`).
 /// A valley's values (a full well and read noise that trade) are not at an end together.
 pub fn undetermined_at_search_end(values: &[f64], stds: &[f64], search: &[(f64, f64)]) -> bool {
     !values.is_empty()
@@ -409,7 +408,7 @@ mod tests {
             let v = verdict(significant, d0, best.as_ref(), distinct);
             assert_eq!(reason(v, d0, best.as_ref(), set_aside), want, "{want:?}");
         }
-        // null-24 of stop 62: D₀ 4.8, closed all of it with one parameter, no cell left.
+        // null-24 of `reports/diagnosis-nulls/`: D₀ 4.8, closed all of it with one parameter, no cell left.
         let small = o(0.0, 1, 0);
         let v = verdict(1, 4.8, Some(&small), None);
         assert_eq!(v, Verdict::Unexplained);

@@ -10,6 +10,7 @@ use rand_distr::StandardNormal;
 
 use super::circle_fit::{fit_rotation_centre, geometric, kasa, taubin};
 use super::*;
+use crate::proptest_utils::frame_times;
 use crate::rng::{stream, Stream};
 
 /// Corners of a square marker (side `side_px`, centre at radius `r_px` from `c`) rotated by
@@ -150,19 +151,6 @@ fn seed_parity_centre_and_derivatives() {
     assert_eq!((est.frames, est.detected, est.missing), (40, 38, 2));
 }
 
-fn sorted_times() -> impl Strategy<Value = Vec<f64>> {
-    prop::collection::vec(0.01f64..0.08, 6..30).prop_map(|steps| {
-        let mut t = 0.0;
-        steps
-            .iter()
-            .map(|h| {
-                t += h;
-                t
-            })
-            .collect()
-    })
-}
-
 fn poly(c: &[f64], t: f64) -> (f64, f64, f64) {
     let mut v = 0.0;
     let mut d1 = 0.0;
@@ -184,7 +172,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     #[test]
-    fn central3_exact_on_quadratics(t in sorted_times(), c in prop::collection::vec(-5.0f64..5.0, 3)) {
+    fn central3_exact_on_quadratics(t in frame_times(), c in prop::collection::vec(-5.0f64..5.0, 3)) {
         let f: Vec<f64> = t.iter().map(|&x| poly(&c, x).0).collect();
         let d = Differentiator::Central3.differentiate(&t, &f).unwrap();
         for (i, &x) in t.iter().enumerate() {
@@ -195,7 +183,7 @@ proptest! {
     }
 
     #[test]
-    fn seed_exact_on_linear(t in sorted_times(), c in prop::collection::vec(-5.0f64..5.0, 2)) {
+    fn seed_exact_on_linear(t in frame_times(), c in prop::collection::vec(-5.0f64..5.0, 2)) {
         let f: Vec<f64> = t.iter().map(|&x| poly(&c, x).0).collect();
         let d = Differentiator::Seed.differentiate(&t, &f).unwrap();
         for i in 0..t.len() {
@@ -212,7 +200,7 @@ proptest! {
 
     #[test]
     fn savitzky_golay_exact_on_its_order(
-        t in sorted_times(),
+        t in frame_times(),
         order in 2usize..=4,
         extra in 0usize..3,
         c in prop::collection::vec(-3.0f64..3.0, 5),
@@ -344,7 +332,7 @@ proptest! {
 ///
 /// Both with four independent tracks and with the pipeline's five, the fifth being the corners'
 /// mean: the plain s²·(JᵀJ)⁻¹ counted that mean as new data and reported a σ 9.5 ± 2 % too small
-/// (ratio 1.095, issue #14); the covariance is now clustered by frame.
+/// (ratio 1.095); the covariance is now clustered by frame.
 #[test]
 fn geometric_beats_kasa_on_short_arcs_and_sigma_is_honest() {
     let c = [1800.0, 1100.0];
@@ -661,7 +649,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(32))]
 
     #[test]
-    fn kalman_exact_on_quadratics(t in sorted_times(), c in prop::collection::vec(-5.0f64..5.0, 3), log_l in 0.0f64..8.0) {
+    fn kalman_exact_on_quadratics(t in frame_times(), c in prop::collection::vec(-5.0f64..5.0, 3), log_l in 0.0f64..8.0) {
         // A quadratic is a noise-free trajectory of the white-jerk model, so the smoother
         // reproduces it whatever λ is (up to the finite prior).
         let f: Vec<f64> = t.iter().map(|&x| poly(&c, x).0).collect();
@@ -718,7 +706,7 @@ proptest! {
 
     #[test]
     fn savitzky_golay_seconds_window_exact_on_its_order(
-        t in sorted_times(),
+        t in frame_times(),
         order in 2usize..=3,
         window_s in 0.2f64..0.6,
         c in prop::collection::vec(-3.0f64..3.0, 4),

@@ -158,7 +158,7 @@ impl From<TimingLogError> for FitLogError {
 mod tests {
     use super::*;
 
-    /// Issue #14: a spreadsheet's UTF-8 byte order mark made the header a time
+    /// Regression: a spreadsheet's UTF-8 byte order mark made the header a time
     /// ("time '\u{feff}frame' is not a number"). Every format, read from a file with its format
     /// guessed, gives the same times with and without one.
     #[test]

@@ -519,7 +519,7 @@ mod tests {
 
     #[test]
     fn utf8_bom_before_the_header_is_accepted() {
-        // Issue #14: a BOM gave "missing column(s) [\"frame\"]".
+        // Regression: a BOM gave "missing column(s) [\"frame\"]".
         let text = format!("\u{feff}{HEAD}{}", row(0, "0"));
         let rows = parse_tracks(&text, Path::new("bom.csv"), Some(0)).unwrap();
         assert_eq!(rows.len(), 1);
@@ -532,7 +532,7 @@ mod tests {
 
     #[test]
     fn a_file_cut_inside_its_last_row_is_an_error_naming_the_line() {
-        // Issue #14: `…,242` cut to `…,24` was read as a corner 218 px away, exit 0.
+        // Regression: `…,242` cut to `…,24` was read as a corner 218 px away, exit 0.
         let whole = format!("{HEAD}{}{}", row(0, "0"), row(1, "0"));
         assert_eq!(parse_tracks_t(&whole, Path::new("t.csv")).unwrap().len(), 2);
         let cut = &whole[..whole.len() - 2];
@@ -554,7 +554,7 @@ mod tests {
 
     #[test]
     fn frame_numbers_are_kept_and_gaps_listed() {
-        // Issue #14: frames 50–59 came out as 10–19 and 40 absent frames counted as none.
+        // Regression: frames 50–59 came out as 10–19 and 40 absent frames counted as none.
         let text: String = std::iter::once(HEAD.to_string())
             .chain((0..10).chain(50..60).map(|f| row(f, "0")))
             .collect();
@@ -616,7 +616,7 @@ mod tests {
 
     #[test]
     fn out_of_range_numbers_are_errors_naming_line_and_column() {
-        // Issue #14: a corner of 1e308 gave an error with no line number.
+        // Regression: a corner of 1e308 gave an error with no line number.
         let p = Path::new("t.csv");
         let text = format!("{HEAD}{}1,0.5,0,1e308,2,3,4,5,6,7,8\n", row(0, "0"));
         let e = parse_tracks(&text, p, None).unwrap_err().to_string();

@@ -155,7 +155,7 @@ impl VideoWriter {
 mod tests {
     use super::*;
 
-    /// Issue #14: with the disk full, ffmpeg wrote over a good video in place and left an
+    /// Regression: with the disk full, ffmpeg wrote over a good video in place and left an
     /// unplayable one. A failed encode (here: 3×3 px, which H.264 in 4:2:0 refuses; or no ffmpeg)
     /// leaves the earlier file untouched and no staging folder behind.
     #[test]

@@ -222,11 +222,8 @@ impl Geneva {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::proptest_utils::geneva_kind;
     use proptest::prelude::*;
-
-    fn kind_strategy() -> impl Strategy<Value = GenevaKind> {
-        prop_oneof![Just(GenevaKind::External), Just(GenevaKind::Internal)]
-    }
 
     /// Crank angle along a cubic in time around t = 0 (so α1 and j1 are non-zero).
     fn crank_at(c: &CrankState, t: f64) -> f64 {
@@ -246,7 +243,7 @@ mod tests {
 
         #[test]
         fn derivatives_match_numerical_differentiation(
-            kind in kind_strategy(),
+            kind in geneva_kind(),
             n in 3u32..=12,
             frac in -0.95f64..0.95,
             w1 in prop_oneof![-2.0f64..-0.5, 0.5f64..2.0],
@@ -281,7 +278,7 @@ mod tests {
 
         #[test]
         fn engagement_advances_by_index_and_is_continuous(
-            kind in kind_strategy(),
+            kind in geneva_kind(),
             n in 3u32..=12,
             rev in -3i32..3,
         ) {

@@ -549,7 +549,7 @@ pub fn criteria(results: &[CaseResult]) -> Vec<(String, String, Option<bool>)> {
 
 /// The criteria as a Markdown table.
 pub fn criteria_table(results: &[CaseResult]) -> String {
-    let mut s = String::from("| criterion (issue #10) | measured | met |\n|---|---|---|\n");
+    let mut s = String::from("| criterion | measured | met |\n|---|---|---|\n");
     for (what, figure, met) in criteria(results) {
         s.push_str(&format!(
             "| {what} | {figure} | {} |\n",

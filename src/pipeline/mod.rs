@@ -1,7 +1,8 @@
 //! Orchestration: the jobs the CLI runs, composed from the pure core and `io`.
 //!
-//! Each job takes a validated scenario and an output directory and returns what it computed;
-//! nothing here is maths.
+//! Each job takes a validated scenario and an output directory and returns what it computed.
+//! Most of it composes the pure core; `diagnose` also holds the diagnosis's candidate fits,
+//! which simulate measurements and so need the detector.
 
 #[cfg(feature = "opencv-detector")]
 pub mod analyze;

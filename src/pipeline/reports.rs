@@ -861,13 +861,25 @@ pub fn decomposition_report(out_dir: &Path, rule: SeedRule) -> Result<Vec<PathBu
 }
 
 /// Writes one report folder all at once (`io::output_dir`): `make` writes into the staging
-/// folder; returns the final paths.
+/// folder, then its README ends with the command that regenerates it; returns the final paths.
 fn staged(
     dir: &Path,
+    name: &str,
     make: impl FnOnce(&Path) -> Result<(), ReportsError>,
 ) -> Result<Vec<PathBuf>, ReportsError> {
     let out = crate::io::output_dir::OutputDir::create(dir)?;
     make(out.path())?;
+    let readme = out.path().join("README.md");
+    let text = std::fs::read_to_string(&readme).map_err(crate::errors::FileError::io(&readme))?;
+    write_text(
+        &readme,
+        &format!(
+            "{}\n\n## Regenerate\n\n`cargo xtask reports --only {name}` (= `geneva reports --out \
+             reports --only {name}`) rewrites this folder; on the same code it comes out the \
+             same, byte for byte.\n",
+            text.trim_end()
+        ),
+    )?;
     Ok(out.commit()?)
 }
 
@@ -895,7 +907,7 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
     };
     let mut files = Vec::new();
     if wanted("fast") {
-        files.extend(staged(&out_root.join("fast"), |d| {
+        files.extend(staged(&out_root.join("fast"), "fast", |d| {
             fast_report(d, seeds).map(|_| ())
         })?);
     }
@@ -904,28 +916,30 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
         (SeedRig::External, "seed-external-4k"),
     ] {
         if wanted(name) {
-            files.extend(staged(&out_root.join(name), |d| {
+            files.extend(staged(&out_root.join(name), name, |d| {
                 seed_report(rig, d, seeds).map(|_| ())
             })?);
         }
     }
     if wanted("decomposition") {
-        files.extend(staged(&out_root.join("decomposition"), |d| {
-            decomposition_report(d, REPORT_SEED_RULE).map(|_| ())
-        })?);
+        files.extend(staged(
+            &out_root.join("decomposition"),
+            "decomposition",
+            |d| decomposition_report(d, REPORT_SEED_RULE).map(|_| ()),
+        )?);
     }
     if wanted("seed-camera") {
-        files.extend(staged(&out_root.join("seed-camera"), |d| {
+        files.extend(staged(&out_root.join("seed-camera"), "seed-camera", |d| {
             seed_camera_report(&options.seed_camera_sweep, d)
         })?);
     }
     if wanted("dynamics") {
-        files.extend(staged(&out_root.join("dynamics"), |d| {
+        files.extend(staged(&out_root.join("dynamics"), "dynamics", |d| {
             dynamics_report(d).map(|_| ()).map_err(ReportsError::from)
         })?);
     }
     if wanted("calibration") {
-        files.extend(staged(&out_root.join("calibration"), |d| {
+        files.extend(staged(&out_root.join("calibration"), "calibration", |d| {
             super::calibrate_roundtrip::calibration_report(
                 d,
                 20261123,
@@ -937,7 +951,7 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
         })?);
     }
     if wanted("defaults") {
-        files.extend(staged(&out_root.join("defaults"), |d| {
+        files.extend(staged(&out_root.join("defaults"), "defaults", |d| {
             defaults_report(d, &Spread::full())
                 .map(|_| ())
                 .map_err(ReportsError::from)
@@ -977,5 +991,17 @@ pub fn seed_camera_report(sweep_file: &Path, out_dir: &Path) -> Result<(), Repor
         moved.map_err(crate::errors::FileError::io(&entry.path()))?;
     }
     std::fs::remove_dir(&run_dir).map_err(crate::errors::FileError::io(&run_dir))?;
+    write_text(
+        &out_dir.join("README.md"),
+        "# Seed-camera sweep\n\nThe seed study's own design question: at which distance, frame \
+         rate and resolution does the internal 4-slot rig's measurement meet ω RMS ≤ 0.02 rad/s \
+         and α RMS ≤ 1 rad/s² against the resolvable truth on their upper 95 % bounds, with the \
+         impact SNR's lower bound ≥ 3? The sweep file is `scenarios/sweeps/seed-camera.toml` (seeds added in \
+         rounds where a point's intervals straddle a threshold). The recommended point, the \
+         runner-up and the flagged non-monotonic neighbours are in \
+         [`recommendation.md`](recommendation.md); every point's figures with their intervals in \
+         `summary.csv`, every run in `results.csv`.\n\n\
+         ![ω RMS](heatmap_omega_rms.png)\n\n![α RMS](heatmap_alpha_rms.png)\n",
+    )?;
     Ok(())
 }

@@ -219,7 +219,7 @@ const DISC_VIBRATION: &[ParamSpec] = &[
 // The probe is 2 mm: the wobble a camera sees is what the circle fit through the marker's
 // path does not absorb, and over the part of a wheel turn that a few seconds of footage cover
 // (the wheel moves only during engagements) a 0.5 mm wobble (1 px on the self-check's rig)
-// left no trace at all (`reports/diagnosis/`, stop 18: radius residual 0.048 px real vs 0.060
+// left no trace at all (an early build's `reports/diagnosis/`: radius residual 0.048 px real vs 0.060
 // simulated).
 const AXIS_RUNOUT: &[ParamSpec] = &[param(
     "amplitude_m",

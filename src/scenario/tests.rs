@@ -240,7 +240,7 @@ fn overrides_on_a_base_with_a_timing_log_are_checked_against_the_logs_rate() {
 
 #[test]
 fn builtin_prefix_and_directories_never_shadow_builtins() {
-    // Issue #14: `geneva run fast --out fast` failed the second time: the output folder `fast/`
+    // Regression: `geneva run fast --out fast` failed the second time: the output folder `fast/`
     // was taken for the scenario file.
     assert_eq!(load_any("builtin:fast").unwrap().name, "fast");
     let e = load_any("builtin:nope").unwrap_err().to_string();

@@ -1,4 +1,4 @@
-//! Physical bounds (issue #14): every numeric field of a scenario has a finite documented range,
+//! Physical bounds: every numeric field of a scenario has a finite documented range,
 //! so no value `check` accepts can make `run` panic or allocate without bound, and combinations
 //! that make a run impossible are reported by `check` too.
 
@@ -112,7 +112,7 @@ fn with_leaf(base: &Value, path: &str, x: Value) -> Result<Scenario, ScenarioErr
 
 #[test]
 fn every_numeric_field_refuses_extreme_values_naming_itself() {
-    // Issue #14: 17 fields accepted 1e308; disc radius and focal length of 1e308 panicked in
+    // Regression: 17 fields accepted 1e308; disc radius and focal length of 1e308 panicked in
     // `run`, 1e12 aborted on a gigabytes-large allocation.
     let mut checked = 0;
     for base in bases() {
@@ -179,7 +179,7 @@ fn problems_of(text: &str) -> Vec<String> {
 
 #[test]
 fn combinations_that_make_a_run_impossible_are_check_errors() {
-    // Issue #14: a detector marker id other than the drawn one passed `check`; `run` reported
+    // Regression: a detector marker id other than the drawn one passed `check`; `run` reported
     // only "too few detected frames: 0".
     let p = problems_of("extend = \"fast\"\ndetector.marker_id = 3\n");
     assert!(
@@ -199,7 +199,7 @@ fn combinations_that_make_a_run_impossible_are_check_errors() {
             .any(|m| m.starts_with("detector.marker_border_bits")),
         "{p:?}"
     );
-    // Issue #14: a 0.1 g wheel with the default contact stiffness passed `check` and failed in
+    // Regression: a 0.1 g wheel with the default contact stiffness passed `check` and failed in
     // `run`; the step limit is now a check error naming the fields it depends on.
     let p = problems_of(
         "extend = \"seed-internal-4k\"\ndynamics.wheel_mass_kg = 1e-4\ndynamics.contact_stiffness_n_m = 1e10\n",

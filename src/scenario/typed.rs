@@ -96,7 +96,7 @@ mod tests {
 
     #[test]
     fn type_errors_in_kind_sections_name_the_field() {
-        // Issue #14: "field `camera.focal`: invalid type ..." named only the section.
+        // Regression: "field `camera.focal`: invalid type ..." named only the section.
         let e = field_error(
             "extend = \"fast\"\n[camera.focal]\nkind = \"physical\"\nfocal_length_mm = \"x\"\n\
              sensor_width_mm = 5.0\n",

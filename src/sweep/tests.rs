@@ -633,7 +633,7 @@ fn an_unknown_axis_field_is_an_error_before_any_run() {
         msg.contains("fpss") && msg.contains("point `fps=30`"),
         "{msg}"
     );
-    // The sweep file is named once, by the scenario error (issue #14: three times).
+    // The sweep file is named once, by the scenario error (three times).
     assert_eq!(msg.matches("inline.toml").count(), 1, "{msg}");
     assert_eq!(fake.calls(), 0);
     assert!(!root.path().join("o").exists());

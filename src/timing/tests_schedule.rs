@@ -4,6 +4,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::proptest_utils::vfr_model;
 use crate::validation::Problems;
 
 fn vfr(fps: f64, v: VfrModel) -> FrameTimingConfig {
@@ -230,36 +231,11 @@ fn log_schedule_rebases_offsets_and_truncates() {
     );
 }
 
-fn valid_vfr() -> impl Strategy<Value = (f64, VfrModel)> {
-    (
-        1.0f64..240.0,
-        -1e5f64..1e5,
-        0.0f64..1.0,
-        0.0f64..1.0,
-        0.0f64..=0.5,
-        0.5f64..3.0,
-        any::<bool>(),
-    )
-        .prop_map(|(fps, ppm, share, used, drop, first, gap)| {
-            let interval = 1.0 / (fps * (1.0 + ppm * 1e-6));
-            // Use up to the whole ordering budget, split between alternation and jitter.
-            let budget = used * 0.5 * interval;
-            let v = VfrModel {
-                jitter_s: share * budget / 8.0,
-                pair_alternation_s: (1.0 - share) * budget,
-                first_interval_s: if gap { first * interval } else { 0.0 },
-                drop_probability: drop,
-                rate_error_ppm: ppm,
-            };
-            (fps, v)
-        })
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     #[test]
-    fn any_valid_vfr_schedule_strictly_increases((fps, v) in valid_vfr(), seed in any::<u64>()) {
+    fn any_valid_vfr_schedule_strictly_increases((fps, v) in vfr_model(), seed in any::<u64>()) {
         let c = vfr(fps, v);
         prop_assert!(problems_of(&c).is_empty(), "{:?}", problems_of(&c));
         let ts = c.schedule(3.0, seed, None).unwrap();
@@ -275,7 +251,7 @@ proptest! {
     /// timebase's 1–1000 fps), validates there and still orders its frames.
     #[test]
     fn a_valid_schedule_moved_to_any_rate_stays_valid(
-        (fps, v) in valid_vfr(),
+        (fps, v) in vfr_model(),
         log_rate in (1.0f64).ln()..(1000.0f64).ln(),
         seed in any::<u64>(),
     ) {

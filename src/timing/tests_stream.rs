@@ -1,5 +1,5 @@
-//! Streaming reads and the fit of long logs (issue #14: `timing fit` failed on any log of
-//! 3,500 frames or more, read a 200 MB log whole, and accepted a log cut mid-number).
+//! Streaming reads and the fit of long logs (guarding against `timing fit` failing on any log of
+//! 3,500 frames or more, reading a 200 MB log whole and accepting a log cut mid-number).
 
 use std::io::Read;
 
@@ -121,7 +121,7 @@ fn the_median_sample_of_a_long_log_is_bounded_and_matches_the_exact_median() {
 
 #[test]
 fn a_log_cut_mid_number_is_an_error_naming_the_line() {
-    // Issue #14: `pts_time:0.29` at the end of a cut log was accepted (jitter then read 1.9 ms).
+    // Regression: `pts_time:0.29` at the end of a cut log was accepted (jitter then read 1.9 ms).
     let whole: String = (0..6)
         .map(|n| showinfo_line(n, n as f64 * 0.0333))
         .collect();
@@ -169,7 +169,7 @@ fn showinfo_reorders_within_a_window_only() {
 
 #[test]
 fn the_printed_fit_is_a_scenario_section_the_loader_reads_back() {
-    // Issue #14: `timing fit` printed `[model]` where the loader wants `[frame_timing.model]`.
+    // Regression: `timing fit` printed `[model]` where the loader wants `[frame_timing.model]`.
     let text = include_str!("../../data/phone-frame-timing/model_test1.showinfo.log");
     let fit = fit_vfr(&parse_showinfo(text).unwrap()).unwrap();
     let section = fit.scenario_toml();

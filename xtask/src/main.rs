@@ -12,7 +12,9 @@
 //! - `cargo xtask fuzz [--inputs N] [--seed S]` — every parser of user input on N generated
 //!   inputs (default 1,000,000 each; `tests/fuzz.rs`), printing count, wall time and peak
 //!   allocation per parser.
-//! - `cargo xtask reports` — regenerate everything under `reports/` deterministically.
+//! - `cargo xtask reports` — regenerate the reports `geneva reports` makes, deterministically.
+//! - `cargo xtask diagnosis [NAME…|all]` — the diagnosis self-check suites committed under
+//!   `reports/`, each by name (the table [`SUITES`]; no name lists them with their commands).
 //! - `cargo xtask deps`    — only check/install the system packages.
 //!
 //! Architecture invariant: xtask has no dependencies and builds without OpenCV, so it can run on
@@ -36,11 +38,10 @@ fn main() {
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "fuzz" => fuzz(rest),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
-        "diagnosis" => system::ensure_packages()
-            .and_then(|_| geneva("diagnose-selfcheck", "reports/diagnosis", rest)),
+        "diagnosis" => system::ensure_packages().and_then(|_| diagnosis(rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate reports/ deterministically\n  diagnosis  the diagnosis self-check into reports/diagnosis/ (hours for the whole suite; resumable, --shard I/N)\n  deps     check and install the system packages"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  deps     check and install the system packages"
             );
             Ok(())
         }
@@ -202,112 +203,256 @@ fn fuzz(extra: &[String]) -> Result<(), String> {
     run(command)
 }
 
-/// The diagnosis self-check committed in `reports/diagnosis/` (and, with the footage drawn by
-/// the independent renderer, in `reports/diagnosis-independent/`): every withheld effect of the
-/// vocabulary at the strong level × 1 seed, 4 null cases, 1 flicker and 2 excluded-candidate
-/// cases on 6 s of footage (about half an hour each on this 2-core machine; `cargo xtask diagnosis` with no
-/// arguments runs the whole suite: two levels × 3 seeds).
-const DIAGNOSIS_REPORT_PLAN: &[&str] = &[
-    "--levels",
-    "strong",
-    "--seeds-per-case",
-    "1",
-    "--nulls",
-    "4",
-    "--flicker",
-    "1",
-    "--excluded",
-    "2",
-    "--duration-s",
-    "6",
-];
-
 fn reports(extra: &[String]) -> Result<(), String> {
-    geneva("reports", "reports", extra)?;
-    // The diagnosis self-check with the committed plan, unless only some reports were asked for.
-    if extra
-        .iter()
-        .any(|a| a.starts_with("--only") || a == "--fast-only")
-    {
-        return Ok(());
-    }
-    let plan: Vec<String> = DIAGNOSIS_REPORT_PLAN
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    geneva("diagnose-selfcheck", "reports/diagnosis", &plan)?;
-    // The same plan on footage drawn by the independent renderer: the diagnosis meets edges,
-    // blur and noise that are not its own simulator's, as with real footage.
-    let mut independent = plan;
-    independent.extend(["--renderer".to_string(), "independent".to_string()]);
-    geneva(
-        "diagnose-selfcheck",
-        "reports/diagnosis-independent",
-        &independent,
-    )?;
-    // The near-limit level beside it, on the independent renderer's footage.
-    let weak: Vec<String> = DIAGNOSIS_WEAK_PLAN.iter().map(|s| s.to_string()).collect();
-    geneva(
-        "diagnose-selfcheck",
-        "reports/diagnosis-weak-independent",
-        &weak,
-    )?;
-    // Effects in forms their candidates do not parametrise, on the independent renderer's
-    // footage: what a rig or renderer the toolkit has never seen does to the diagnosis.
-    let mut forms = weak;
-    forms[1] = "form".to_string();
-    geneva(
-        "diagnose-selfcheck",
-        "reports/diagnosis-forms-independent",
-        &forms,
-    )?;
-    // Two causes at once, on the independent renderer's footage.
-    let pairs: Vec<String> = DIAGNOSIS_PAIRS_PLAN.iter().map(|s| s.to_string()).collect();
-    geneva(
-        "diagnose-selfcheck",
-        "reports/diagnosis-pairs-independent",
-        &pairs,
-    )
+    geneva("reports", "reports", extra)
 }
 
-/// Two effects withheld at once, each at the strong level: every pair of
-/// `selfcheck::withheld_pairs` × 1 seed on 6 s of footage drawn by the independent renderer, in
-/// `reports/diagnosis-pairs-independent/`, no single-effect case.
-const DIAGNOSIS_PAIRS_PLAN: &[&str] = &[
-    "--seeds-per-case",
-    "0",
-    "--nulls",
-    "0",
-    "--flicker",
-    "0",
-    "--excluded",
-    "0",
-    "--pairs",
-    "5",
-    "--duration-s",
-    "6",
-    "--renderer",
-    "independent",
+/// The diagnosis self-check suites committed under `reports/`: each suite's name, the folder it
+/// writes, what it shows and the `geneva diagnose-selfcheck` plan that makes it. Every suite
+/// films 6 s of 1280×720 footage at 30 fps on the built-in `fast` rig; "independent" suites draw
+/// the footage with the second renderer (`render::independent`), the others with the project's
+/// own, and the nominal is always simulated by the project's renderer. A whole suite takes from
+/// about 20 minutes (the near-limit plans) to a few hours (48 null cases) on a 2-core machine.
+struct Suite {
+    name: &'static str,
+    folder: &'static str,
+    shows: &'static str,
+    plan: Plan,
+}
+
+/// A self-check plan: `--levels` (`strong`, `weak` = near the detection limit, `form` = in a form
+/// the candidate does not parametrise), withheld single-effect cases per effect and level, null,
+/// mains-flicker, excluded-candidate and two-effect cases, and the seeds whose strong single
+/// cases alone are run (`--only`; empty: the whole plan).
+struct Plan {
+    levels: &'static str,
+    seeds_per_case: usize,
+    nulls: usize,
+    flicker: usize,
+    excluded: usize,
+    pairs: usize,
+    only_seeds: &'static [usize],
+}
+
+/// The withheld effects of the self-check's plan, in its order (`selfcheck::withheld_effects`).
+const WITHHELD_EFFECTS: &[&str] = &[
+    "drive_speed",
+    "backlash",
+    "disc_vibration",
+    "axis_runout",
+    "camera_vibration",
+    "frame_timing",
+    "timebase",
+    "pixel_noise",
+    "optical_blur",
+    "motion_blur",
+    "rolling_shutter",
+    "lens_distortion",
+    "perspective_tilt",
+    "compression",
+    "lighting",
 ];
 
-/// The weak level ("near the detection limit": 0.3 of the way from the value at which each
-/// parameter does nothing to the strong probe, log-spaced where the parameter is;
-/// `selfcheck::level_values`) of every withheld effect × 1 seed on 6 s of
-/// footage drawn by the independent renderer, in `reports/diagnosis-weak-independent/` (about
-/// 20 minutes on this 2-core machine).
-const DIAGNOSIS_WEAK_PLAN: &[&str] = &[
-    "--levels",
-    "weak",
-    "--seeds-per-case",
-    "1",
-    "--nulls",
-    "0",
-    "--flicker",
-    "0",
-    "--excluded",
-    "0",
-    "--duration-s",
-    "6",
-    "--renderer",
-    "independent",
+/// Only single-effect cases: `seeds` per effect at `levels`.
+const fn singles(levels: &'static str, seeds: usize) -> Plan {
+    Plan {
+        levels,
+        seeds_per_case: seeds,
+        nulls: 0,
+        flicker: 0,
+        excluded: 0,
+        pairs: 0,
+        only_seeds: &[],
+    }
+}
+
+/// Every withheld effect at the strong level, 1 seed; 4 null, 1 flicker, 2 excluded-candidate
+/// cases.
+const STRONG: Plan = Plan {
+    nulls: 4,
+    flicker: 1,
+    excluded: 2,
+    ..singles("strong", 1)
+};
+
+/// The strong single cases of some seeds of a 3-seed plan.
+const fn seeds(only_seeds: &'static [usize]) -> Plan {
+    Plan {
+        only_seeds,
+        ..singles("strong", 3)
+    }
+}
+
+/// 48 null cases: nothing withheld, each its own seed, nuisance and rendering perturbation.
+const NULLS: Plan = Plan {
+    nulls: 48,
+    ..singles("strong", 0)
+};
+
+/// Causes outside the vocabulary: 4 mains-flicker beats and 12 effects excluded from the
+/// candidates (`selfcheck::excluded_effects`).
+const OUT_OF_VOCABULARY: Plan = Plan {
+    flicker: 4,
+    excluded: 12,
+    ..singles("strong", 0)
+};
+
+/// Two effects withheld at once (`selfcheck::withheld_pairs`), both at the strong level.
+const PAIRS: Plan = Plan {
+    pairs: 5,
+    ..singles("strong", 0)
+};
+
+const SUITES: &[Suite] = &[
+    Suite {
+        name: "strong",
+        folder: "reports/diagnosis",
+        shows: "every effect withheld at the strong level, null and out-of-vocabulary cases, project's renderer",
+        plan: STRONG,
+    },
+    Suite {
+        name: "independent",
+        folder: "reports/diagnosis-independent",
+        shows: "the same plan on footage drawn by the independent renderer",
+        plan: STRONG,
+    },
+    Suite {
+        name: "seed-1",
+        folder: "reports/diagnosis-seed-1",
+        shows: "every effect at the strong level at a second seed, project's renderer",
+        plan: seeds(&[1]),
+    },
+    Suite {
+        name: "independent-seeds-1-2",
+        folder: "reports/diagnosis-independent-seeds-1-2",
+        shows: "every effect at the strong level at seeds 1 and 2, independent renderer",
+        plan: seeds(&[1, 2]),
+    },
+    Suite {
+        name: "near-limit",
+        folder: "reports/diagnosis-near-limit",
+        shows: "every effect near the detection limit, project's renderer",
+        plan: singles("weak", 1),
+    },
+    Suite {
+        name: "near-limit-independent",
+        folder: "reports/diagnosis-near-limit-independent",
+        shows: "every effect near the detection limit, independent renderer",
+        plan: singles("weak", 1),
+    },
+    Suite {
+        name: "forms-independent",
+        folder: "reports/diagnosis-forms-independent",
+        shows: "effects in forms their candidates do not parametrise, independent renderer",
+        plan: singles("form", 1),
+    },
+    Suite {
+        name: "pairs-independent",
+        folder: "reports/diagnosis-pairs-independent",
+        shows: "two effects withheld at once, independent renderer",
+        plan: PAIRS,
+    },
+    Suite {
+        name: "nulls",
+        folder: "reports/diagnosis-nulls",
+        shows: "48 null cases (the false-alarm rate), project's renderer",
+        plan: NULLS,
+    },
+    Suite {
+        name: "nulls-independent",
+        folder: "reports/diagnosis-nulls-independent",
+        shows: "the same 48 null cases, independent renderer",
+        plan: NULLS,
+    },
+    Suite {
+        name: "out-of-vocabulary",
+        folder: "reports/diagnosis-out-of-vocabulary",
+        shows: "16 causes outside the candidates, project's renderer",
+        plan: OUT_OF_VOCABULARY,
+    },
+    Suite {
+        name: "out-of-vocabulary-independent",
+        folder: "reports/diagnosis-out-of-vocabulary-independent",
+        shows: "the same 16 causes, independent renderer",
+        plan: OUT_OF_VOCABULARY,
+    },
 ];
+
+impl Suite {
+    /// The `geneva diagnose-selfcheck` arguments after `--out`.
+    fn arguments(&self) -> Vec<String> {
+        let p = &self.plan;
+        let mut args: Vec<String> = [
+            ("--levels", p.levels.to_string()),
+            ("--seeds-per-case", p.seeds_per_case.to_string()),
+            ("--nulls", p.nulls.to_string()),
+            ("--flicker", p.flicker.to_string()),
+            ("--excluded", p.excluded.to_string()),
+            ("--pairs", p.pairs.to_string()),
+            ("--duration-s", "6".to_string()),
+        ]
+        .into_iter()
+        .flat_map(|(flag, value)| [flag.to_string(), value])
+        .collect();
+        if self.name.contains("independent") {
+            args.extend(["--renderer".to_string(), "independent".to_string()]);
+        }
+        if !p.only_seeds.is_empty() {
+            let cases: Vec<String> = p
+                .only_seeds
+                .iter()
+                .flat_map(|seed| {
+                    WITHHELD_EFFECTS
+                        .iter()
+                        .map(move |e| format!("withheld-{e}-strong-{seed}"))
+                })
+                .collect();
+            args.push("--only".to_string());
+            args.push(cases.join(","));
+        }
+        args
+    }
+}
+
+/// `cargo xtask diagnosis [NAME…|all] [-- OPTIONS…]`: the named suites of [`SUITES`] into their
+/// folders (options such as `--shard I/N`, `--yes` or `--restart` go to every run); no name
+/// lists the suites and their commands.
+fn diagnosis(rest: &[String]) -> Result<(), String> {
+    let (names, options): (Vec<&String>, Vec<&String>) =
+        rest.iter().partition(|a| !a.starts_with("--"));
+    let options: Vec<String> = options.into_iter().cloned().collect();
+    if names.is_empty() {
+        println!("cargo xtask diagnosis NAME… | all  [--shard I/N] [--yes] [--restart]\n");
+        for s in SUITES {
+            println!("  {:<30} {} → {}/", s.name, s.shows, s.folder);
+            println!(
+                "  {:<30} geneva diagnose-selfcheck --out {} {}\n",
+                "",
+                s.folder,
+                s.arguments().join(" ")
+            );
+        }
+        return Ok(());
+    }
+    let chosen: Vec<&Suite> = if names.iter().any(|n| n.as_str() == "all") {
+        SUITES.iter().collect()
+    } else {
+        names
+            .iter()
+            .map(|n| {
+                SUITES.iter().find(|s| s.name == n.as_str()).ok_or_else(|| {
+                    format!(
+                        "no suite `{n}` (the suites: {}, or all)",
+                        SUITES.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    for suite in chosen {
+        let mut args = suite.arguments();
+        args.extend(options.iter().cloned());
+        geneva("diagnose-selfcheck", suite.folder, &args)?;
+    }
+    Ok(())
+}

@@ -101,8 +101,8 @@ impl FitKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// The kind of a fit recorded before fits carried one (shard records written before
-    /// stop 59): read off its method's opening words, which those builds wrote the same way.
+    /// The kind of a fit recorded before fits carried one (shard records written by
+    /// builds before `Fitted::kind`): read off its method's opening words, which those builds wrote the same way.
     /// Whether it was a Σ z² search, all the guard asks, is recovered exactly; a disc
     /// vibration's sinusoid fit reads as `Measured`, not as the `MomentMatch` it now records.
     pub fn of_legacy_method(method: &str) -> Self {
@@ -319,7 +319,7 @@ pub fn with_edge_discrepancy(e: Effect, value: f64, sd: f64) -> f64 {
 
 /// Blockiness per percent of JPEG quantisation scale: the first step's slope of a compression
 /// match when the nominal's own blockiness gives none. Measured on the second rig's strong case
-/// (`reports/diagnosis-stop50/`: quality 30, scale 167, blockiness 3.1 against 1.0 without
+/// (commit `2a5b40d`: quality 30, scale 167, blockiness 3.1 against 1.0 without
 /// JPEG). Later steps take the secant.
 const BLOCKINESS_PER_JPEG_SCALE: f64 = 0.0127;
 
@@ -685,7 +685,7 @@ impl<'a> Fitter<'a> {
     /// own alignment ([`super::footing::Footing`]). When the nominal states a clearance, the
     /// residual cells are read after the nominal's own motion, which bounces with it, and a
     /// band's RMS cannot tell a clearance above the stated one from one below: stated 0.3 mm
-    /// of a true 0.5 mm came out 0.129 ± 0.032 (`reports/diagnosis-stop68/`). Against the
+    /// of a true 0.5 mm came out 0.129 ± 0.032 (`docs/diagnosis-findings.md`, "Clearance"). Against the
     /// clearance-free motion the clearance is what the footage's own bounce says, as when it
     /// is withheld. The values are the same parameters whichever nominal they were fitted
     /// against, so the candidate is judged here, on this fitter's gap, as every other one.
@@ -1063,8 +1063,7 @@ impl<'a> Fitter<'a> {
             // A clearance or coasting wheel too: the nominal's alignment took the wheel's late
             // start for crank phase (55 mrad at 0.5 mm), and a trial that kept it added its own
             // delay. (Refitted, the 0.5 mm clearance still came out 11–16 % low on three seeds
-            // in `reports/diagnosis-stop37/`: the self-check's shared fit seeds, not this
-            // refit; `reports/diagnosis-stop38/`.)
+            // of the self-check: its shared fit seeds, not this refit; commit `8b8b8cf`.)
             // A crank speed profile too (`Effect::trial_refits_motion`): the nominal's
             // constant-speed alignment took the profile's slow engagements for a slower crank.
             let (td, th) = self.real_theta_det;
@@ -2276,7 +2275,7 @@ pub fn clearance_free_note(nominal: &Scenario) -> String {
         "; fitted against the nominal's motion without a clearance (`dynamics.enabled = false`, \
          aligned to the footage on its own), as a withheld clearance is: the nominal states \
          {stated_mm:.3} mm, and the cells read after its own bouncing motion cannot tell a \
-         clearance above that from one below (reports/diagnosis-stop68/ of geneva-vision)"
+         clearance above that from one below (docs/diagnosis-findings.md of geneva-vision, \"Clearance\")"
     )
 }
 
@@ -2288,7 +2287,7 @@ pub fn clearance_free_note(nominal: &Scenario) -> String {
 /// tell a larger clearance from a smaller one. The backlash is therefore fitted against the
 /// clearance-free motion ([`Fitter::with_clearance_free`]); the friction is fitted with the
 /// clearance held at the stated value, and a mis-stated one enters it unseen. Before the
-/// backlash moved (stop 68, `reports/diagnosis-stop68/`, one footage, true clearance 0.5 mm):
+/// backlash moved (commit `488b346`, one footage, true clearance 0.5 mm):
 /// stated 0.1, 0.2, 0.3, 0.4, 0.6 and 0.7 mm were refitted at 0.13–0.43 mm, all six below the
 /// truth, four of them with a ± that did not hold 0.5 (3.9–12 σ). A backlash fit without a
 /// clearance-free fitter (a fitter built by hand) carries the caution too.
@@ -2308,8 +2307,8 @@ pub fn stated_clearance_caveat(e: Effect, nominal: &Scenario) -> Option<String> 
     Some(format!(
         "; caution: the nominal states a pin–slot clearance of {stated_mm:.3} mm, and the \
          residual cells are read after the nominal's own motion, which bounces with it, so \
-         {what} can land off the truth by more than its ± (reports/diagnosis-stop68/ of \
-         geneva-vision: a true 0.5 mm refitted at 0.13–0.43 mm from six stated clearances of \
+         {what} can land off the truth by more than its ± (docs/diagnosis-findings.md of \
+         geneva-vision, \"Clearance\": a true 0.5 mm refitted at 0.13–0.43 mm from six stated clearances of \
          0.1–0.7 mm, four of six 3.9–12 σ off); a clearance is measured against the \
          clearance-free motion (the backlash candidate, or a nominal with \
          `dynamics.enabled = false`)"

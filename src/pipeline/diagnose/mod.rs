@@ -238,14 +238,14 @@ impl Default for DiagnoseOptions {
 
 /// Default of [`DiagnoseOptions::refits`]: two refits give the seed noise two degrees of
 /// freedom and the pooled value a third of one fit's seed variance, at two fits' cost (on the
-/// benchmark footage one refit took 10–24 s, `reports/diagnosis-stop39/bench.txt`).
+/// benchmark footage one refit took 10–24 s, commit `c986db9`).
 pub const REFITS: usize = 2;
 
 /// Fits run at once (candidates, pairs, refits), each on its own fork: a fixed number, not the
 /// thread count, so which candidates a wave fits before the best-score bound can prune them is
 /// the same on every machine. On 2 cores one fit kept them 1.6 busy (its serial work between
 /// frame-parallel simulations, the optimiser's among it, leaves a core idle); two at once took
-/// the runout benchmark from 607 s to 547 s on one host (`reports/diagnosis-stop41/`).
+/// the runout benchmark from 607 s to 547 s on one host (commit `a61c316`).
 pub const CONCURRENT_FITS: usize = 2;
 
 /// Second effects fitted beside the best single one when it does not explain the gap
@@ -255,8 +255,8 @@ pub const MAX_SECOND_EFFECTS: usize = 3;
 
 /// Default of [`DiagnoseOptions::escalate_seeds`]. On the independent renderer's footage of a
 /// strong axis runout, 4 seeds left the angle's low band at z = 4.3–4.8 short of significance on
-/// 2 of 3 seeds (`reports/diagnosis-seeds-independent/`); 12 seeds found all three, and the 4
-/// null cases stayed without a gap (`reports/diagnosis-runout-12seeds-independent/`).
+/// 2 of 3 seeds; 12 seeds found all three, and the 4 null cases stayed without a gap (commits
+/// `cb4f031`, `a744f27`).
 pub const ESCALATE_SEEDS: usize = 12;
 
 /// The evaluation seeds were raised because the first comparison was short of seeds.

@@ -558,7 +558,7 @@ fn bootstrap_text(r: &Ranked) -> String {
     let unmeasured = "its ± hold the footage's own noise only as the fit's curvature states \
                       it, which undercounts it when the compared statistics move together (a \
                       random camera shake's stated value spread 2.3× its ± over four footages, \
-                      `reports/diagnosis-stop42/`); `--bootstrap 3` measures it";
+                      docs/diagnosis-findings.md); `--bootstrap 3` measures it";
     match &r.bootstrap {
         None => String::new(),
         Some(Bootstrap::Done {
@@ -1592,8 +1592,8 @@ mod tests {
         assert_eq!(second_look_text(None), "");
     }
 
-    /// The one false alarm of stop 62's 96 null cases (`reports/diagnosis-stop62/`, own
-    /// renderer, null-24): one cell at z = 4.2, D₀ = 4.83, a backlash closing it all with one
+    /// The one false alarm of the 96 null cases (`reports/diagnosis-nulls/`, own renderer,
+    /// null-24): one cell at z = 4.2, D₀ = 4.83, a backlash closing it all with one
     /// parameter, scored 0.59. The answer says the best closed it and why that is no
     /// explanation, not that no candidate closes enough.
     #[test]
@@ -1664,7 +1664,8 @@ mod tests {
         assert!(!too_small_to_attribute(0.0, &ranking[0].evaluated.outcome));
     }
 
-    /// Stop 52's lens, k1 = 0.006 ± 0.0103, set aside as 0.6 σ from the nominal's 0.
+    /// A second rig's lens (commit `617faef`), k1 = 0.006 ± 0.0103, set aside as 0.6 σ from
+    /// the nominal's 0.
     fn lens_not_distinct() -> NotDistinct {
         NotDistinct {
             ranked: 0,
@@ -1709,7 +1710,7 @@ mod tests {
     }
 
     /// An overrotation whose friction the fit left at its search end with no ±
-    /// (`reports/diagnosis-stop63/`) is set aside for measuring no value, listed apart from the
+    /// (commit `7284926`) is set aside for measuring no value, listed apart from the
     /// candidates that restate the nominal, in the words and the JSON.
     #[test]
     fn a_candidate_whose_fit_measured_no_value_is_listed_apart_with_its_search_range() {
@@ -1779,7 +1780,7 @@ mod tests {
     /// words: the clearance's footages sit 0.1 mm below the value they were simulated at with a
     /// spread far smaller (taken off, its standard error added to a ± the spread does not
     /// widen); the full well's scatter about it (no bias, kept); the read noise is undetermined.
-    /// Stop 53: a 15.9 ms exposure's three footage fits all stopped at a 60 fps rig's frame
+    /// A second rig's 15.9 ms exposure's three footage fits all stopped at a 60 fps rig's frame
     /// interval, the end of the search there: a spread of 0 and a "bias" at p = 0, which is
     /// not taken off, and the report says why.
     #[test]

@@ -187,7 +187,7 @@ struct FittedRecord {
     /// An axis runout's form as bits: cycles per wheel revolution, phase, phase's σ.
     #[serde(default)]
     runout_form: Option<[u64; 3]>,
-    /// [`FitKind::name`]; absent from records written before stop 59
+    /// [`FitKind::name`]; absent from records written before fits carried it
     /// ([`FitKind::of_legacy_method`]).
     #[serde(default)]
     kind: Option<String>,
@@ -445,7 +445,7 @@ mod tests {
         encode(&e, 3).unwrap()
     }
 
-    /// `text` with its fits' `kind` field taken out, as a record written before stop 59 reads.
+    /// `text` with its fits' `kind` field taken out, as a record written before fits carried it reads.
     fn without_kind(text: &str) -> String {
         let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
         for f in v["effects"].as_array_mut().unwrap() {

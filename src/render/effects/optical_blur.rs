@@ -184,7 +184,7 @@ mod tests {
 
     #[test]
     fn a_vanishing_sigma_is_the_identity_never_nan() {
-        // Issue #14 probe: sigma_px = 1e-300 (valid: in [0, 20]) made every pixel NaN and `run`
+        // Regression: sigma_px = 1e-300 (valid: in [0, 20]) made every pixel NaN and `run`
         // found no marker.
         assert_eq!(kernel(1e-300, 1), vec![0.0, 1.0, 0.0]);
         assert_eq!(kernel(1e-160, 1), vec![0.0, 1.0, 0.0]);
