@@ -96,10 +96,7 @@ def disc_mesh(name, radius, z_front, thickness, segments, parent=None):
 def node(tree, kind, **props):
     n = tree.nodes.new(kind)
     for k, v in props.items():
-        if k.startswith("in_"):
-            n.inputs[k[3:].replace("_", " ")].default_value = v
-        else:
-            setattr(n, k, v)
+        setattr(n, k, v)
     return n
 
 
@@ -115,6 +112,54 @@ def link(tree, a, out, b, inp):
     tree.links.new(a.outputs[out], b.inputs[inp])
 
 
+def texture(t, kind, vector, scale, **props):
+    """A procedural texture on `vector` (a node and its output), `scale` cycles per metre."""
+    tex = node(t, kind, **props)
+    tex.inputs["Scale"].default_value = scale
+    link(t, vector[0], vector[1], tex, "Vector")
+    return tex
+
+
+def noise(t, vector, scale, detail=2.0, distortion=0.0):
+    tex = texture(t, "ShaderNodeTexNoise", vector, scale)
+    tex.inputs["Detail"].default_value = detail
+    tex.inputs["Distortion"].default_value = distortion
+    return tex
+
+
+def remap(t, source, out, lo, hi):
+    """A texture's 0…1 output mapped onto lo…hi (a tint's or a roughness' range)."""
+    r = node(t, "ShaderNodeMapRange")
+    r.inputs["To Min"].default_value = lo
+    r.inputs["To Max"].default_value = hi
+    link(t, source, out, r, "Value")
+    return r
+
+
+def tint(t, colour, *factors):
+    """`colour` multiplied by each (node, output) factor in turn; returns the last node."""
+    current = None
+    for source, out in factors:
+        mix = node(t, "ShaderNodeMixRGB", blend_type="MULTIPLY")
+        mix.inputs["Fac"].default_value = 1.0
+        if current is None:
+            mix.inputs["Color1"].default_value = (*colour, 1.0)
+        else:
+            link(t, current, "Color", mix, "Color1")
+        link(t, source, out, mix, "Color2")
+        current = mix
+    return current
+
+
+def bump(t, source, out, bsdf, strength, distance_m=None):
+    b = node(t, "ShaderNodeBump")
+    b.inputs["Strength"].default_value = strength
+    if distance_m is not None:
+        b.inputs["Distance"].default_value = distance_m
+    link(t, source, out, b, "Height")
+    link(t, b, "Normal", bsdf, "Normal")
+
+
 def disc_material(spec):
     """Orange PLA: print lines as a relief (bump from a wave texture across the disc's object
     coordinates), the lines' slight colour banding, and a low-frequency mottling."""
@@ -123,39 +168,16 @@ def disc_material(spec):
     mapping = node(t, "ShaderNodeMapping")
     mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(spec["line_angle_deg"]))
     link(t, coord, "Object", mapping, "Vector")
-    wave = node(t, "ShaderNodeTexWave", wave_type="BANDS", bands_direction="X",
-                wave_profile="SIN")
-    # Wave scale is in cycles per unit of the (object-space, metre) coordinate / 2π... Blender's
-    # wave has period 1/scale in its input units: spacing 0.4 mm → scale 2500.
-    wave.inputs["Scale"].default_value = 1.0 / spec["line_spacing_m"]
-    wave.inputs["Distortion"].default_value = 0.5
-    link(t, mapping, "Vector", wave, "Vector")
-    noise = node(t, "ShaderNodeTexNoise")
-    noise.inputs["Scale"].default_value = 40.0
-    noise.inputs["Detail"].default_value = 2.0
-    link(t, coord, "Object", noise, "Vector")
-    colour = node(t, "ShaderNodeMixRGB", blend_type="MULTIPLY")
-    colour.inputs["Fac"].default_value = 1.0
-    ramp = node(t, "ShaderNodeMapRange")
-    ramp.inputs["To Min"].default_value = 1.0 - spec["mottle"]
-    ramp.inputs["To Max"].default_value = 1.0
-    link(t, noise, "Fac", ramp, "Value")
-    base = node(t, "ShaderNodeMixRGB", blend_type="MULTIPLY")
-    base.inputs["Fac"].default_value = 1.0
-    base.inputs["Color1"].default_value = (*spec["colour"], 1.0)
-    link(t, ramp, "Result", base, "Color2")
-    band = node(t, "ShaderNodeMapRange")
-    band.inputs["To Min"].default_value = 1.0 - spec["line_banding"]
-    band.inputs["To Max"].default_value = 1.0
-    link(t, wave, "Fac", band, "Value")
-    link(t, base, "Color", colour, "Color1")
-    link(t, band, "Result", colour, "Color2")
+    # A wave of period 1/scale in its input's units (metres): spacing 0.4 mm → scale 2500.
+    lines = texture(t, "ShaderNodeTexWave", (mapping, "Vector"), 1.0 / spec["line_spacing_m"],
+                    wave_type="BANDS", bands_direction="X", wave_profile="SIN")
+    lines.inputs["Distortion"].default_value = 0.5
+    mottle = noise(t, (coord, "Object"), 40.0)
+    colour = tint(t, spec["colour"],
+                  (remap(t, mottle, "Fac", 1.0 - spec["mottle"], 1.0), "Result"),
+                  (remap(t, lines, "Fac", 1.0 - spec["line_banding"], 1.0), "Result"))
     link(t, colour, "Color", bsdf, "Base Color")
-    bump = node(t, "ShaderNodeBump")
-    bump.inputs["Strength"].default_value = spec["bump_strength"]
-    bump.inputs["Distance"].default_value = spec["bump_distance_m"]
-    link(t, wave, "Fac", bump, "Height")
-    link(t, bump, "Normal", bsdf, "Normal")
+    bump(t, lines, "Fac", bsdf, spec["bump_strength"], spec["bump_distance_m"])
     bsdf.inputs["Roughness"].default_value = spec["roughness"]
     bsdf.inputs["Specular"].default_value = spec["specular"]
     return m
@@ -172,25 +194,12 @@ def paper_material(name, image_path, spec):
     uv = node(t, "ShaderNodeUVMap")
     link(t, uv, "UV", tex, "Vector")
     # The image holds reflectance directly (0 = ink, 1 = paper): scale to albedos.
-    albedo = node(t, "ShaderNodeMapRange")
-    albedo.inputs["To Min"].default_value = spec["ink_albedo"]
-    albedo.inputs["To Max"].default_value = spec["paper_albedo"]
-    link(t, tex, "Color", albedo, "Value")
+    albedo = remap(t, tex, "Color", spec["ink_albedo"], spec["paper_albedo"])
     link(t, albedo, "Result", bsdf, "Base Color")
-    rough = node(t, "ShaderNodeMapRange")
-    rough.inputs["To Min"].default_value = spec["ink_roughness"]
-    rough.inputs["To Max"].default_value = spec["paper_roughness"]
-    link(t, tex, "Color", rough, "Value")
+    rough = remap(t, tex, "Color", spec["ink_roughness"], spec["paper_roughness"])
     link(t, rough, "Result", bsdf, "Roughness")
     coord = node(t, "ShaderNodeTexCoord")
-    fibre = node(t, "ShaderNodeTexNoise")
-    fibre.inputs["Scale"].default_value = 3000.0
-    fibre.inputs["Detail"].default_value = 2.0
-    link(t, coord, "Object", fibre, "Vector")
-    bump = node(t, "ShaderNodeBump")
-    bump.inputs["Strength"].default_value = spec["fibre_bump"]
-    link(t, fibre, "Fac", bump, "Height")
-    link(t, bump, "Normal", bsdf, "Normal")
+    bump(t, noise(t, (coord, "Object"), 3000.0), "Fac", bsdf, spec["fibre_bump"])
     bsdf.inputs["Specular"].default_value = spec["specular"]
     if spec.get("laminate", 0.0) > 0.0:
         bsdf.inputs["Clearcoat"].default_value = spec["laminate"]
@@ -203,70 +212,39 @@ def tape_material(spec):
     bsdf.inputs["Base Color"].default_value = (*spec["colour"], 1.0)
     bsdf.inputs["Roughness"].default_value = spec["roughness"]
     coord = node(t, "ShaderNodeTexCoord")
-    crease = node(t, "ShaderNodeTexNoise")
-    crease.inputs["Scale"].default_value = 400.0
-    link(t, coord, "Object", crease, "Vector")
-    bump = node(t, "ShaderNodeBump")
-    bump.inputs["Strength"].default_value = 0.15
-    link(t, crease, "Fac", bump, "Height")
-    link(t, bump, "Normal", bsdf, "Normal")
+    bump(t, noise(t, (coord, "Object"), 400.0), "Fac", bsdf, 0.15)
     return m
 
 
 def wood_material(spec):
+    """A base plate's wood: grain stretched along x."""
     m, t, bsdf = principled("plate")
     coord = node(t, "ShaderNodeTexCoord")
     mapping = node(t, "ShaderNodeMapping")
     mapping.inputs["Scale"].default_value = (1.0, 12.0, 1.0)
     link(t, coord, "Object", mapping, "Vector")
-    grain = node(t, "ShaderNodeTexNoise")
-    grain.inputs["Scale"].default_value = 25.0
-    grain.inputs["Detail"].default_value = 3.0
-    grain.inputs["Distortion"].default_value = 2.0
-    link(t, mapping, "Vector", grain, "Vector")
-    ramp = node(t, "ShaderNodeMapRange")
-    ramp.inputs["To Min"].default_value = 0.7
-    ramp.inputs["To Max"].default_value = 1.15
-    link(t, grain, "Fac", ramp, "Value")
-    mix = node(t, "ShaderNodeMixRGB", blend_type="MULTIPLY")
-    mix.inputs["Fac"].default_value = 1.0
-    mix.inputs["Color1"].default_value = (*spec["colour"], 1.0)
-    link(t, ramp, "Result", mix, "Color2")
-    link(t, mix, "Color", bsdf, "Base Color")
+    grain = noise(t, (mapping, "Vector"), 25.0, detail=3.0, distortion=2.0)
+    colour = tint(t, spec["colour"], (remap(t, grain, "Fac", 0.7, 1.15), "Result"))
+    link(t, colour, "Color", bsdf, "Base Color")
     bsdf.inputs["Roughness"].default_value = 0.6
     return m
 
 
 def fabric_material(spec):
+    """Woven fabric: warp and weft as crossed bands (a bump), in folds that shade it."""
     m, t, bsdf = principled("fabric")
     coord = node(t, "ShaderNodeTexCoord")
-    weave = node(t, "ShaderNodeTexWave", wave_type="BANDS", bands_direction="X")
-    weave.inputs["Scale"].default_value = 1.0 / spec["thread_m"]
-    link(t, coord, "Object", weave, "Vector")
-    weft = node(t, "ShaderNodeTexWave", wave_type="BANDS", bands_direction="Y")
-    weft.inputs["Scale"].default_value = 1.0 / spec["thread_m"]
-    link(t, coord, "Object", weft, "Vector")
-    both = node(t, "ShaderNodeMath", operation="MULTIPLY")
-    link(t, weave, "Fac", both, 0)
-    link(t, weft, "Fac", both, 1)
-    folds = node(t, "ShaderNodeTexNoise")
-    folds.inputs["Scale"].default_value = 6.0
-    link(t, coord, "Object", folds, "Vector")
-    shade = node(t, "ShaderNodeMapRange")
-    shade.inputs["To Min"].default_value = 0.6
-    shade.inputs["To Max"].default_value = 1.2
-    link(t, folds, "Fac", shade, "Value")
-    mix = node(t, "ShaderNodeMixRGB", blend_type="MULTIPLY")
-    mix.inputs["Fac"].default_value = 1.0
-    mix.inputs["Color1"].default_value = (*spec["colour"], 1.0)
-    link(t, shade, "Result", mix, "Color2")
-    link(t, mix, "Color", bsdf, "Base Color")
+    threads = [texture(t, "ShaderNodeTexWave", (coord, "Object"), 1.0 / spec["thread_m"],
+                       wave_type="BANDS", bands_direction=d) for d in ("X", "Y")]
+    weave = node(t, "ShaderNodeMath", operation="MULTIPLY")
+    link(t, threads[0], "Fac", weave, 0)
+    link(t, threads[1], "Fac", weave, 1)
+    folds = noise(t, (coord, "Object"), 6.0)
+    colour = tint(t, spec["colour"], (remap(t, folds, "Fac", 0.6, 1.2), "Result"))
+    link(t, colour, "Color", bsdf, "Base Color")
     bsdf.inputs["Roughness"].default_value = 0.95
     bsdf.inputs["Sheen"].default_value = 0.5
-    bump = node(t, "ShaderNodeBump")
-    bump.inputs["Strength"].default_value = 0.4
-    link(t, both, "Value", bump, "Height")
-    link(t, bump, "Normal", bsdf, "Normal")
+    bump(t, weave, "Value", bsdf, 0.4)
     return m
 
 

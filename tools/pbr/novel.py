@@ -15,6 +15,9 @@ import numpy as np
 
 import rig
 
+# Where the soft box is (render.lights): a shadow is cast across its beam.
+KEY_LIGHT_M = (-0.30, -0.35, -0.55)
+
 # The diameter about which a wobbling disc is tilted, in the wheel's frame.
 WOBBLE_AXIS_RAD = 0.7
 
@@ -165,6 +168,17 @@ class TwinMarker(Novel):
         return [{"kind": "sheet", "name": "twin", "sheet": sheet, "pose": pose}]
 
 
+def sweep(ctx, key_frames, t0, t1, pose_at):
+    """Keys of an object that crosses the scene between t0 and t1: `pose_at(u)` gives its
+    matrix rows at progress u (below 0 before the crossing, above 1 after it, where the object
+    waits off the view)."""
+    keys = []
+    for b, t in zip(key_frames, ctx.key_times):
+        u = (t - t0) / (t1 - t0)
+        keys.append((float(b), pose_at(u)))
+    return keys
+
+
 def marker_world_at(ctx, theta):
     m = ctx.scenario["scene"]["marker"]
     r = float(m["radius_mm"]) * 1e-3
@@ -182,16 +196,14 @@ class Cable(Novel):
         t0, t1 = self.p("start_frac", 0.35) * d, self.p("end_frac", 0.6) * d
         i_mid = int(np.argmin(np.abs(ctx.key_times - 0.5 * (t0 + t1))))
         centre = marker_world_at(ctx, ctx.theta[i_mid])
-        keys = []
-        for b, t in zip(key_frames, ctx.key_times):
-            u = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
+        rot = rig.rot_x(math.pi / 2) @ rig.rot_y(math.radians(10.0))
+
+        def pose_at(u):
             # In from the left, across the marker, out to the right; parked off the view.
-            if t < t0 or t > t1:
-                x = -0.5 if t < t0 else 0.5
-            else:
-                x = centre[0] - 0.07 + 0.14 * u
-            rot = rig.rot_x(math.pi / 2) @ rig.rot_y(math.radians(10.0))
-            keys.append((float(b), rig.rows(rot, (x, centre[1], -0.03))))
+            x = -0.5 if u < 0 else 0.5 if u > 1 else centre[0] - 0.07 + 0.14 * u
+            return rig.rows(rot, (x, centre[1], -0.03))
+
+        keys = sweep(ctx, key_frames, t0, t1, pose_at)
         return [{"kind": "cable", "name": "cable", "radius_m": self.p("radius_m", 0.004),
                  "length_m": 0.6, "colour": (0.02, 0.02, 0.025), "keys": keys}]
 
@@ -221,18 +233,18 @@ class Shadow(Novel):
     def extras(self, ctx, key_frames, marker, sheet_png):
         d = ctx.duration_s
         t0, t1 = self.p("start_frac", 0.45) * d, self.p("end_frac", 0.8) * d
-        key_light = np.array([-0.30, -0.35, -0.55])
-        keys = []
-        for b, t in zip(key_frames, ctx.key_times):
-            u = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
-            # A board 70 % of the way from the rig to the lamp (behind the camera, out of its
-            # view), swept sideways across the lamp's beam: its shadow on the disc plane moves
-            # 3.3 times as far, through the axle, past the marker.
-            along = 0.7 * key_light
-            side = np.array([1.0, -0.8, 0.0]) / math.hypot(1.0, 0.8)
-            offset = (-0.09 + 0.18 * u) if t0 <= t <= t1 else (-0.5 if t < t0 else 0.5)
-            pos = along + offset * side
-            keys.append((float(b), rig.rows(rig.look_at(pos, key_light), pos)))
+        key_light = np.array(KEY_LIGHT_M)
+        # A board 70 % of the way from the rig to the lamp (behind the camera, out of its
+        # view), swept sideways across the lamp's beam: its shadow on the disc plane moves 3.3
+        # times as far, through the axle, past the marker.
+        side = np.array([1.0, -0.8, 0.0]) / math.hypot(1.0, 0.8)
+
+        def pose_at(u):
+            offset = -0.5 if u < 0 else 0.5 if u > 1 else -0.09 + 0.18 * u
+            pos = 0.7 * key_light + offset * side
+            return rig.rows(rig.look_at(pos, key_light), pos)
+
+        keys = sweep(ctx, key_frames, t0, t1, pose_at)
         return [{"kind": "card", "name": "card", "size_m": (0.15, 0.6),
                  "colour": (0.2, 0.2, 0.2), "keys": keys}]
 

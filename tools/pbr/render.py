@@ -584,7 +584,7 @@ def lights():
     """One soft box up and to the left of the camera. A single light keeps the path tracer's
     own noise on the disc below the sensor's at few samples (two lights and a lit room tripled
     it: each sample picks one light)."""
-    pos = (-0.30, -0.35, -0.55)
+    pos = novel.KEY_LIGHT_M
     return [{"size_m": (0.45, 0.45), "power_w": 7.0,
              "pose": rig.rows(rig.look_at(pos, (0, 0, 0)), pos)}]
 
