@@ -123,10 +123,11 @@ class Glare(Novel):
         # line from the camera through the target: its reflection reaches the camera there.
         beyond = target + 2.0 * (target - cam)
         lamp = np.array([beyond[0], beyond[1], -beyond[2]])
-        # Small and far (its light on the paper a few % of the soft box's), bright enough that
-        # its reflection in the laminate (4 %) saturates the sensor.
-        return [{"kind": "light", "name": "glare_lamp", "size_m": self.p("size_m", 0.04),
-                 "power_w": self.p("power_w", 0.4),
+        # A 10 cm lamp 0.6 m from the marker's path: its reflection in the laminate (4 %) is a
+        # disc some 60 px across that saturates the sensor; its light on the rig is about the
+        # soft box's (the exposure is metered with it on).
+        return [{"kind": "light", "name": "glare_lamp", "size_m": self.p("size_m", 0.1),
+                 "power_w": self.p("power_w", 3.0),
                  "pose": rig.rows(rig.look_at(lamp, target), lamp)}]
 
 
@@ -227,8 +228,8 @@ class FocusHunt(Novel):
 
 class Shadow(Novel):
     kind = "shadow"
-    doc = ("someone passes between the lamp and the rig: a soft shadow sweeps across the disc "
-           "and the marker for part of the clip")
+    doc = ("someone passes between the lamp and the rig: the light dims by up to half as the "
+           "soft box's shadow, its penumbra wider than the view, sweeps across it")
 
     def extras(self, ctx, key_frames, marker, sheet_png):
         d = ctx.duration_s
