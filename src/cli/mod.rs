@@ -13,6 +13,7 @@ mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;
 mod scenario_cmd;
+mod score_cmd;
 mod selfcheck_cmd;
 mod slurm_cmd;
 mod source_args;
@@ -45,6 +46,12 @@ enum Command {
         scenario: String,
         #[arg(long, default_value = "out/kinematics")]
         out: PathBuf,
+        /// Only the motion at these instants: a file with one time in seconds per line (an
+        /// optional `t_s` header); writes truth.csv with the ideal and actual columns, one row
+        /// per time in the file's order, and no plots (for a renderer outside the project that
+        /// draws the rig at sub-frame instants).
+        #[arg(long)]
+        times: Option<PathBuf>,
         /// Run even when the estimated time or memory is above the limits.
         #[arg(long)]
         yes: bool,
@@ -93,6 +100,10 @@ enum Command {
     Diagnose(diagnose_cmd::DiagnoseArgs),
     /// The diagnosis self-check: withheld effects, null and out-of-vocabulary cases, scored.
     DiagnoseSelfcheck(selfcheck_cmd::SelfCheckArgs),
+    /// Score diagnoses of footage that no renderer of this project drew (a folder of cases, each
+    /// with `case.json` and `diagnosis/diagnosis.json`): top-1, false alarms, fitted values in
+    /// their 95 % interval, out of vocabulary → `unexplained`.
+    DiagnoseScore(score_cmd::ScoreArgs),
     /// Design sweep over scenario fields: tidy CSV, heatmaps and a recommended setup (resumable,
     /// shardable: --shard I/N, then `sweep merge DIR`).
     Sweep(sweep_cmd::SweepArgs),
@@ -132,11 +143,17 @@ pub fn main() -> Result<()> {
         Command::Scenario(cmd) => scenario_cmd::run(cmd),
         Command::Timing(cmd) => timing_cmd::run(cmd),
         Command::Slurm(cmd) => slurm_cmd::run(cmd),
-        Command::Kinematics { scenario, out, yes } => kinematics_cmd::run(&scenario, &out, yes),
+        Command::Kinematics {
+            scenario,
+            out,
+            times,
+            yes,
+        } => kinematics_cmd::run(&scenario, &out, times.as_deref(), yes),
         Command::Analyze(args) => analyze_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Diagnose(args) => diagnose_cmd::run(args),
         Command::DiagnoseSelfcheck(args) => selfcheck_cmd::run(args),
+        Command::DiagnoseScore(args) => score_cmd::run(args),
         Command::Montecarlo(args) => budget_cmd::montecarlo(args),
         Command::Decompose(args) => budget_cmd::decompose(args),
         Command::Reports {

@@ -29,6 +29,7 @@ pub mod reports;
 pub mod rig;
 #[cfg(feature = "opencv-detector")]
 pub mod run;
+pub mod scored_cases;
 #[cfg(feature = "opencv-detector")]
 pub mod sweep_eval;
 pub mod truth;

@@ -19,6 +19,17 @@ pub enum TruthError {
         dir: PathBuf,
         source: std::io::Error,
     },
+    #[error("{}: cannot read the times", file.display())]
+    TimesFile {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}, line {line}: {why}", file.display())]
+    Times {
+        file: PathBuf,
+        line: usize,
+        why: String,
+    },
 }
 
 /// What the truth job produced, for printing.
@@ -106,6 +117,64 @@ pub fn write_truth(scenario: &Scenario, out_dir: &Path) -> Result<TruthSummary, 
         has_actual,
         files: vec![csv, vs_theta, vs_time],
     })
+}
+
+/// The instants of a `--times` file: one time in seconds per line (the first comma-separated field
+/// of it), an optional header line whose first field is `t_s`, blank lines skipped. Every time
+/// must be finite; their order is kept.
+pub fn parse_times(text: &str) -> Result<Vec<f64>, (usize, String)> {
+    let mut times = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let field = line.split(',').next().unwrap_or("").trim();
+        if field.is_empty() || (i == 0 && field == "t_s") {
+            continue;
+        }
+        match field.parse::<f64>() {
+            Ok(t) if t.is_finite() => times.push(t),
+            Ok(t) => return Err((i + 1, format!("the time {t} is not finite"))),
+            Err(_) => return Err((i + 1, format!("`{field}` is not a time in seconds"))),
+        }
+    }
+    if times.is_empty() {
+        return Err((0, "no time listed".into()));
+    }
+    Ok(times)
+}
+
+/// The motion at the instants listed in `times_file` (see [`parse_times`]): `truth.csv` in
+/// `out_dir` with the ideal and the actual columns (wheel angle with dynamics, vibration and
+/// runout; the wheel centre's offset), one row per listed time, in its order. This is what a
+/// renderer outside the project needs to draw the rig at sub-frame instants (exposure, rolling
+/// shutter). Times after `duration_s` extend the simulated span; the clearance dynamics start at
+/// 0 s, so before it the actual motion is the ideal one. Returns the number of rows.
+pub fn write_truth_at(
+    scenario: &Scenario,
+    times_file: &Path,
+    out_dir: &Path,
+) -> Result<usize, TruthError> {
+    let text = std::fs::read_to_string(times_file).map_err(|source| TruthError::TimesFile {
+        file: times_file.into(),
+        source,
+    })?;
+    let times = parse_times(&text).map_err(|(line, why)| TruthError::Times {
+        file: times_file.into(),
+        line,
+        why,
+    })?;
+    let last = times.iter().copied().fold(scenario.duration_s, f64::max);
+    let mechanism = Mechanism::new(
+        &scenario.mechanism,
+        &scenario.drive_speed,
+        &scenario.dynamics,
+        last,
+    )?;
+    std::fs::create_dir_all(out_dir).map_err(|source| TruthError::OutDir {
+        dir: out_dir.into(),
+        source,
+    })?;
+    let rows = mechanism.truth_rows(&times);
+    write_truth_csv(&out_dir.join("truth.csv"), &rows, true)?;
+    Ok(rows.len())
 }
 
 /// Figures 4.7/4.8 of the seed: ω2 and α2 over the first complete engagement against the
@@ -278,4 +347,47 @@ fn plot_vs_time(
         1100,
         420,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn times_are_read_in_order_with_an_optional_header() {
+        assert_eq!(parse_times("t_s\n0.5\n\n0.25,x\n"), Ok(vec![0.5, 0.25]));
+        assert_eq!(parse_times("-0.001\n2"), Ok(vec![-0.001, 2.0]));
+        assert_eq!(parse_times("0.1\nabc\n").unwrap_err().0, 2);
+        assert_eq!(parse_times("inf\n").unwrap_err().0, 1);
+        assert!(parse_times("t_s\n").is_err());
+    }
+
+    #[test]
+    fn the_motion_at_listed_times_is_the_mechanism_s() {
+        let mut s = crate::scenario::load_any("fast").unwrap();
+        s.dynamics.disc_vibration.enabled = true;
+        s.dynamics.axis_runout.enabled = true;
+        let dir = tempfile::tempdir().unwrap();
+        let times = [0.0, 1.2345, 0.7, 2.5];
+        let file = dir.path().join("times.csv");
+        let text: String = times.iter().map(|t| format!("{t}\n")).collect();
+        std::fs::write(&file, text).unwrap();
+        assert_eq!(write_truth_at(&s, &file, dir.path()).unwrap(), times.len());
+        let csv = std::fs::read_to_string(dir.path().join("truth.csv")).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let mechanism = Mechanism::new(&s.mechanism, &s.drive_speed, &s.dynamics, 2.5).unwrap();
+        for (line, &t) in lines.zip(&times) {
+            let cells: Vec<f64> = line
+                .split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect();
+            let actual = mechanism.actual(t);
+            assert_eq!(cells[col("t_s")], t);
+            assert!((cells[col("theta2_actual_rad")] - actual.theta2_rad).abs() < 1e-12);
+            assert!((cells[col("centre_offset_x_m")] - actual.centre_offset_m[0]).abs() < 1e-15);
+            assert!(cells[col("theta2_actual_rad")] != cells[col("theta2_rad")] || t == 0.0);
+        }
+    }
 }

@@ -15,7 +15,11 @@
 //! - `cargo xtask reports` — regenerate the reports `geneva reports` makes, deterministically.
 //! - `cargo xtask diagnosis [NAME…|all]` — the diagnosis self-check suites committed under
 //!   `reports/`, each by name (the table [`SUITES`]; no name lists them with their commands).
-//! - `cargo xtask deps`    — only check/install the system packages.
+//! - `cargo xtask deps [--pbr]` — only check/install the system packages (with `--pbr`, also
+//!   those of the path-traced footage: Blender, Python's OpenCV and NumPy).
+//! - `cargo xtask pbr-suite [--quick] [--cases a,b] [ARGS…]` — path-traced footage (`tools/pbr/`)
+//!   through `geneva calibrate` → `geneva diagnose`, scored into `reports/diagnosis-pbr/`
+//!   (resumable; ARGS go to `tools/pbr/pbr.py suite`).
 //!
 //! Architecture invariant: xtask has no dependencies and builds without OpenCV, so it can run on
 //! a machine where nothing but Rust is installed and set that machine up.
@@ -30,7 +34,16 @@ fn main() {
     let task = args.first().map(String::as_str).unwrap_or("help");
     let rest = &args[args.len().min(1)..];
     let result = match task {
-        "deps" => system::ensure_packages(),
+        "deps" => system::ensure_packages().and_then(|_| {
+            if rest.iter().any(|a| a == "--pbr") {
+                system::ensure(system::PBR_PACKAGES)
+            } else {
+                Ok(())
+            }
+        }),
+        "pbr-suite" => system::ensure_packages()
+            .and_then(|_| system::ensure(system::PBR_PACKAGES))
+            .and_then(|_| pbr_suite(rest)),
         "demo" => system::ensure_packages().and_then(|_| demo(rest)),
         "test" => system::ensure_packages().and_then(|_| test(rest)),
         "slurm-test" => system::ensure_packages()
@@ -41,7 +54,7 @@ fn main() {
         "diagnosis" => system::ensure_packages().and_then(|_| diagnosis(rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  deps     check and install the system packages"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  pbr-suite  path-traced footage (tools/pbr) through calibrate and diagnose into reports/diagnosis-pbr/ (hours; resumable; --quick: three cases)\n  deps     check and install the system packages (--pbr: also Blender and Python's OpenCV for tools/pbr)"
             );
             Ok(())
         }
@@ -120,6 +133,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         core.env("PROPTEST_RNG_SEED", "20261123");
     }
     run(core)?;
+    pbr_ci_case()?;
     // The real-Slurm test of `geneva slurm script` (skipped, saying why, unless root on Debian).
     if std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_some() {
         eprintln!("xtask: skipping the Slurm integration test: GENEVA_SKIP_SLURM_TEST is set");
@@ -127,6 +141,57 @@ fn test(extra: &[String]) -> Result<(), String> {
     }
     // `cargo test` has just built the binary its integration tests run: use that one.
     slurm::integration_test(&slurm::test_binary()?)
+}
+
+/// The Python that runs `tools/pbr/`: `PBR_PYTHON`, else Debian's (where `python3-opencv` and
+/// `python3-numpy` install), else the first `python3` on PATH.
+fn pbr_python() -> String {
+    std::env::var("PBR_PYTHON").unwrap_or_else(|_| {
+        if std::path::Path::new("/usr/bin/python3").exists() {
+            "/usr/bin/python3".into()
+        } else {
+            "python3".into()
+        }
+    })
+}
+
+/// The path-traced footage's small case (`tests/pbr_footage.rs`, about a minute): run when
+/// Blender is installed, SKIPPED with the reason otherwise. CI does not install Blender
+/// (`cargo xtask deps --pbr` does).
+fn pbr_ci_case() -> Result<(), String> {
+    if !system::has_program("blender") {
+        eprintln!(
+            "xtask: SKIPPED the path-traced footage case (tests/pbr_footage.rs): Blender is not \
+             installed (`cargo xtask deps --pbr` installs it with Python's OpenCV and NumPy)"
+        );
+        return Ok(());
+    }
+    let mut command = cargo();
+    command.args([
+        "test",
+        "--test",
+        "pbr_footage",
+        "--",
+        "--ignored",
+        "--nocapture",
+    ]);
+    command.env("PBR_PYTHON", pbr_python());
+    run(command)
+}
+
+/// `cargo xtask pbr-suite ARGS…`: builds the release binary, then runs the suite of
+/// `tools/pbr/suite.py` with it.
+fn pbr_suite(extra: &[String]) -> Result<(), String> {
+    let mut build = cargo();
+    build.args(["build", "--release", "--bin", "geneva"]);
+    run(build)?;
+    let target = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
+    let binary = std::path::Path::new(&target).join("release").join("geneva");
+    let mut command = Command::new(pbr_python());
+    command.args(["tools/pbr/pbr.py", "suite", "--geneva"]);
+    command.arg(&binary);
+    command.args(extra);
+    run(command)
 }
 
 /// `cargo bench --workspace EXTRA…` (e.g. `--bench diagnose --bench decompose` for two of them),

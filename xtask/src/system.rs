@@ -13,6 +13,20 @@ pub const PACKAGES: &[&str] = &[
     "ffmpeg",
 ];
 
+/// Debian packages of the path-traced footage (`tools/pbr/`): Blender (Cycles), and Python's
+/// OpenCV (its ArUco dictionaries draw the marker) and NumPy (the tool's sensor and codec).
+/// Installed by `cargo xtask deps --pbr` and `cargo xtask pbr-suite`, never by `cargo xtask test`.
+pub const PBR_PACKAGES: &[&str] = &["blender", "python3-opencv", "python3-numpy"];
+
+/// Whether a program answers `--version` (it is installed and on PATH).
+pub fn has_program(program: &str) -> bool {
+    Command::new(program)
+        .arg("--version")
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false)
+}
+
 fn is_installed(package: &str) -> bool {
     Command::new("dpkg-query")
         .args(["-W", "-f=${Status}", package])
