@@ -173,6 +173,9 @@ fn input_summary(
             unreadable - 5
         ));
     }
+    if let Some(n) = &input.numbering {
+        lines.push(format!("warning: {n}"));
+    }
     if let Some(t) = &input.truncation {
         let lost = input
             .lost_to_truncation()
