@@ -82,6 +82,9 @@ pub struct DiagnoseArgs {
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
     let source = a.source.source()?;
+    let mut inputs = a.source.inputs();
+    inputs.extend(super::scenario_inputs("--scenario", &a.scenario));
+    super::refuse_inputs_inside(&a.out, &inputs)?;
     let nominal = scenario::load_any(&a.scenario)?;
     let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
     if let geneva_vision::pipeline::analyze::Source::Tracks(path) = &source {

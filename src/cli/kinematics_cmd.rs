@@ -7,6 +7,7 @@ use std::path::Path;
 
 /// `geneva kinematics`: written into `out` all at once.
 pub fn run(spec: &str, out: &Path, yes: bool) -> Result<()> {
+    super::refuse_inputs_inside(out, &super::scenario_inputs("", spec))?;
     let s = scenario::load_any(spec)?;
     let mut work = geneva_vision::pipeline::workload::Workload::of(&s, true);
     // Only the truth: no pixels are rendered.
