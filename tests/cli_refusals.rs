@@ -180,3 +180,157 @@ fn an_input_inside_the_output_folder_is_refused_by_name_and_kept() {
     assert!(!o.status.success() && e.contains("staging folder"), "{e}");
     assert!(r.join(".sw2.partial/sweep.toml").is_file());
 }
+
+#[test]
+fn slurm_values_that_would_inject_commands_or_directives_are_refused() {
+    // A newline in --out, --partition or --time became a command the job script ran; a space
+    // split an #SBATCH line; `--mem "8G --wrap=x"` passed another option to sbatch; a `#` in
+    // --out cut the log path.
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let sweep = "sweep.toml";
+    std::fs::write(
+        r.join(sweep),
+        "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0]\n",
+    )
+    .unwrap();
+    let script = |extra: &[&str]| {
+        let mut args = vec!["slurm", "script", sweep, "--shards", "2"];
+        args.extend_from_slice(extra);
+        geneva(r, &args)
+    };
+    for (extra, needle) in [
+        (vec!["--out", "o\ntouch pwned"], "control character"),
+        (
+            vec!["--out", "o", "--partition", "gpu\ntouch pwned"],
+            "--partition",
+        ),
+        (
+            vec!["--out", "o", "--time", "01:00:00\ntouch pwned"],
+            "--time",
+        ),
+        (vec!["--out", "o", "--partition", "gpu long"], "--partition"),
+        (vec!["--out", "o", "--mem", "8G --wrap=x"], "--mem"),
+        (vec!["--out", "o", "--time", "1:2:3:4"], "--time"),
+        (vec!["--out", "a b"], "#SBATCH"),
+        (vec!["--out", "o#x"], "#SBATCH"),
+        (vec!["--out", "o%j"], "#SBATCH"),
+    ] {
+        let o = script(&extra);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{extra:?} accepted");
+        assert!(e.contains(needle), "{extra:?}: {e}");
+    }
+    let written: Vec<_> = std::fs::read_dir(r)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(written.len(), 1, "nothing but the sweep file: {written:?}");
+    assert!(!r.join("pwned").exists());
+    // Jobs that would refuse to run get no script.
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "--montecarlo",
+            "fast",
+            "--seeds",
+            "0",
+            "--out",
+            "mc",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("--seeds 0"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(r.join("bad.toml"), "extend = \"fast\"\nduration_s = -1.0\n").unwrap();
+    std::fs::write(
+        r.join("bad-sweep.toml"),
+        std::fs::read_to_string(r.join(sweep))
+            .unwrap()
+            .replace("\"fast\"", "\"bad.toml\""),
+    )
+    .unwrap();
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "bad-sweep.toml",
+            "--out",
+            "b",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("duration_s"),
+        "{}",
+        stderr(&o)
+    );
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "--montecarlo",
+            "bad.toml",
+            "--seeds",
+            "3",
+            "--out",
+            "b",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("duration_s"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!r.join("mc-slurm").exists() && !r.join("b-slurm").exists());
+    // A hostile but legal output folder, its scripts elsewhere: the task runs exactly the
+    // intended words (a stand-in geneva prints them, one per line).
+    let fake = r.join("fake-geneva");
+    std::fs::write(&fake, "#!/bin/bash\nprintf '%s\\n' \"$@\"\n").unwrap();
+    std::fs::set_permissions(&fake, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let out = "it's $(touch pwned) \"q\" `x` #h %j";
+    let o = script(&[
+        "--out",
+        out,
+        "--scripts",
+        "scripts",
+        "--geneva",
+        "fake-geneva",
+        "--mem",
+        "8G",
+        "--time",
+        "2-12:30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let task = std::process::Command::new("bash")
+        .arg(r.join("scripts/shards.sbatch"))
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .current_dir(r)
+        .output()
+        .unwrap();
+    let argv = String::from_utf8_lossy(&task.stdout).into_owned();
+    let abs_out = r.join(out).display().to_string();
+    let abs_sweep = r.join(sweep).display().to_string();
+    assert_eq!(
+        argv,
+        format!("sweep\n{abs_sweep}\n--out\n{abs_out}\n--shard\n1/2\n"),
+        "{}",
+        String::from_utf8_lossy(&task.stderr)
+    );
+    assert!(!r.join("pwned").exists());
+    let text = std::fs::read_to_string(r.join("scripts/shards.sbatch")).unwrap();
+    for line in text.lines().filter(|l| l.starts_with("#SBATCH")) {
+        assert_eq!(line.split_whitespace().count(), 2, "{line}");
+    }
+}

@@ -28,10 +28,15 @@ pub enum Target {
     FfprobeJson,
     /// `io::video::parse_probe_json`: the stream and frame description of a video.
     VideoProbeJson,
+    /// `geneva slurm script`'s values (one a line: output folder, scripts folder, binary,
+    /// partition, time, memory, then the job's words) through `shard::slurm::scripts`: an
+    /// accepted set must give scripts that read back as written (a script line that is not
+    /// its template's, a directive split, a command of other words: a panic, i.e. a fault).
+    SlurmArgs,
 }
 
 impl Target {
-    pub const ALL: [Target; 9] = [
+    pub const ALL: [Target; 10] = [
         Target::ScenarioToml,
         Target::SweepToml,
         Target::TracksCsv,
@@ -41,6 +46,7 @@ impl Target {
         Target::FfprobeCsv,
         Target::FfprobeJson,
         Target::VideoProbeJson,
+        Target::SlurmArgs,
     ];
 
     pub fn name(self) -> &'static str {
@@ -54,6 +60,7 @@ impl Target {
             Target::FfprobeCsv => "ffprobe_csv",
             Target::FfprobeJson => "ffprobe_json",
             Target::VideoProbeJson => "video_probe_json",
+            Target::SlurmArgs => "slurm_args",
         }
     }
 
@@ -126,9 +133,42 @@ pub fn parse(target: Target, bytes: &[u8], path: &Path) -> Result<(), Rejection>
         Target::VideoProbeJson => {
             crate::io::video::parse_probe_json(path, &text(bytes)).map(drop)?
         }
+        Target::SlurmArgs => slurm_args(bytes)?,
         _ => unreachable!("timing formats handled above"),
     }
     Ok(())
+}
+
+/// The Slurm script values of one input (see [`Target::SlurmArgs`]); a script that does not
+/// read back as written panics, which the campaign counts as a fault.
+fn slurm_args(bytes: &[u8]) -> Result<(), Rejection> {
+    use crate::shard::slurm::{scripts, Job, ScriptSpec, SlurmError};
+    let text = text(bytes);
+    let mut lines = text.split('\n');
+    let mut next = || lines.next().unwrap_or("").to_string();
+    let (out, dir, geneva) = (next(), next(), next());
+    let optional = |s: String| (!s.is_empty()).then_some(s);
+    let (partition, time, mem) = (optional(next()), optional(next()), optional(next()));
+    let study: Vec<String> = lines.map(str::to_string).collect();
+    let spec = ScriptSpec {
+        job: Job {
+            merge: study.iter().rev().cloned().collect(),
+            study,
+            what: out.clone(),
+        },
+        out: out.into(),
+        scripts: dir.into(),
+        geneva: geneva.into(),
+        shards: 1 + bytes.len() % 7,
+        cpus_per_task: 1 + bytes.len() % 3,
+        partition,
+        time,
+        mem,
+    };
+    match scripts(&spec) {
+        Err(e @ SlurmError::Generated { .. }) => panic!("{e}"),
+        other => other.map(drop).map_err(Into::into),
+    }
 }
 
 /// At most this many lines of a seed file: mutations of a short file are as telling and much
@@ -231,5 +271,13 @@ pub fn corpus(target: Target, repo: &Path) -> std::io::Result<Vec<Vec<u8>>> {
             out
         }
         Target::VideoProbeJson => vec![read("tests/data/fuzz/ffprobe-video.json")?],
+        Target::SlurmArgs => [
+            "/data/sweep out\n/data/slurm\n/opt/geneva\ngpu\n01:00:00\n8G\nsweep\n/data/s.toml",
+            "/scratch/mc\n/scratch/mc-slurm\n/usr/bin/geneva\n\n2-12:30\n\nmontecarlo\nfast\n--seeds\n100",
+            "/d/it's\n/d/s\n/g\ndebug,long\n30\n512m\ndiagnose\n--scenario\n/d/a b.toml\n--tracks\n/d/t.csv",
+        ]
+        .iter()
+        .map(|s| s.as_bytes().to_vec())
+        .collect(),
     })
 }

@@ -26,6 +26,7 @@
 pub mod adaptive;
 mod log;
 mod manifest;
+pub mod slurm;
 mod study;
 
 #[cfg(test)]

@@ -428,6 +428,12 @@ fn run_adaptive_sweep<E: Evaluator>(
     Ok(outcome)
 }
 
+/// Everything a sweep checks before its first run (its base scenario, every point's settings),
+/// without running anything: what `geneva slurm script` asks before it writes a job.
+pub fn check(spec: &SweepSpec, spec_path: &Path) -> Result<(), SweepError> {
+    SweepStudy::new(spec, spec_path, &NoEvaluator).map(drop)
+}
+
 /// Merges the shards in `out_dir/shards/` into the sweep's outputs, byte-identical to a
 /// one-machine run (idempotent). A missing unit is named and nothing is written.
 pub fn merge_sweep(
