@@ -286,3 +286,96 @@ fn a_frame_sequence_numbered_from_its_start_keeps_its_numbers() {
     assert_eq!(out.input.first_frame, 5);
     assert_eq!(out.input.last_frame, 64);
 }
+
+/// The clean track with its rows rewritten by `edit` (row → new line, or none to drop it).
+fn edited_tracks(dir: &Path, name: &str, edit: impl Fn(usize, &str) -> Option<String>) -> PathBuf {
+    let text = std::fs::read_to_string(clean_tracks()).unwrap();
+    let mut lines = text.lines();
+    let mut out = vec![lines.next().unwrap().to_string()];
+    out.extend(lines.enumerate().filter_map(|(k, l)| edit(k, l)));
+    let path = dir.join(name);
+    std::fs::write(&path, out.join("\n") + "\n").unwrap();
+    path
+}
+
+/// The crank speed scale the diagnosis aligns to the track at `tracks`.
+fn aligned_speed_scale(tracks: &Path, work: &Path) -> f64 {
+    use geneva_vision::pipeline::diagnose::{image, nominal, real};
+    let s = fast();
+    let layout = image::marker_layout(&s).unwrap();
+    let m = real::measure_real(
+        &s,
+        &Source::Tracks(tracks.into()),
+        &layout,
+        work,
+        &|_, _| {},
+    )
+    .unwrap();
+    let speed = nominal::align(&s, &m.record, &m.estimate, &layout)
+        .unwrap()
+        .motion
+        .speed_scale;
+    assert_eq!(
+        m.record.frames.len(),
+        m.estimate.frames,
+        "speed scale {speed}: the estimate is not row by row"
+    );
+    speed
+}
+
+#[test]
+fn a_decimated_track_is_timed_by_its_times_not_by_its_row_numbers() {
+    // Every other row of a clean track, frame numbers and times kept, gave the diagnosis a
+    // crank speed of 0.499× (clean 1.002×): its estimate held a placeholder per absent frame
+    // number and was paired with the rows by position. So did frame numbers doubled with the
+    // times unchanged.
+    let dir = tempfile::tempdir().unwrap();
+    let clean_path = clean_tracks();
+    let clean_speed = aligned_speed_scale(&clean_path, &dir.path().join("clean"));
+    let decimated = edited_tracks(dir.path(), "decimated.csv", |k, l| {
+        (k % 2 == 0).then(|| l.to_string())
+    });
+    let doubled = edited_tracks(dir.path(), "doubled.csv", |_, l| {
+        let (frame, rest) = l.split_once(',').unwrap();
+        Some(format!("{},{rest}", 2 * frame.parse::<usize>().unwrap()))
+    });
+    for (name, path) in [("decimated", &decimated), ("doubled", &doubled)] {
+        let speed = aligned_speed_scale(path, &dir.path().join(name));
+        assert!(
+            (speed / clean_speed - 1.0).abs() < 0.02,
+            "{name}: speed scale {speed}, clean {clean_speed}"
+        );
+        // The analysis's estimate at the rows is the row-by-row one.
+        let out = analyze(
+            &Source::Tracks(path.clone()),
+            &options(),
+            &dir.path().join(format!("{name}-out")),
+            &|_, _| {},
+        )
+        .unwrap();
+        let rows = out.estimate_at_rows();
+        assert_eq!(rows.frames, out.tracks.len());
+        let t: Vec<f64> = out.tracks.iter().map(|r| r.t_s).collect();
+        assert_eq!(rows.t_used_s, t, "{name}");
+    }
+    // Numbers that skip frames the times have no room for are said; honest gaps are not.
+    let read = |p: &Path| read_tracks(p, Some(0)).unwrap();
+    use geneva_vision::pipeline::analyze::numbering_mismatch;
+    assert_eq!(numbering_mismatch(&read(&clean_path)), None);
+    assert_eq!(
+        numbering_mismatch(&read(&decimated)).map(|m| m.frame_interval_s),
+        Some(None)
+    );
+    let half_doubled = edited_tracks(dir.path(), "half.csv", |k, l| {
+        let (frame, rest) = l.split_once(',').unwrap();
+        let f: usize = frame.parse().unwrap();
+        Some(format!("{},{rest}", if k < 30 { f } else { 2 * f - 29 }))
+    });
+    let m = numbering_mismatch(&read(&half_doubled)).expect("a mismatch");
+    assert_eq!((m.steps, m.first.0, m.first.1), (30, 29, 31));
+    let text = m.to_string();
+    assert!(
+        text.contains("frame 29 → 31") && text.contains("time base"),
+        "{text}"
+    );
+}

@@ -59,11 +59,16 @@ fn a_killed_montecarlo_keeps_the_old_results_and_its_finished_seeds_and_resumes(
         .spawn()
         .unwrap();
     let deadline = Instant::now() + Duration::from_secs(120);
-    // Complete lines only: a record being written when we look (or when the kill lands) is a
-    // line without its end, which the resumed run rightly does again (`shard::log`).
+    // Complete record lines only (not the log's header): a record being written when we look
+    // (or when the kill lands) is a line without its end, which the resumed run rightly does
+    // again (`shard::log`).
     let seeds_done = || {
         std::fs::read_to_string(&log)
-            .map(|t| t.matches('\n').count())
+            .map(|t| {
+                t.split_inclusive('\n')
+                    .filter(|l| l.ends_with('\n') && !l.starts_with('#'))
+                    .count()
+            })
             .unwrap_or(0)
     };
     while seeds_done() < 1 {

@@ -24,6 +24,11 @@ pub struct AnalyzeArgs {
 
 pub fn run(a: AnalyzeArgs) -> Result<()> {
     let source = a.source.source()?;
+    let mut inputs = a.source.inputs();
+    if let Some(spec) = &a.scenario {
+        inputs.extend(super::scenario_inputs("--scenario", spec));
+    }
+    super::refuse_inputs_inside(&a.out, &inputs)?;
     let mut options = AnalyzeOptions::default();
     let mut estimator_from = None;
     if let Some(spec) = &a.scenario {
@@ -172,6 +177,9 @@ fn input_summary(
             "warning: and {} more unreadable frames (all listed in unreadable_frames.csv)",
             unreadable - 5
         ));
+    }
+    if let Some(n) = &input.numbering {
+        lines.push(format!("warning: {n}"));
     }
     if let Some(t) = &input.truncation {
         let lost = input

@@ -64,6 +64,7 @@ pub fn montecarlo(a: MonteCarloArgs) -> Result<()> {
         (None, Some(s)) => s,
         (None, None) => anyhow::bail!("give a scenario, or `merge DIR`"),
     };
+    super::refuse_inputs_inside(&a.out, &super::scenario_inputs("", &spec))?;
     let s = scenario::load_any(&spec)?;
     let shards = a.shard.map_or(1, |s| s.count.max(1));
     let seeds_here = a.seeds.div_ceil(shards) as f64;
@@ -158,6 +159,7 @@ pub struct DecomposeArgs {
 }
 
 pub fn decompose(a: DecomposeArgs) -> Result<()> {
+    super::refuse_inputs_inside(&a.out, &super::scenario_inputs("", &a.scenario))?;
     let s = scenario::load_any(&a.scenario)?;
     // The first round: every configuration that runs, times the first seeds (more rounds may
     // follow, up to --max-seeds; each is printed as it ends).

@@ -4,6 +4,7 @@
 use anyhow::Result;
 use clap::Args;
 use geneva_vision::calibrate::CalibrateOptions;
+use geneva_vision::io::output_dir::Input;
 use geneva_vision::pipeline::calibrate::{calibrate, Footage};
 use std::path::PathBuf;
 
@@ -32,6 +33,10 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         Footage::Video,
         |dir, timestamps| Footage::Frames { dir, timestamps },
     )?;
+    let mut inputs = a.footage.inputs();
+    inputs.extend(a.image.as_ref().map(|i| Input::new("--image", i)));
+    inputs.extend(super::scenario_inputs("--base", &a.base));
+    super::refuse_inputs_inside(&a.out, &inputs)?;
     let bar = super::run_cmd::progress_bar(0, "measure");
     let options = CalibrateOptions {
         single_frame: a.single_frame,

@@ -82,8 +82,22 @@ pub struct DiagnoseArgs {
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
     let source = a.source.source()?;
+    let mut inputs = a.source.inputs();
+    inputs.extend(super::scenario_inputs("--scenario", &a.scenario));
+    super::refuse_inputs_inside(&a.out, &inputs)?;
     let nominal = scenario::load_any(&a.scenario)?;
     let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
+    if let geneva_vision::pipeline::analyze::Source::Tracks(path) = &source {
+        let rows =
+            geneva_vision::io::tracks_csv::read_tracks(path, Some(nominal.detector.marker_id));
+        // An unreadable track is refused, by name, by the diagnosis itself.
+        if let Some(n) = rows
+            .ok()
+            .and_then(|r| geneva_vision::pipeline::analyze::numbering_mismatch(&r))
+        {
+            eprintln!("warning: {}: {n}", path.display());
+        }
+    }
     if let Some(m) = a.max_minutes {
         if !(m.is_finite() && m > 0.0) {
             bail!("--max-minutes {m}: must be a positive number of minutes");

@@ -8,6 +8,14 @@ use std::path::Path;
 
 /// `geneva kinematics`: written into `out` all at once.
 pub fn run(spec: &str, out: &Path, times: Option<&Path>, yes: bool) -> Result<()> {
+    let mut inputs = super::scenario_inputs("", spec);
+    if let Some(times) = times {
+        inputs.push(geneva_vision::io::output_dir::Input::new(
+            "--times".to_string(),
+            times.to_path_buf(),
+        ));
+    }
+    super::refuse_inputs_inside(out, &inputs)?;
     let s = scenario::load_any(spec)?;
     let mut work = geneva_vision::pipeline::workload::Workload::of(&s, true);
     // Only the truth: no pixels are rendered.

@@ -189,6 +189,33 @@ pub fn main() -> Result<()> {
     }
 }
 
+/// Refuses to run a command whose inputs lie inside its output folder `out` (they would be
+/// deleted when it is replaced), naming the input: before any work, through the one check of
+/// the output-folder layer.
+pub fn refuse_inputs_inside(
+    out: &std::path::Path,
+    inputs: &[geneva_vision::io::output_dir::Input],
+) -> Result<()> {
+    geneva_vision::io::output_dir::refuse_inputs_inside(out, inputs)?;
+    Ok(())
+}
+
+/// The files a scenario argument reads (the file, its extend chain, its data files), named
+/// after `option` (`--scenario`, `--base`; empty for a positional argument).
+pub fn scenario_inputs(option: &str, spec: &str) -> Vec<geneva_vision::io::output_dir::Input> {
+    geneva_vision::scenario::files_read(spec)
+        .into_iter()
+        .map(|(what, path)| {
+            let what = match (option, what.as_str()) {
+                ("", _) => what,
+                (o, "scenario") => o.to_string(),
+                (o, _) => format!("{o} {what}"),
+            };
+            geneva_vision::io::output_dir::Input::new(what, path)
+        })
+        .collect()
+}
+
 /// The error and its causes joined with ": ", as anyhow's `{:#}`. Library errors return their
 /// cause from `source()` without repeating it in their message (`geneva_vision::errors`); a
 /// cause whose text a context added here already states is still left out, so that nothing is

@@ -42,6 +42,7 @@ pub fn run(
     independent: bool,
     yes: bool,
 ) -> Result<()> {
+    super::refuse_inputs_inside(out, &super::scenario_inputs("", spec))?;
     let s = scenario::load_any(spec)?;
     let mut work = geneva_vision::pipeline::workload::Workload::of(&s, false);
     if let Some(r) = frames.map(parse_range).transpose()? {

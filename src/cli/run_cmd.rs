@@ -21,6 +21,7 @@ pub fn progress_bar(total: usize, what: &str) -> ProgressBar {
 
 /// `geneva run`: the run written into `out` all at once.
 pub fn run(spec: &str, out: &Path, full_frame: bool, yes: bool) -> Result<RunOutput> {
+    super::refuse_inputs_inside(out, &super::scenario_inputs("", spec))?;
     let s = scenario::load_any(spec)?;
     let work = geneva_vision::pipeline::workload::Workload::of(&s, !full_frame);
     super::work::confirm(&format!("scenario {}", s.name), &work, yes)?;

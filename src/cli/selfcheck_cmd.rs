@@ -101,6 +101,9 @@ pub struct SelfCheckArgs {
 }
 
 pub fn run(a: SelfCheckArgs) -> Result<()> {
+    if let Some(spec) = &a.base {
+        super::refuse_inputs_inside(&a.out, &super::scenario_inputs("--base", spec))?;
+    }
     let effects = super::effects_arg::parse_effects(a.effects.as_deref())?;
     let base = match &a.base {
         Some(spec) => suite_base_from(spec, a.duration_s)?,

@@ -6,6 +6,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use geneva_vision::io::output_dir::Input;
 use geneva_vision::pipeline::analyze::Source;
 use std::path::PathBuf;
 
@@ -23,6 +24,19 @@ pub struct FootageArgs {
 }
 
 impl FootageArgs {
+    /// The files and folders given, named by their options.
+    pub fn inputs(&self) -> Vec<Input> {
+        let named = [
+            ("--video", &self.video),
+            ("--frames", &self.frames),
+            ("--timestamps", &self.timestamps),
+        ];
+        named
+            .into_iter()
+            .filter_map(|(what, p)| p.as_ref().map(|p| Input::new(what, p)))
+            .collect()
+    }
+
     /// The one input given: the video (`video`), the frames with their timestamps (`frames`), or
     /// the command's own alternative (`other`, from the option `other_flag`).
     pub fn one_of<T>(
@@ -58,6 +72,13 @@ pub struct SourceArgs {
 }
 
 impl SourceArgs {
+    /// The files and folders given, named by their options.
+    pub fn inputs(&self) -> Vec<Input> {
+        let mut v = self.footage.inputs();
+        v.extend(self.tracks.as_ref().map(|t| Input::new("--tracks", t)));
+        v
+    }
+
     /// The one source given, or an error naming the choices.
     pub fn source(&self) -> Result<Source> {
         self.footage.one_of(

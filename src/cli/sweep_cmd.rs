@@ -44,6 +44,25 @@ enum SweepAction {
     },
 }
 
+/// The files a sweep reads: the sweep file, and its base scenario's files when the base is a
+/// file (found beside the sweep file, as the sweep finds it).
+pub fn sweep_inputs(spec_path: &Path) -> Vec<geneva_vision::io::output_dir::Input> {
+    let mut inputs = vec![geneva_vision::io::output_dir::Input::new(
+        "sweep file",
+        spec_path,
+    )];
+    if let Ok(spec) = SweepSpec::load(spec_path) {
+        let beside = spec_path.parent().unwrap_or(Path::new("")).join(&spec.base);
+        let base = if beside.is_file() {
+            beside.to_string_lossy().into_owned()
+        } else {
+            spec.base.clone()
+        };
+        inputs.extend(super::scenario_inputs("the sweep's base", &base));
+    }
+    inputs
+}
+
 pub fn parse_shard(text: &str) -> Result<Shard, String> {
     Shard::parse(text).map_err(|e| e.to_string())
 }
@@ -74,6 +93,7 @@ fn sweep(
     restart: bool,
     yes: bool,
 ) -> Result<()> {
+    super::refuse_inputs_inside(out, &sweep_inputs(spec_path))?;
     let spec = SweepSpec::load(spec_path)?;
     let base = geneva_vision::sweep::grid::load_base(&spec, spec_path)?;
     let shards = shard.map_or(1.0, |s| s.count.max(1) as f64);
@@ -125,6 +145,7 @@ fn merge(dir: &Path, sweep: Option<PathBuf>) -> Result<()> {
         Some(p) => p,
         None => sweep_file_of(dir)?,
     };
+    super::refuse_inputs_inside(dir, &sweep_inputs(&spec_path))?;
     let spec = SweepSpec::load(&spec_path)?;
     let outcome = merge_sweep(&spec, &spec_path, dir)
         .with_context(|| format!("merge {} (sweep {})", dir.display(), spec_path.display()))?;

@@ -28,10 +28,21 @@ pub enum Target {
     FfprobeJson,
     /// `io::video::parse_probe_json`: the stream and frame description of a video.
     VideoProbeJson,
+    /// `geneva slurm script`'s values (one a line: output folder, scripts folder, binary,
+    /// partition, time, memory, then the job's words) through `shard::slurm::scripts`: an
+    /// accepted set must give scripts that read back as written (a script line that is not
+    /// its template's, a directive split, a command of other words: a panic, i.e. a fault).
+    SlurmArgs,
+    /// A shard's record file (`units.tsv`, `units.log`: header, `unit<TAB>record<TAB>digest`)
+    /// through `shard::parse_record_text`.
+    ShardRecords,
+    /// A shard's `manifest.json` (`shard::Manifest::from_json`) and `shard.json`
+    /// (`shard::parse_shard_json`): accepted when either reads it.
+    ShardJson,
 }
 
 impl Target {
-    pub const ALL: [Target; 9] = [
+    pub const ALL: [Target; 12] = [
         Target::ScenarioToml,
         Target::SweepToml,
         Target::TracksCsv,
@@ -41,6 +52,9 @@ impl Target {
         Target::FfprobeCsv,
         Target::FfprobeJson,
         Target::VideoProbeJson,
+        Target::SlurmArgs,
+        Target::ShardRecords,
+        Target::ShardJson,
     ];
 
     pub fn name(self) -> &'static str {
@@ -54,6 +68,9 @@ impl Target {
             Target::FfprobeCsv => "ffprobe_csv",
             Target::FfprobeJson => "ffprobe_json",
             Target::VideoProbeJson => "video_probe_json",
+            Target::SlurmArgs => "slurm_args",
+            Target::ShardRecords => "shard_records",
+            Target::ShardJson => "shard_json",
         }
     }
 
@@ -65,6 +82,8 @@ impl Target {
             Target::SweepToml => repo.join("scenarios/sweeps/fuzz-input.toml"),
             Target::TracksCsv => PathBuf::from("fuzz-input/tracks.csv"),
             Target::VideoProbeJson => PathBuf::from("fuzz-input/video.mp4"),
+            Target::ShardRecords => PathBuf::from("fuzz-input/shards/0/units.tsv"),
+            Target::ShardJson => PathBuf::from("fuzz-input/shards/0/shard.json"),
             _ => PathBuf::from("fuzz-input.log"),
         }
     }
@@ -74,7 +93,12 @@ impl Target {
     pub fn names_file(self) -> bool {
         matches!(
             self,
-            Target::ScenarioToml | Target::SweepToml | Target::TracksCsv | Target::VideoProbeJson
+            Target::ScenarioToml
+                | Target::SweepToml
+                | Target::TracksCsv
+                | Target::VideoProbeJson
+                | Target::ShardRecords
+                | Target::ShardJson
         )
     }
 
@@ -126,9 +150,51 @@ pub fn parse(target: Target, bytes: &[u8], path: &Path) -> Result<(), Rejection>
         Target::VideoProbeJson => {
             crate::io::video::parse_probe_json(path, &text(bytes)).map(drop)?
         }
+        Target::SlurmArgs => slurm_args(bytes)?,
+        Target::ShardRecords => {
+            crate::shard::parse_record_text(&text(bytes), path, 1 << 20).map(drop)?
+        }
+        Target::ShardJson => {
+            let t = text(bytes);
+            if let Err(e) = crate::shard::Manifest::from_json(&t, path) {
+                crate::shard::parse_shard_json(&t, path).map_err(|_| e)?;
+            }
+        }
         _ => unreachable!("timing formats handled above"),
     }
     Ok(())
+}
+
+/// The Slurm script values of one input (see [`Target::SlurmArgs`]); a script that does not
+/// read back as written panics, which the campaign counts as a fault.
+fn slurm_args(bytes: &[u8]) -> Result<(), Rejection> {
+    use crate::shard::slurm::{scripts, Job, ScriptSpec, SlurmError};
+    let text = text(bytes);
+    let mut lines = text.split('\n');
+    let mut next = || lines.next().unwrap_or("").to_string();
+    let (out, dir, geneva) = (next(), next(), next());
+    let optional = |s: String| (!s.is_empty()).then_some(s);
+    let (partition, time, mem) = (optional(next()), optional(next()), optional(next()));
+    let study: Vec<String> = lines.map(str::to_string).collect();
+    let spec = ScriptSpec {
+        job: Job {
+            merge: study.iter().rev().cloned().collect(),
+            study,
+            what: out.clone(),
+        },
+        out: out.into(),
+        scripts: dir.into(),
+        geneva: geneva.into(),
+        shards: 1 + bytes.len() % 7,
+        cpus_per_task: 1 + bytes.len() % 3,
+        partition,
+        time,
+        mem,
+    };
+    match scripts(&spec) {
+        Err(e @ SlurmError::Generated { .. }) => panic!("{e}"),
+        other => other.map(drop).map_err(Into::into),
+    }
 }
 
 /// At most this many lines of a seed file: mutations of a short file are as telling and much
@@ -231,5 +297,36 @@ pub fn corpus(target: Target, repo: &Path) -> std::io::Result<Vec<Vec<u8>>> {
             out
         }
         Target::VideoProbeJson => vec![read("tests/data/fuzz/ffprobe-video.json")?],
+        Target::ShardRecords => {
+            // A record file as a run writes it (digests), and one of the older format.
+            let records: std::collections::BTreeMap<usize, String> = [
+                (0, "0,fps=30,30,0,1,0.001,0.02,1.5,ok,".to_string()),
+                (3, "a\tb\nc \\ d".to_string()),
+                (7, String::new()),
+            ]
+            .into_iter()
+            .collect();
+            let new = crate::shard::record_file_text(&records).into_bytes();
+            vec![new, head(&read("reports/seed-camera/units.tsv")?, 20)]
+        }
+        Target::ShardJson => vec![
+            br#"{"index":1,"count":3,"files":{"manifest.json":"fnv1a64:0123456789abcdef","units.tsv":"fnv1a64:fedcba9876543210","seed0/tracks.csv":"fnv1a64:00000000000000ff"}}"#.to_vec(),
+            serde_json::to_vec_pretty(&crate::shard::Manifest::new(
+                "sweep",
+                8,
+                [("seeds".to_string(), serde_json::json!(2)), ("axes".to_string(), serde_json::json!([{"name": "fps", "values": [30.0, 60.0]}]))]
+                    .into_iter()
+                    .collect(),
+            ))
+            .map_err(std::io::Error::other)?,
+        ],
+        Target::SlurmArgs => [
+            "/data/sweep out\n/data/slurm\n/opt/geneva\ngpu\n01:00:00\n8G\nsweep\n/data/s.toml",
+            "/scratch/mc\n/scratch/mc-slurm\n/usr/bin/geneva\n\n2-12:30\n\nmontecarlo\nfast\n--seeds\n100",
+            "/d/it's\n/d/s\n/g\ndebug,long\n30\n512m\ndiagnose\n--scenario\n/d/a b.toml\n--tracks\n/d/t.csv",
+        ]
+        .iter()
+        .map(|s| s.as_bytes().to_vec())
+        .collect(),
     })
 }

@@ -44,6 +44,102 @@ pub enum OutputError {
     Foreign { dir: PathBuf, files: Vec<String> },
     #[error("{dir}: not a folder name an output can have")]
     NoName { dir: PathBuf },
+    #[error("{what} {} lies inside {} ({}), which this command replaces as a whole: the input would be deleted with it; choose another output folder, or move the input out of it first", path.display(), dir.display(), place)]
+    InputInside {
+        /// The input as the command names it (`--tracks`, `scenario`, `its extend base`).
+        what: String,
+        path: PathBuf,
+        dir: PathBuf,
+        /// Which part of the output is in the way: the folder itself or its staging folder.
+        place: String,
+    },
+}
+
+/// A file or folder a command reads, named as the command's user knows it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Input {
+    /// `--tracks`, `scenario`, `its frame_timing.model.file`…
+    pub what: String,
+    pub path: PathBuf,
+}
+
+impl Input {
+    pub fn new(what: impl Into<String>, path: impl Into<PathBuf>) -> Self {
+        Self {
+            what: what.into(),
+            path: path.into(),
+        }
+    }
+}
+
+/// `p` made absolute with every symbolic link and `.`/`..` resolved, as far as it exists; the
+/// part that does not exist yet is appended as written, its `.` and `..` resolved by name.
+pub fn resolved_path(p: &Path) -> PathBuf {
+    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let mut existing = abs.as_path();
+    let mut rest: Vec<std::ffi::OsString> = Vec::new();
+    let base = loop {
+        if let Ok(c) = existing.canonicalize() {
+            break c;
+        }
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = parent;
+            }
+            // `..` or the root: resolve the remainder by name below.
+            _ => break existing.to_path_buf(),
+        }
+    };
+    let mut out = base;
+    for part in rest.iter().rev() {
+        match part.to_str() {
+            Some(".") => {}
+            Some("..") => {
+                out.pop();
+            }
+            _ => out.push(part),
+        }
+    }
+    out
+}
+
+/// Refuses, naming it, any input that lies inside `dir` or inside the folders beside it that
+/// replacing `dir` deletes (its staging folder and the swapped-out old folder): a command that
+/// read its input from there and then committed would destroy it. Paths are compared resolved
+/// ([`resolved_path`]), so a symbolic link or `..` does not hide an input, and an input that is
+/// the folder itself is refused too. Every command runs it before any work.
+pub fn refuse_inputs_inside(dir: &Path, inputs: &[Input]) -> Result<(), OutputError> {
+    // What a commit replaces are the entries named NAME, .NAME.partial and .NAME.old in DIR's
+    // parent (a link there is replaced, not followed); what DIR resolves to is refused too.
+    let (_, parent, name) = split(dir)?;
+    let parent = resolved_path(&parent);
+    let mut places: Vec<(PathBuf, String)> = vec![
+        (parent.join(&name), "the output folder".to_string()),
+        (
+            parent.join(format!(".{name}.partial")),
+            "its staging folder".to_string(),
+        ),
+        (
+            parent.join(format!(".{name}.old")),
+            "the previous output, removed at the commit".to_string(),
+        ),
+    ];
+    if let Ok(target) = dir.canonicalize() {
+        places.push((target, "the output folder".to_string()));
+    }
+    for input in inputs {
+        let path = resolved_path(&input.path);
+        if let Some((_, place)) = places.iter().find(|(p, _)| path.starts_with(p)) {
+            return Err(OutputError::InputInside {
+                what: input.what.clone(),
+                path: input.path.clone(),
+                dir: dir.to_path_buf(),
+                place: place.clone(),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn list_some(files: &[String]) -> String {

@@ -137,6 +137,103 @@ pub struct InputReport {
     pub gaps: Vec<std::ops::RangeInclusive<usize>>,
     /// Set when a video's container promises more than decodes.
     pub truncation: Option<Truncation>,
+    /// Set when a track's frame numbers and times tell different stories (the times are the
+    /// time base; the numbers only label the rows).
+    pub numbering: Option<NumberingMismatch>,
+}
+
+/// Where a track's frame numbers disagree with its times: numbers that skip frames the times
+/// have no room for (`frame 2, 4, 6 …` at one frame interval apart), or numbers that never step
+/// by one, so that no frame interval can be read off them. The analysis and the diagnosis use
+/// the times; this is said so that a track whose numbers were rewritten is noticed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NumberingMismatch {
+    /// Steps between rows whose number skips frames the time step has no room for.
+    pub steps: usize,
+    /// The first such step: (frame number, next frame number, seconds between them).
+    pub first: (usize, usize, f64),
+    /// The median time step of rows whose numbers are consecutive, s (`None`: no such rows).
+    pub frame_interval_s: Option<f64>,
+    /// The median step of the frame numbers.
+    pub median_number_step: usize,
+}
+
+impl std::fmt::Display for NumberingMismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (a, b, dt) = self.first;
+        match self.frame_interval_s {
+            Some(h) => write!(
+                f,
+                "the frame numbers and times disagree at {} step(s), first frame {a} → {b}: the \
+                 numbers skip {} frame(s) but the times are {:.2} ms apart, {:.2} frame intervals \
+                 of {:.2} ms; the times are the time base, the numbers only label the rows",
+                self.steps,
+                b - a - 1,
+                dt * 1e3,
+                dt / h,
+                h * 1e3
+            ),
+            None => write!(
+                f,
+                "no two rows have consecutive frame numbers (they step by {} at the median, \
+                 first frame {a} → {b}, {:.2} ms apart): no frame interval can be read off the \
+                 numbers; the times are the time base, the numbers only label the rows",
+                self.median_number_step,
+                dt * 1e3
+            ),
+        }
+    }
+}
+
+/// The median of `v` (NaN when empty).
+fn median_of(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Whether the rows' frame numbers and times disagree (see [`NumberingMismatch`]). A time step
+/// longer than its numbers say (a variable frame rate, a dropped frame the numbering did not
+/// count) is no disagreement: phones do that.
+pub fn numbering_mismatch(rows: &[TrackRow]) -> Option<NumberingMismatch> {
+    let steps: Vec<(usize, usize, f64)> = rows
+        .windows(2)
+        .filter(|w| w[1].frame > w[0].frame)
+        .map(|w| (w[0].frame, w[1].frame, w[1].t_s - w[0].t_s))
+        .collect();
+    if steps.len() < 2 {
+        return None;
+    }
+    let number_steps: Vec<f64> = steps.iter().map(|(a, b, _)| (b - a) as f64).collect();
+    let median_number_step = median_of(number_steps) as usize;
+    let consecutive: Vec<f64> = steps
+        .iter()
+        .filter(|(a, b, _)| b - a == 1)
+        .map(|s| s.2)
+        .collect();
+    if consecutive.is_empty() {
+        return Some(NumberingMismatch {
+            steps: steps.len(),
+            first: steps[0],
+            frame_interval_s: None,
+            median_number_step,
+        });
+    }
+    let h = median_of(consecutive);
+    let bad: Vec<&(usize, usize, f64)> = steps
+        .iter()
+        .filter(|(a, b, dt)| b - a > 1 && *dt < ((b - a) as f64 - 0.5) * h)
+        .collect();
+    let first = **bad.first()?;
+    Some(NumberingMismatch {
+        steps: bad.len(),
+        first,
+        frame_interval_s: Some(h),
+        median_number_step,
+    })
 }
 
 impl InputReport {
@@ -155,11 +252,67 @@ impl InputReport {
 
 #[derive(Debug, Clone)]
 pub struct AnalyzeOutput {
+    /// Per frame of the input's numbering: the rows of `tracks` and a placeholder (no corners)
+    /// for each frame number absent from a track ([`AnalyzeOutput::estimate_at_rows`] has
+    /// them taken out).
     pub estimate: Estimate,
     pub signals: Vec<MeasuredSignal>,
     pub tracks: Vec<TrackRow>,
     pub input: InputReport,
     pub files: Vec<PathBuf>,
+}
+
+impl AnalyzeOutput {
+    /// The estimate at the rows of `tracks` only, in their order: its k-th value belongs to the
+    /// k-th row and that row's time. (`estimate` also holds the placeholders of frame numbers
+    /// absent from a track; pairing it with the rows by position put every value of a track
+    /// with every other row missing at another row's time.) The values are those of
+    /// `estimate`: a placeholder has no corners, so it changed no derivative.
+    pub fn estimate_at_rows(&self) -> Estimate {
+        let keep: Vec<bool> = with_placeholders(&self.tracks)
+            .into_iter()
+            .map(|(_, real)| real)
+            .collect();
+        select_frames(&self.estimate, &keep)
+    }
+}
+
+/// `e` at the frames whose `keep` is true (every per-frame series, the counts recomputed).
+fn select_frames(e: &Estimate, keep: &[bool]) -> Estimate {
+    if keep.len() != e.frames || keep.iter().all(|k| *k) {
+        return e.clone();
+    }
+    fn pick<T: Clone>(v: &[T], keep: &[bool]) -> Vec<T> {
+        v.iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| x.clone())
+            .collect()
+    }
+    let marker_centre_px = pick(&e.marker_centre_px, keep);
+    let frames = marker_centre_px.len();
+    let detected = marker_centre_px.iter().filter(|c| c.is_some()).count();
+    Estimate {
+        rotation_centre: e.rotation_centre.clone(),
+        signals: e
+            .signals
+            .iter()
+            .map(|s| crate::estimate::SignalSeries {
+                signal: s.signal,
+                theta_rad: pick(&s.theta_rad, keep),
+                omega_rad_s: pick(&s.omega_rad_s, keep),
+                alpha_rad_s2: pick(&s.alpha_rad_s2, keep),
+                differentiator: s.differentiator.clone(),
+            })
+            .collect(),
+        primary: e.primary,
+        marker_centre_px,
+        t_used_s: pick(&e.t_used_s, keep),
+        frames,
+        detected,
+        missing: frames - detected,
+        missing_reference: e.missing_reference,
+    }
 }
 
 /// Detection state carried from frame to frame.
@@ -259,6 +412,7 @@ fn track(
             last_frame: rows.last().map_or(0, |r| r.frame),
             frames_present: rows.len(),
             gaps,
+            numbering: numbering_mismatch(&rows),
             ..InputReport::default()
         };
         let limit = ABSENT_PER_ROW * rows.len() + ABSENT_EXTRA;

@@ -307,7 +307,18 @@ impl Study for McStudy<'_> {
     fn unit_name(&self, unit: usize) -> String {
         format!("seed index {unit}")
     }
+
+    /// Seed 0's full run, which the outputs carry as `seed0/`.
+    fn required_files(&self, unit: usize) -> Vec<String> {
+        match unit {
+            0 => SEED0_FILES.iter().map(|f| format!("seed0/{f}")).collect(),
+            _ => Vec::new(),
+        }
+    }
 }
+
+/// The files of seed 0's full run that a merge requires.
+const SEED0_FILES: [&str; 3] = ["tracks.csv", "kinematics.csv", "budget.json"];
 
 /// `geneva montecarlo`: the study into `out_dir` (or one shard of it), resumable, committed all
 /// at once; seeds run in parallel in the current rayon pool.
@@ -331,16 +342,24 @@ pub fn monte_carlo_study(
 /// Merges the shards of `out_dir` (the study's inputs are read from their manifests).
 pub fn merge_monte_carlo(out_dir: &Path) -> Result<MonteCarloOutcome, MonteCarloError> {
     let shards = out_dir.join(shard::SHARDS);
-    let manifest = std::fs::read_dir(&shards)
-        .map_err(|source| MonteCarloError::NoShards {
+    if let Err(source) = std::fs::read_dir(&shards) {
+        return Err(MonteCarloError::NoShards {
             dir: shards.clone(),
             source,
-        })?
-        .filter_map(Result::ok)
-        .find_map(|e| Manifest::read(&e.path()).ok().flatten())
-        .ok_or_else(|| MonteCarloError::NoCompleteShard {
-            dir: shards.clone(),
-        })?;
+        });
+    }
+    // The inputs as the first complete shard recorded them (never a lock file or a shard
+    // still being written); every shard is checked against them by the merge.
+    let mut manifest = None;
+    for folder in shard::complete_shard_folders(out_dir)? {
+        if let Some(m) = Manifest::read(&folder)? {
+            manifest = Some(m);
+            break;
+        }
+    }
+    let manifest = manifest.ok_or_else(|| MonteCarloError::NoCompleteShard {
+        dir: shards.clone(),
+    })?;
     let name = manifest.inputs["scenario"]["name"]
         .as_str()
         .unwrap_or("montecarlo")
@@ -608,6 +627,15 @@ mod tests {
         let merged = merge_monte_carlo(&sharded).unwrap();
         assert_eq!(merged.budget.unwrap().seeds, second.budget.unwrap().seeds);
         assert_eq!(read(&sharded), read(&whole));
+        // A shard that lost seed 0's run is refused, naming it (it merged without seed0/).
+        std::fs::remove_dir_all(sharded.join("shards/0/seed0")).unwrap();
+        let e = merge_monte_carlo(&sharded).unwrap_err().to_string();
+        assert!(e.contains("seed0/") && e.contains("missing"), "{e}");
+        assert_eq!(
+            read(&sharded),
+            read(&whole),
+            "the merged folder is untouched"
+        );
     }
 
     #[test]

@@ -164,6 +164,59 @@ pub fn stated_fields(spec: &str) -> Result<Value, ScenarioError> {
     }
 }
 
+/// The files that loading `spec` reads, each with what it is for messages: the scenario file,
+/// the files it extends (`extend`) and the data files it names (every `file` and `*_file` key,
+/// e.g. `frame_timing.model.file`). Nothing for a built-in or built-in data. A chain that does
+/// not resolve is listed as far as it does: loading names its error.
+pub fn files_read(spec: &str) -> Vec<(String, PathBuf)> {
+    let path = Path::new(spec);
+    if spec.starts_with("builtin:") || !(path.is_file() || builtin_text(spec).is_none()) {
+        return Vec::new();
+    }
+    let mut chain = Vec::new();
+    let value = resolve_file(path, &mut chain).ok();
+    let mut out: Vec<(String, PathBuf)> = chain
+        .into_iter()
+        .filter(|p| !p.to_string_lossy().starts_with("builtin:"))
+        .enumerate()
+        .map(|(k, p)| {
+            let what = if k == 0 {
+                "scenario".to_string()
+            } else {
+                format!("scenario {spec}'s extend base")
+            };
+            (what, p)
+        })
+        .collect();
+    if out.is_empty() {
+        out.push(("scenario".to_string(), path.to_path_buf()));
+    }
+    fn data_files(v: &Value, at: &str, spec: &str, out: &mut Vec<(String, PathBuf)>) {
+        let Value::Table(t) = v else { return };
+        for (key, x) in t {
+            let field = if at.is_empty() {
+                key.clone()
+            } else {
+                format!("{at}.{key}")
+            };
+            match x {
+                Value::String(s)
+                    if (key == "file" || key.ends_with("_file"))
+                        && !s.is_empty()
+                        && !merge::is_builtin_ref(s) =>
+                {
+                    out.push((format!("scenario {spec}'s {field}"), PathBuf::from(s)));
+                }
+                other => data_files(other, &field, spec, out),
+            }
+        }
+    }
+    if let Some(v) = &value {
+        data_files(v, "", spec, &mut out);
+    }
+    out
+}
+
 /// Parses scenario text that claims to come from `file` (used by tests and by `load`).
 pub fn from_str(text: &str, file: &Path) -> Result<Scenario, ScenarioError> {
     let mut value = parse_toml(text, file)?;

@@ -47,16 +47,19 @@ impl Manifest {
     pub fn read(folder: &Path) -> Result<Option<Self>, ShardError> {
         let path = folder.join(super::MANIFEST);
         match std::fs::read_to_string(&path) {
-            Ok(text) => serde_json::from_str(&text)
-                .map(Some)
-                .map_err(|e| ShardError::Log {
-                    file: path.clone(),
-                    line: e.line(),
-                    message: e.to_string(),
-                }),
+            Ok(text) => Self::from_json(&text, &path).map(Some),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
             Err(e) => Err(io_err(&path, "read")(e)),
         }
+    }
+
+    /// A manifest's JSON text; `path` names it in errors.
+    pub fn from_json(text: &str, path: &Path) -> Result<Self, ShardError> {
+        serde_json::from_str(text).map_err(|e| ShardError::Log {
+            file: path.to_path_buf(),
+            line: e.line(),
+            message: e.to_string(),
+        })
     }
 
     /// Writes `folder/manifest.json` (pretty, stable key order, newline at the end).

@@ -26,17 +26,18 @@
 pub mod adaptive;
 mod log;
 mod manifest;
+pub mod slurm;
 mod study;
 
 #[cfg(test)]
 mod tests;
 
 pub use adaptive::{run_adaptive, AdaptiveReport, AdaptiveStudy};
-pub use log::UnitLog;
+pub use log::{parse_record_text, record_file_text, UnitLog};
 pub use manifest::Manifest;
 pub use study::{
-    merge, progress, run_shard, run_whole, shard_records, Control, Progress, RunReport, Study,
-    UnitDirs,
+    complete_shard_folders, merge, parse_shard_json, progress, run_shard, run_whole, shard_records,
+    shard_records_with, Control, Progress, RunReport, Study, UnitDirs,
 };
 
 use std::path::PathBuf;

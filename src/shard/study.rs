@@ -36,6 +36,12 @@ pub trait Study: Sync {
 
     /// A unit in words, for messages (`point 3 (fps=30|…) seed 1`).
     fn unit_name(&self, unit: usize) -> String;
+
+    /// The files `unit` writes under its work folder that the outputs need (relative paths):
+    /// a merge refuses a shard that lost one.
+    fn required_files(&self, _unit: usize) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Hooks into a running study.
@@ -305,6 +311,139 @@ fn write_shard_info(folder: &Path, shard: Shard) -> Result<(), ShardError> {
     Ok(())
 }
 
+/// A complete shard's `shard.json`: which shard it is and the digest of every other file in
+/// its folder (its records, its manifest, the files its units wrote), taken when it completed.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct SealedShard {
+    index: usize,
+    count: usize,
+    /// Relative path (`/` separators) → `fnv1a64:` digest of the file's bytes. Absent from
+    /// shards written before shards carried digests.
+    #[serde(default)]
+    files: Option<BTreeMap<String, String>>,
+}
+
+fn file_digest(path: &Path) -> Result<String, ShardError> {
+    let bytes = std::fs::read(path).map_err(io_err(path, "read"))?;
+    Ok(format!("fnv1a64:{:016x}", super::manifest::fnv1a64(&bytes)))
+}
+
+/// Every file of `folder` but `shard.json`, with its digest.
+fn digests(folder: &Path) -> Result<BTreeMap<String, String>, ShardError> {
+    crate::io::output_dir::relative_files(folder)?
+        .into_iter()
+        .filter(|f| f != SHARD_INFO)
+        .map(|f| {
+            let d = file_digest(&folder.join(&f))?;
+            Ok((f, d))
+        })
+        .collect()
+}
+
+/// Seals a complete shard's folder: `shard.json` with the digest of every other file.
+pub(super) fn seal(folder: &Path, shard: Shard) -> Result<(), ShardError> {
+    let sealed = SealedShard {
+        index: shard.index,
+        count: shard.count,
+        files: Some(digests(folder)?),
+    };
+    let text = serde_json::to_string_pretty(&sealed).unwrap_or_default() + "\n";
+    crate::io::output_dir::write_file_atomic(&folder.join(SHARD_INFO), text.as_bytes())?;
+    Ok(())
+}
+
+/// A shard's `shard.json` text; `path` names it in errors. Returns the shard and whether it
+/// carries its files' digests. What the fuzzing of the format calls.
+pub fn parse_shard_json(text: &str, path: &Path) -> Result<(Shard, bool), ShardError> {
+    let sealed = parse_seal(text, path)?;
+    let shard = Shard::new(sealed.index, sealed.count).map_err(|_| ShardError::Log {
+        file: path.to_path_buf(),
+        line: 1,
+        message: format!("shard {}/{} is no shard", sealed.index, sealed.count),
+    })?;
+    Ok((shard, sealed.files.is_some()))
+}
+
+fn parse_seal(text: &str, path: &Path) -> Result<SealedShard, ShardError> {
+    serde_json::from_str(text).map_err(|e| ShardError::Log {
+        file: path.to_path_buf(),
+        line: e.line(),
+        message: crate::errors::full(&e),
+    })
+}
+
+/// Checks a complete shard's folder against its seal: every file listed there and unchanged,
+/// none added. Returns the shard.
+fn check_seal(folder: &Path) -> Result<Shard, ShardError> {
+    let path = folder.join(SHARD_INFO);
+    let mixed = |message: String| ShardError::Mixed {
+        dir: folder.to_path_buf(),
+        message,
+    };
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(mixed(format!("no {SHARD_INFO}: not a shard folder")))
+        }
+        Err(e) => return Err(io_err(&path, "read")(e)),
+    };
+    let sealed = parse_seal(&text, &path)?;
+    let Some(listed) = sealed.files else {
+        return Err(mixed(format!(
+            "its {SHARD_INFO} holds no digests of its files (a shard written before shards \
+             carried them): run that shard again with --restart"
+        )));
+    };
+    let found = digests(folder)?;
+    for (file, digest) in &listed {
+        match found.get(file) {
+            None => {
+                return Err(mixed(format!(
+                    "`{file}` is missing (listed in {SHARD_INFO})"
+                )))
+            }
+            Some(d) if d != digest => {
+                return Err(mixed(format!(
+                    "`{file}` was changed after the shard completed (its digest is {d}, \
+                     {SHARD_INFO} says {digest}); run that shard again with --restart"
+                )))
+            }
+            Some(_) => {}
+        }
+    }
+    if let Some(extra) = found.keys().find(|f| !listed.contains_key(*f)) {
+        return Err(mixed(format!(
+            "`{extra}` is not part of the shard (not in {SHARD_INFO}): remove it"
+        )));
+    }
+    Shard::new(sealed.index, sealed.count).map_err(|_| {
+        mixed(format!(
+            "{SHARD_INFO} names shard {}/{}",
+            sealed.index, sealed.count
+        ))
+    })
+}
+
+/// The complete shard folders of `dir/shards` (named by their index), sorted: what a merge and
+/// the study's own readers consider, never a lock file or a folder still being written.
+pub fn complete_shard_folders(dir: &Path) -> Result<Vec<PathBuf>, ShardError> {
+    let shards = dir.join(SHARDS);
+    let entries = match std::fs::read_dir(&shards) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io_err(&shards, "list")(e)),
+    };
+    let mut out: Vec<(usize, PathBuf)> = entries
+        .filter_map(Result::ok)
+        .filter_map(|e| {
+            let index = e.file_name().to_str()?.parse::<usize>().ok()?;
+            e.path().is_dir().then(|| (index, e.path()))
+        })
+        .collect();
+    out.sort();
+    Ok(out.into_iter().map(|(_, p)| p).collect())
+}
+
 /// Shard `shard` of the study into `dir/shards/I/` (see the module docs). Other shards may run
 /// at the same time on other machines; the merge may not.
 pub fn run_shard<S: Study>(
@@ -372,6 +511,7 @@ pub fn run_shard<S: Study>(
     write_records(&staging.join(RECORDS), &records)?;
     let log_path = staging.join(LOG);
     std::fs::remove_file(&log_path).map_err(io_err(&log_path, "remove"))?;
+    seal(&staging, shard)?;
     std::fs::rename(&staging, &done_dir)
         .map_err(io_err(&done_dir, "rename the finished shard to"))?;
     report.complete = true;
@@ -385,6 +525,17 @@ pub fn shard_records(
     dir: &Path,
     now: &Manifest,
     unit_name: &dyn Fn(usize) -> String,
+) -> Result<(Vec<String>, usize), ShardError> {
+    shard_records_with(dir, now, unit_name, &|_| Vec::new())
+}
+
+/// [`shard_records`], and every file `required(unit)` names (relative to the unit's shard
+/// folder) must be there: a shard that lost one is refused, naming it.
+pub fn shard_records_with(
+    dir: &Path,
+    now: &Manifest,
+    unit_name: &dyn Fn(usize) -> String,
+    required: &dyn Fn(usize) -> Vec<String>,
 ) -> Result<(Vec<String>, usize), ShardError> {
     let shards_dir = dir.join(SHARDS);
     let mut complete: BTreeMap<usize, PathBuf> = BTreeMap::new();
@@ -414,11 +565,8 @@ pub fn shard_records(
             partial.insert(index, path);
             continue;
         }
-        let info = read_shard_info(&path)?.ok_or_else(|| ShardError::Mixed {
-            dir: path.clone(),
-            message: format!("no {SHARD_INFO}: not a shard folder"),
-        })?;
         check(Manifest::read(&path)?, now, &path, false)?;
+        let info = check_seal(&path)?;
         if info.index != index || count.is_some_and(|c| c != info.count) {
             return Err(ShardError::Mixed {
                 dir: shards_dir.clone(),
@@ -433,16 +581,58 @@ pub fn shard_records(
         complete.insert(index, path);
     }
     let Some(count) = count else {
+        // No complete shard: what the unfinished ones (killed or still running) have done.
+        let mut shards: Vec<String> = partial
+            .values()
+            .map(|p| {
+                let n = read_records(&p.join(LOG), now.units, false).map_or(0, |r| r.len());
+                let which = read_shard_info(p)
+                    .ok()
+                    .flatten()
+                    .map_or_else(|| p.display().to_string(), |s| s.to_string());
+                format!("shard {which} unfinished, {n} units done")
+            })
+            .collect();
+        shards.insert(0, format!("no complete shard in {}", shards_dir.display()));
         return Err(ShardError::Missing {
             dir: dir.to_path_buf(),
             units: now.units,
             missing: (0..now.units).map(unit_name).collect(),
-            shards: vec![format!("no complete shard in {}", shards_dir.display())],
+            shards,
         });
     };
     let mut records: BTreeMap<usize, String> = BTreeMap::new();
-    for path in complete.values() {
-        records.extend(read_records(&path.join(RECORDS), now.units, false)?);
+    for (index, path) in &complete {
+        let shard = Shard {
+            index: *index,
+            count,
+        };
+        for (unit, record) in read_records(&path.join(RECORDS), now.units, false)? {
+            if !shard.owns(unit) {
+                return Err(ShardError::Mixed {
+                    dir: path.clone(),
+                    message: format!(
+                        "{RECORDS} holds {} (unit {unit}), which is shard {}/{count}'s, not \
+                         this shard's ({shard})",
+                        unit_name(unit),
+                        unit % count
+                    ),
+                });
+            }
+            for file in required(unit) {
+                if !path.join(&file).is_file() {
+                    return Err(ShardError::Mixed {
+                        dir: path.clone(),
+                        message: format!(
+                            "`{file}`, written by {}, is missing: run that shard again with \
+                             --restart",
+                            unit_name(unit)
+                        ),
+                    });
+                }
+            }
+            records.insert(unit, record);
+        }
     }
     let missing: Vec<usize> = (0..now.units)
         .filter(|u| !records.contains_key(u))
@@ -478,7 +668,9 @@ pub fn merge<S: Study>(study: &S, dir: &Path) -> Result<RunReport, S::Error> {
     let now = study.manifest();
     let out = OutputDir::create_carrying(dir, &[SHARDS]).map_err(ShardError::from)?;
     let shards_dir = out.dir().join(SHARDS);
-    let (records, count) = shard_records(out.dir(), now, &|u| study.unit_name(u))?;
+    let (records, count) = shard_records_with(out.dir(), now, &|u| study.unit_name(u), &|u| {
+        study.required_files(u)
+    })?;
     let staging = out.path().to_path_buf();
     let unit_dirs = |u: usize| shards_dir.join((u % count).to_string());
     study.finalize(&records, &unit_dirs, &staging)?;

@@ -1,6 +1,7 @@
 //! Tests of the work-unit layer with a toy study: shards + merge equal the whole run byte for
 //! byte, resumes repeat nothing, changed inputs and missing units are refused by name.
 
+use super::study::seal;
 use super::*;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -56,6 +57,12 @@ impl Study for Toy {
     }
     fn unit_name(&self, unit: usize) -> String {
         format!("toy unit {unit}")
+    }
+    fn required_files(&self, unit: usize) -> Vec<String> {
+        match unit {
+            0 => vec!["unit0.txt".into()],
+            _ => Vec::new(),
+        }
     }
 }
 
@@ -302,4 +309,127 @@ fn progress_reads_a_run_without_touching_it_and_knows_a_complete_one() -> Result
         .map_err(|e| e.to_string());
     assert!(e.as_ref().is_err_and(|e| e.contains("`k` 1 → 3")), "{e:?}");
     Ok(())
+}
+
+/// Two complete shards of a toy study of 6 units in `root/d`.
+fn two_shards(root: &Path) -> (Toy, std::path::PathBuf) {
+    let dir = root.join("d");
+    let toy = Toy::new(6, 5);
+    for i in 0..2 {
+        run_shard(
+            &toy,
+            &dir,
+            Shard::new(i, 2).unwrap(),
+            false,
+            &Control::none(),
+        )
+        .unwrap();
+    }
+    (toy, dir)
+}
+
+fn merge_error(toy: &Toy, dir: &Path) -> String {
+    let e = merge(toy, dir).unwrap_err().to_string();
+    assert!(!dir.join("out.txt").exists(), "written despite: {e}");
+    e
+}
+
+#[test]
+fn a_merge_refuses_records_edited_moved_or_lost_naming_them() {
+    // A unit of shard 0 recorded with another value in shard 1's units.tsv was merged and
+    // changed the outputs; a shard that lost a unit's file merged without it; edited numbers
+    // merged unnoticed.
+    let root = tempfile::tempdir().unwrap();
+    // A record edited in place.
+    let (toy, dir) = two_shards(root.path());
+    let tsv = dir.join("shards/1").join(RECORDS);
+    let text = std::fs::read_to_string(&tsv).unwrap();
+    std::fs::write(&tsv, text.replace("square \\\\ 9", "square \\\\ 8")).unwrap();
+    assert_ne!(std::fs::read_to_string(&tsv).unwrap(), text);
+    let e = merge_error(&toy, &dir);
+    assert!(
+        e.contains("units.tsv") && e.contains("changed after"),
+        "{e}"
+    );
+    // The same edit with the shard's digests taken again: the record's own digest refuses it.
+    seal(&dir.join("shards/1"), Shard::new(1, 2).unwrap()).unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(
+        e.contains("line") && e.contains("unit 3") && e.contains("digest"),
+        "{e}"
+    );
+    // Shard 0's unit 2 copied, with another value and a digest of its own, into shard 1.
+    let (toy, dir) = two_shards(&root.path().join("moved"));
+    let other = BTreeMap::from([
+        (1, "x".to_string()),
+        (2, "forged".to_string()),
+        (3, "y".to_string()),
+        (5, "z".to_string()),
+    ]);
+    log::write_records(&dir.join("shards/1").join(RECORDS), &other).unwrap();
+    seal(&dir.join("shards/1"), Shard::new(1, 2).unwrap()).unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(e.contains("toy unit 2") && e.contains("shard 0/2"), "{e}");
+    // A unit's file lost, with and without the digests taken again.
+    let (toy, dir) = two_shards(&root.path().join("lost"));
+    std::fs::remove_file(dir.join("shards/0/unit0.txt")).unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(e.contains("unit0.txt") && e.contains("missing"), "{e}");
+    seal(&dir.join("shards/0"), Shard::new(0, 2).unwrap()).unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(e.contains("unit0.txt") && e.contains("toy unit 0"), "{e}");
+    // A file added to a shard, and a shard written before shards carried digests.
+    let (toy, dir) = two_shards(&root.path().join("added"));
+    std::fs::write(dir.join("shards/1/extra.txt"), "x").unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(
+        e.contains("extra.txt") && e.contains("not part of the shard"),
+        "{e}"
+    );
+    let (toy, dir) = two_shards(&root.path().join("old"));
+    std::fs::write(
+        dir.join("shards/0").join(SHARD_INFO),
+        "{\"index\":0,\"count\":2}\n",
+    )
+    .unwrap();
+    let e = merge_error(&toy, &dir);
+    assert!(e.contains("no digests") && e.contains("--restart"), "{e}");
+    // Untouched, the same shards merge.
+    let (toy, dir) = two_shards(&root.path().join("clean"));
+    merge(&toy, &dir).unwrap();
+}
+
+#[test]
+fn a_log_line_edited_is_refused_by_name_and_an_older_log_is_read_as_it_is() {
+    let root = tempfile::tempdir().unwrap();
+    let p = root.path().join("units.log");
+    let (mut log, _) = UnitLog::open(&p, 5).unwrap();
+    log.append(1, "one").unwrap();
+    log.append(2, "two").unwrap();
+    drop(log);
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert!(text.starts_with(log::HEADER), "{text}");
+    std::fs::write(&p, text.replace("two", "tw0")).unwrap();
+    let e = UnitLog::open(&p, 5).err().unwrap().to_string();
+    assert!(
+        e.contains("units.log: line 3: unit 2") && e.contains("digest"),
+        "{e}"
+    );
+    // A line whose digest was cut off (the separating tab lost).
+    std::fs::write(&p, text.replacen("\tfnv1a64", "fnv1a64", 1)).unwrap();
+    assert!(UnitLog::open(&p, 5).is_err());
+    // A log of the older format: read as it is, then rewritten with digests.
+    std::fs::write(&p, "1\tone\n3\tthree\n").unwrap();
+    let (mut log, done) = UnitLog::open(&p, 5).unwrap();
+    assert_eq!(done.len(), 2);
+    log.append(4, "four").unwrap();
+    drop(log);
+    let (_, done) = UnitLog::open(&p, 5).unwrap();
+    assert_eq!(
+        done.values().cloned().collect::<Vec<_>>(),
+        ["one", "three", "four"]
+    );
+    assert!(std::fs::read_to_string(&p)
+        .unwrap()
+        .starts_with(log::HEADER));
 }

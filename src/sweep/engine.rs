@@ -428,6 +428,12 @@ fn run_adaptive_sweep<E: Evaluator>(
     Ok(outcome)
 }
 
+/// Everything a sweep checks before its first run (its base scenario, every point's settings),
+/// without running anything: what `geneva slurm script` asks before it writes a job.
+pub fn check(spec: &SweepSpec, spec_path: &Path) -> Result<(), SweepError> {
+    SweepStudy::new(spec, spec_path, &NoEvaluator).map(drop)
+}
+
 /// Merges the shards in `out_dir/shards/` into the sweep's outputs, byte-identical to a
 /// one-machine run (idempotent). A missing unit is named and nothing is written.
 pub fn merge_sweep(
@@ -458,12 +464,31 @@ pub fn merge_sweep(
 /// The sweep file the shards of `out_dir` were run from (recorded in their manifests).
 pub fn sweep_file_of(out_dir: &Path) -> Result<PathBuf, SweepError> {
     let shards = out_dir.join(shard::SHARDS);
-    let entries = std::fs::read_dir(&shards).map_err(|source| SweepError::NoShards {
-        dir: shards.clone(),
-        source,
-    })?;
-    for e in entries.filter_map(Result::ok) {
-        if let Some(origin) = Manifest::read(&e.path())?.and_then(|m| m.origin) {
+    if let Err(source) = std::fs::read_dir(&shards) {
+        return Err(SweepError::NoShards {
+            dir: shards.clone(),
+            source,
+        });
+    }
+    // Complete shard folders first, then the folders of shards still running or killed (whose
+    // merge names what is missing); never a lock file.
+    let mut folders = shard::complete_shard_folders(out_dir)?;
+    let mut partial: Vec<PathBuf> = std::fs::read_dir(&shards)
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .filter(|e| {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    name.starts_with('.') && name.ends_with(".partial") && e.path().is_dir()
+                })
+                .map(|e| e.path())
+                .collect()
+        })
+        .unwrap_or_default();
+    partial.sort();
+    folders.extend(partial);
+    for folder in folders {
+        if let Some(origin) = Manifest::read(&folder)?.and_then(|m| m.origin) {
             return Ok(PathBuf::from(origin));
         }
     }

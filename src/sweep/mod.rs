@@ -26,7 +26,7 @@ pub mod summary;
 mod tests;
 
 pub use engine::{
-    merge_sweep, run_sweep, run_sweep_with, sweep_file_of, Control, SweepOutcome, SweepRun,
+    check, merge_sweep, run_sweep, run_sweep_with, sweep_file_of, Control, SweepOutcome, SweepRun,
 };
 pub use error::SweepError;
 pub use grid::{load_base, point_scenario, points, run_seed, Point};

@@ -523,13 +523,41 @@ fn a_line_cut_by_an_interruption_is_redone() {
     interrupted(&spec, &path, &dir, 1, 3);
     let log = root.path().join(".out.partial").join(crate::shard::LOG);
     let text = std::fs::read_to_string(&log).unwrap();
-    assert_eq!(text.lines().count(), 3);
+    assert_eq!(text.lines().filter(|l| !l.starts_with('#')).count(), 3);
     std::fs::write(&log, &text[..text.len() - 10]).unwrap(); // the last row loses its tail
     let fake = Fake::new();
     let out = run_sweep(&spec, &path, &dir, &fake, no_progress()).unwrap();
     assert_eq!(fake.calls(), 6, "the cut run is redone");
     assert!(out.complete);
     assert_eq!(rows_in(&dir).len(), 8);
+}
+
+#[test]
+fn a_corrupted_log_line_is_refused_naming_the_log_and_its_line() {
+    // A resumed sweep with a corrupted units.log blamed the staging folder's results.csv.
+    let (spec, path) = fast_spec();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    interrupted(&spec, &path, &dir, 1, 3);
+    let log = root.path().join(".out.partial").join(crate::shard::LOG);
+    let text = std::fs::read_to_string(&log).unwrap();
+    let second = text.lines().nth(2).unwrap();
+    let (unit, _) = second.split_once('\t').unwrap();
+    let broken = second
+        .replacen(",ok,", ",o,", 1)
+        .replacen(",30,", ",3x,", 1);
+    assert_ne!(broken, second);
+    std::fs::write(&log, text.replacen(second, &broken, 1)).unwrap();
+    let fake = Fake::new();
+    let e = run_sweep(&spec, &path, &dir, &fake, no_progress())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("units.log: line 3") && e.contains(&format!("unit {unit}")),
+        "{e}"
+    );
+    assert!(!e.contains("results.csv"), "{e}");
+    assert_eq!(fake.calls(), 0);
 }
 
 #[test]
@@ -1027,5 +1055,38 @@ fn a_farther_camera_that_looks_better_is_flagged() {
     assert!(
         md.contains("rotation_centre = \"seed\"") && md.contains("θ RMS 0.0010–0.0010 rad"),
         "{md}"
+    );
+}
+
+#[test]
+fn a_merge_after_a_killed_shard_names_the_missing_runs_not_its_lock() {
+    // `sweep merge DIR` after a killed shard read the shard's lock file as a shard
+    // ("…/shards/.0.lock/manifest.json: Not a directory").
+    let (spec, path) = fast_spec();
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    let first = Fake::new();
+    let stop = || first.calls() >= 1;
+    let control = Control {
+        progress: &|_, _| {},
+        stop: &stop,
+    };
+    let run = SweepRun {
+        shard: Some(crate::shard::Shard::new(0, 2).unwrap()),
+        restart: false,
+        control: &control,
+    };
+    pool(1)
+        .install(|| run_sweep_with(&spec, &path, &dir, &first, &run))
+        .unwrap();
+    std::fs::write(dir.join("shards/.0.lock"), "pid 1 on host\n").unwrap();
+    let found = crate::sweep::sweep_file_of(&dir).unwrap();
+    assert_eq!(found, std::path::absolute(&path).unwrap());
+    let e = crate::sweep::merge_sweep(&spec, &found, &dir)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("missing") && e.contains("shard 0/2 unfinished") && !e.contains("lock"),
+        "{e}"
     );
 }

@@ -193,3 +193,61 @@ fn write_file_atomic_replaces_whole_files() {
     assert_eq!(read(root.path(), "m.json"), "two");
     assert_eq!(entries(root.path()), vec!["m.json"]);
 }
+
+#[test]
+fn an_input_inside_the_folder_or_its_staging_folder_is_refused_by_name() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    write(&dir, "tracks.csv", "x");
+    write(root.path(), "elsewhere/s.toml", "x");
+    let inside = |what: &str, p: &Path| {
+        let e = refuse_inputs_inside(
+            &dir,
+            &[
+                Input::new("--other", root.path().join("elsewhere/s.toml")),
+                Input::new(what, p),
+            ],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains(what) && e.contains(&p.display().to_string()),
+            "{e}"
+        );
+        e
+    };
+    // The folder's own file, the folder itself, a path through `..`, one not there yet.
+    inside("--tracks", &dir.join("tracks.csv"));
+    inside("--frames", &dir);
+    inside(
+        "--scenario",
+        &root.path().join("elsewhere/../out/scenario.toml"),
+    );
+    inside("--timestamps", &dir.join("sub/none.csv"));
+    // The staging folder and the swapped-out old folder beside it.
+    let e = inside("--video", &root.path().join(".out.partial/v.mp4"));
+    assert!(e.contains("staging"), "{e}");
+    inside("--image", &root.path().join(".out.old/i.png"));
+    // A link that leads into the folder, and an output folder named through a link.
+    std::os::unix::fs::symlink(dir.join("tracks.csv"), root.path().join("link.csv")).unwrap();
+    inside("--tracks", &root.path().join("link.csv"));
+    std::os::unix::fs::symlink(&dir, root.path().join("alias")).unwrap();
+    let e = refuse_inputs_inside(
+        &root.path().join("alias"),
+        &[Input::new("--tracks", dir.join("tracks.csv"))],
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("--tracks"), "{e}");
+    // Inputs beside the folder, or a folder that holds the output, pass.
+    refuse_inputs_inside(
+        &dir,
+        &[
+            Input::new("a", root.path().join("elsewhere/s.toml")),
+            Input::new("b", root.path().join("out2/tracks.csv")),
+            Input::new("c", root.path().join("outside.csv")),
+            Input::new("d", root.path()),
+        ],
+    )
+    .unwrap();
+    assert_eq!(read(&dir, "tracks.csv"), "x");
+}

@@ -131,7 +131,9 @@ pub fn measure_real(
             has_images,
             has_reference,
         },
-        estimate: out.estimate,
+        // Row by row, as `frames`: the analysis's own estimate also holds placeholders for
+        // frame numbers absent from a track.
+        estimate: out.estimate_at_rows(),
     })
 }
 

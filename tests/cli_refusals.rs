@@ -1,0 +1,336 @@
+//! Hostile command lines refused before any work, naming what is wrong, and losing nothing: an
+//! input inside the output folder it would be deleted with, Slurm values that would inject
+//! commands or directives, jobs that would refuse to run, work above the limits.
+#![cfg(feature = "opencv-detector")]
+
+mod common;
+use common::{geneva, stderr};
+use std::path::Path;
+
+/// A folder as geneva commits it: `files` (name, text) and the marker listing them.
+fn committed(dir: &Path, files: &[(&str, &str)]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut marker = String::from("# written by geneva\n");
+    for (name, text) in files {
+        let p = dir.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, text).unwrap();
+        marker.push_str(name);
+        marker.push('\n');
+    }
+    std::fs::write(dir.join(".geneva-output"), marker).unwrap();
+}
+
+/// Every file under `dir` with its bytes.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(snapshot(&p));
+        } else {
+            out.push((p.display().to_string(), std::fs::read(&p).unwrap()));
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Runs `args` in `root`, expects a refusal naming `option` and `path`, and `dir` unchanged.
+fn refused_keeping(root: &Path, dir: &str, args: &[&str], option: &str, path: &str) {
+    let before = snapshot(&root.join(dir));
+    let o = geneva(root, args);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{args:?} ran: {e}");
+    assert!(
+        e.contains(option) && e.contains(path) && e.contains("inside"),
+        "{args:?}: {e}"
+    );
+    assert_eq!(snapshot(&root.join(dir)), before, "{args:?} changed {dir}");
+}
+
+#[test]
+fn an_input_inside_the_output_folder_is_refused_by_name_and_kept() {
+    // `analyze --tracks DIR/tracks.csv --out DIR` (and the same with diagnose, calibrate,
+    // analyze --frames, run and diagnose on a calibrate folder's scenario) deleted the input
+    // with the folder it replaced, exit 0.
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let o = geneva(r, &["run", "fast", "--out", "run"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(r.join("run/tracks.csv").is_file());
+    refused_keeping(
+        r,
+        "run",
+        &["analyze", "--tracks", "run/tracks.csv", "--out", "run"],
+        "--tracks",
+        "run/tracks.csv",
+    );
+    refused_keeping(
+        r,
+        "run",
+        &[
+            "diagnose",
+            "--scenario",
+            "fast",
+            "--tracks",
+            "run/tracks.csv",
+            "--out",
+            "run",
+        ],
+        "--tracks",
+        "run/tracks.csv",
+    );
+    committed(
+        &r.join("render"),
+        &[
+            ("frame_000000.png", "png"),
+            ("timestamps.csv", "frame,t_s\n0,0\n"),
+        ],
+    );
+    for command in ["analyze", "calibrate"] {
+        let mut args = vec![
+            command,
+            "--frames",
+            "render",
+            "--timestamps",
+            "ts.csv",
+            "--out",
+            "render",
+        ];
+        if command == "calibrate" {
+            args.extend(["--base", "fast"]);
+        }
+        std::fs::write(r.join("ts.csv"), "frame,t_s\n0,0\n").unwrap();
+        refused_keeping(r, "render", &args, "--frames", "render");
+    }
+    refused_keeping(
+        r,
+        "render",
+        &[
+            "analyze",
+            "--frames",
+            "elsewhere",
+            "--timestamps",
+            "render/timestamps.csv",
+            "--out",
+            "render",
+        ],
+        "--timestamps",
+        "render/timestamps.csv",
+    );
+    let scenario = "extend = \"fast\"\nname = \"calibrated\"\n";
+    committed(
+        &r.join("cal"),
+        &[("scenario.toml", scenario), ("calibration.md", "# c\n")],
+    );
+    refused_keeping(
+        r,
+        "cal",
+        &["run", "cal/scenario.toml", "--out", "cal"],
+        "scenario",
+        "cal/scenario.toml",
+    );
+    refused_keeping(
+        r,
+        "cal",
+        &[
+            "diagnose",
+            "--scenario",
+            "cal/scenario.toml",
+            "--tracks",
+            "run/tracks.csv",
+            "--out",
+            "cal",
+        ],
+        "--scenario",
+        "cal/scenario.toml",
+    );
+    for args in [
+        ["kinematics", "cal/scenario.toml", "--out", "cal"],
+        ["render", "cal/scenario.toml", "--out", "cal"],
+        ["montecarlo", "cal/scenario.toml", "--out", "cal"],
+        ["decompose", "cal/scenario.toml", "--out", "cal"],
+    ] {
+        refused_keeping(r, "cal", &args, "scenario", "cal/scenario.toml");
+    }
+    // A scenario outside whose extend base or timing log lies inside.
+    std::fs::write(r.join("outer.toml"), "extend = \"cal/scenario.toml\"\n").unwrap();
+    refused_keeping(
+        r,
+        "cal",
+        &["run", "outer.toml", "--out", "cal"],
+        "extend base",
+        "cal/scenario.toml",
+    );
+    // A sweep file inside the folder the sweep writes, and in its staging folder.
+    let sweep = "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0]\n";
+    committed(&r.join("sw"), &[("sweep.toml", sweep)]);
+    refused_keeping(
+        r,
+        "sw",
+        &["sweep", "sw/sweep.toml", "--out", "sw"],
+        "sweep file",
+        "sw/sweep.toml",
+    );
+    std::fs::create_dir_all(r.join(".sw2.partial")).unwrap();
+    std::fs::write(r.join(".sw2.partial/sweep.toml"), sweep).unwrap();
+    let o = geneva(r, &["sweep", ".sw2.partial/sweep.toml", "--out", "sw2"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("staging folder"), "{e}");
+    assert!(r.join(".sw2.partial/sweep.toml").is_file());
+}
+
+#[test]
+fn slurm_values_that_would_inject_commands_or_directives_are_refused() {
+    // A newline in --out, --partition or --time became a command the job script ran; a space
+    // split an #SBATCH line; `--mem "8G --wrap=x"` passed another option to sbatch; a `#` in
+    // --out cut the log path.
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let sweep = "sweep.toml";
+    std::fs::write(
+        r.join(sweep),
+        "base = \"fast\"\nseeds = 1\n[[axis]]\nname = \"fps\"\nfield = \"frame_timing.fps\"\nvalues = [30.0]\n",
+    )
+    .unwrap();
+    let script = |extra: &[&str]| {
+        let mut args = vec!["slurm", "script", sweep, "--shards", "2"];
+        args.extend_from_slice(extra);
+        geneva(r, &args)
+    };
+    for (extra, needle) in [
+        (vec!["--out", "o\ntouch pwned"], "control character"),
+        (
+            vec!["--out", "o", "--partition", "gpu\ntouch pwned"],
+            "--partition",
+        ),
+        (
+            vec!["--out", "o", "--time", "01:00:00\ntouch pwned"],
+            "--time",
+        ),
+        (vec!["--out", "o", "--partition", "gpu long"], "--partition"),
+        (vec!["--out", "o", "--mem", "8G --wrap=x"], "--mem"),
+        (vec!["--out", "o", "--time", "1:2:3:4"], "--time"),
+        (vec!["--out", "a b"], "#SBATCH"),
+        (vec!["--out", "o#x"], "#SBATCH"),
+        (vec!["--out", "o%j"], "#SBATCH"),
+    ] {
+        let o = script(&extra);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{extra:?} accepted");
+        assert!(e.contains(needle), "{extra:?}: {e}");
+    }
+    let written: Vec<_> = std::fs::read_dir(r)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(written.len(), 1, "nothing but the sweep file: {written:?}");
+    assert!(!r.join("pwned").exists());
+    // Jobs that would refuse to run get no script.
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "--montecarlo",
+            "fast",
+            "--seeds",
+            "0",
+            "--out",
+            "mc",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("--seeds 0"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(r.join("bad.toml"), "extend = \"fast\"\nduration_s = -1.0\n").unwrap();
+    std::fs::write(
+        r.join("bad-sweep.toml"),
+        std::fs::read_to_string(r.join(sweep))
+            .unwrap()
+            .replace("\"fast\"", "\"bad.toml\""),
+    )
+    .unwrap();
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "bad-sweep.toml",
+            "--out",
+            "b",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("duration_s"),
+        "{}",
+        stderr(&o)
+    );
+    let o = geneva(
+        r,
+        &[
+            "slurm",
+            "script",
+            "--montecarlo",
+            "bad.toml",
+            "--seeds",
+            "3",
+            "--out",
+            "b",
+            "--shards",
+            "2",
+        ],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("duration_s"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!r.join("mc-slurm").exists() && !r.join("b-slurm").exists());
+    // A hostile but legal output folder, its scripts elsewhere: the task runs exactly the
+    // intended words (a stand-in geneva prints them, one per line).
+    let fake = r.join("fake-geneva");
+    std::fs::write(&fake, "#!/bin/bash\nprintf '%s\\n' \"$@\"\n").unwrap();
+    std::fs::set_permissions(&fake, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let out = "it's $(touch pwned) \"q\" `x` #h %j";
+    let o = script(&[
+        "--out",
+        out,
+        "--scripts",
+        "scripts",
+        "--geneva",
+        "fake-geneva",
+        "--mem",
+        "8G",
+        "--time",
+        "2-12:30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let task = std::process::Command::new("bash")
+        .arg(r.join("scripts/shards.sbatch"))
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .current_dir(r)
+        .output()
+        .unwrap();
+    let argv = String::from_utf8_lossy(&task.stdout).into_owned();
+    let abs_out = r.join(out).display().to_string();
+    let abs_sweep = r.join(sweep).display().to_string();
+    assert_eq!(
+        argv,
+        format!("sweep\n{abs_sweep}\n--out\n{abs_out}\n--shard\n1/2\n"),
+        "{}",
+        String::from_utf8_lossy(&task.stderr)
+    );
+    assert!(!r.join("pwned").exists());
+    let text = std::fs::read_to_string(r.join("scripts/shards.sbatch")).unwrap();
+    for line in text.lines().filter(|l| l.starts_with("#SBATCH")) {
+        assert_eq!(line.split_whitespace().count(), 2, "{line}");
+    }
+}
