@@ -104,6 +104,46 @@ fn calibrate_writes_a_scenario_that_extends_the_base_with_its_uncertainties() {
     assert!(stderr(&o).contains("notes.txt"), "{}", stderr(&o));
 }
 
+/// `geneva scenario check` warns when a nominal clips its own noise at the tone curve's ends
+/// (the built-in `fast` has its paper at the white level) and states the levels the way
+/// `calibrate` writes a footage's; stated so, the scenario checks without the warning.
+#[test]
+fn scenario_check_warns_of_paper_at_the_white_level_and_states_it_as_calibrate_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = geneva(d, &["scenario", "check", "fast"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("warning: scene.paper_radiance: "))
+        .unwrap_or_else(|| panic!("no warning in {out}"));
+    assert!(line.contains("clips 50 %"), "{line}");
+    let stated = |field: &str| -> f64 {
+        let at = line.find(&format!("{field} = ")).expect(field) + field.len() + 3;
+        line[at..]
+            .split([',', ' '])
+            .next()
+            .and_then(|v| v.parse().ok())
+            .expect("a number")
+    };
+    std::fs::write(
+        d.join("stated.toml"),
+        format!(
+            "extend = \"fast\"\n[scene]\nink_radiance = {}\npaper_radiance = {}\n\
+             [effects.lighting]\nwhite_level_dn = {}\n",
+            stated("scene.ink_radiance"),
+            stated("scene.paper_radiance"),
+            stated("effects.lighting.white_level_dn")
+        ),
+    )
+    .unwrap();
+    let o = geneva(d, &["scenario", "check", "stated.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(!out.contains("warning"), "{out}");
+}
+
 #[test]
 fn a_base_without_the_marker_side_is_refused_naming_the_field() {
     let dir = tempfile::tempdir().unwrap();
