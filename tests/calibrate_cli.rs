@@ -104,6 +104,46 @@ fn calibrate_writes_a_scenario_that_extends_the_base_with_its_uncertainties() {
     assert!(stderr(&o).contains("notes.txt"), "{}", stderr(&o));
 }
 
+/// `geneva scenario check` warns when a nominal clips its own noise at the tone curve's ends
+/// (the built-in `fast` has its paper at the white level) and states the levels the way
+/// `calibrate` writes a footage's; stated so, the scenario checks without the warning.
+#[test]
+fn scenario_check_warns_of_paper_at_the_white_level_and_states_it_as_calibrate_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = geneva(d, &["scenario", "check", "fast"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("warning: scene.paper_radiance: "))
+        .unwrap_or_else(|| panic!("no warning in {out}"));
+    assert!(line.contains("clips 50 %"), "{line}");
+    let stated = |field: &str| -> f64 {
+        let at = line.find(&format!("{field} = ")).expect(field) + field.len() + 3;
+        line[at..]
+            .split([',', ' '])
+            .next()
+            .and_then(|v| v.parse().ok())
+            .expect("a number")
+    };
+    std::fs::write(
+        d.join("stated.toml"),
+        format!(
+            "extend = \"fast\"\n[scene]\nink_radiance = {}\npaper_radiance = {}\n\
+             [effects.lighting]\nwhite_level_dn = {}\n",
+            stated("scene.ink_radiance"),
+            stated("scene.paper_radiance"),
+            stated("effects.lighting.white_level_dn")
+        ),
+    )
+    .unwrap();
+    let o = geneva(d, &["scenario", "check", "stated.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(!out.contains("warning"), "{out}");
+}
+
 #[test]
 fn a_base_without_the_marker_side_is_refused_naming_the_field() {
     let dir = tempfile::tempdir().unwrap();
@@ -203,22 +243,19 @@ const REAL_FRAME: &str = concat!(
     "/data/real/annotated-frame-4k.jpg"
 );
 
-/// The real 4K frame of the seed rig, single-frame mode on the clean marker of the base plate
-/// (4x4_50 id 1; its printed side is not known, so the scale here means nothing, but the image
-/// formation does not depend on it). Pins the levels, blur and noise it reports.
-#[test]
-fn the_real_4k_frame_calibrates_levels_blur_and_noise_of_the_base_plate_marker() {
+/// Calibrates the real 4K frame in single-frame mode with the base `base_toml`.
+fn calibrate_real_frame(
+    base_toml: &str,
+) -> (
+    tempfile::TempDir,
+    geneva_vision::pipeline::calibrate::CalibrateOutput,
+) {
     assert!(Path::new(REAL_FRAME).is_file(), "{REAL_FRAME} is missing");
     use geneva_vision::calibrate::CalibrateOptions;
     use geneva_vision::pipeline::calibrate::{calibrate, Footage};
     let dir = tempfile::tempdir().unwrap();
     let base = dir.path().join("base.toml");
-    std::fs::write(
-        &base,
-        "extend = \"seed-internal-4k\"\n[scene.marker]\nid = 1\nsize_mm = 60.0\nradius_mm = 100.0\n\
-         [detector]\nmarker_id = 1\n",
-    )
-    .unwrap();
+    std::fs::write(&base, base_toml).unwrap();
     let out = calibrate(
         &Footage::Image(REAL_FRAME.into()),
         &base.display().to_string(),
@@ -227,12 +264,27 @@ fn the_real_4k_frame_calibrates_levels_blur_and_noise_of_the_base_plate_marker()
         &|_, _| {},
     )
     .unwrap();
+    (dir, out)
+}
+
+/// The real 4K frame of the seed rig, single-frame mode on the clean marker of the base plate
+/// (4x4_50 id 1; its printed side is not known, so the scale here means nothing, but the image
+/// formation does not depend on it). Pins the levels and blur it reports, and that its noise is
+/// not identifiable from this one frame: the phone's denoising and JPEG left its flattest
+/// patches without variation, and what varies is print texture (the region's plain σ was 4.1 DN
+/// at the ink, 1.5 DN at the paper).
+#[test]
+fn the_real_4k_frame_calibrates_levels_and_blur_of_the_base_plate_marker_but_not_its_noise() {
+    let (dir, out) = calibrate_real_frame(
+        "extend = \"seed-internal-4k\"\n[scene.marker]\nid = 1\nsize_mm = 60.0\nradius_mm = 100.0\n\
+         [detector]\nmarker_id = 1\n",
+    );
     let c = &out.calibration;
     assert!(c.motion.is_none() && c.geometry.centre_px.is_none());
     assert!(!c.geometry.tilt.fitted);
     let im = &c.imaging;
     eprintln!(
-        "real frame: ink {} paper {} disc {:?} DN, blur σ {:?} px over {} edges, noise {} / {} DN, JPEG {:?}",
+        "real frame: ink {} paper {} disc {:?} DN, blur σ {:?} px over {} edges, noise {} / {} DN ({:?}), JPEG {:?}",
         im.ink_dn,
         im.paper_dn,
         im.disc_dn,
@@ -240,6 +292,7 @@ fn the_real_4k_frame_calibrates_levels_blur_and_noise_of_the_base_plate_marker()
         im.blur_edges,
         im.noise.ink_sigma_dn,
         im.noise.paper_sigma_dn,
+        im.noise.footage_not_identifiable,
         im.jpeg_quality
     );
     // Levels of the ink and the paper (the seed's defaults came from the same marker).
@@ -250,16 +303,75 @@ fn the_real_4k_frame_calibrates_levels_blur_and_noise_of_the_base_plate_marker()
     let b = im.blur_sigma_px.expect("blur measured");
     assert!(b.value > 0.5 && b.value < 1.0, "{b}");
     assert!(b.covers(0.5), "{b}");
-    // Noise: the phone's processing leaves far more on the ink than on the paper.
-    let (ni, np) = (im.noise.ink_sigma_dn, im.noise.paper_sigma_dn);
-    assert!((ni.value - 4.1).abs() < 0.3, "{ni}");
-    assert!((np.value - 1.49).abs() < 0.15, "{np}");
-    assert!(!im.noise.shot_resolved);
+    // Noise: not identifiable from one processed frame; the base's (the pipeline's default,
+    // a phone sensor's level) is written, flagged.
+    let why = im
+        .noise
+        .footage_not_identifiable
+        .as_ref()
+        .expect("not identifiable");
+    assert!(why.contains("no variation"), "{why}");
+    for s in [im.noise.ink_sigma_dn, im.noise.paper_sigma_dn] {
+        assert!(s.value > 1.0 && s.value <= 6.0, "{s}");
+    }
+    let toml = std::fs::read_to_string(dir.path().join("cal/scenario.toml")).unwrap();
+    assert!(toml.contains("NOT IDENTIFIABLE"), "{toml}");
     // JPEG at the phone's quality.
     assert_eq!(im.jpeg_quality.map(|q| q.0), Some(95));
     for f in ["scenario.toml", "calibration.md", "overlay.png"] {
         assert!(dir.path().join("cal").join(f).is_file(), "{f}");
     }
+}
+
+/// The seed rig's disc marker on the real 4K frame (data/real/annotated-frame-4k.jpg, the frame
+/// the calibration of real footage is judged on): the noise comes out at a phone sensor's level
+/// or not identifiable, never the disc's texture (print lines, tape, glare: 43–50 DN when the
+/// region's plain σ was taken for noise), and the re-render check fails and says why. A render
+/// of the calibrated scenario draws a uniform disc and paper where the footage holds texture:
+/// such a render must never pass (it did, at a residual of 0.81 × a fitted noise of 47.6 DN).
+#[test]
+fn the_real_4k_frame_s_disc_marker_gives_no_texture_for_noise_and_fails_the_re_render_check() {
+    let (dir, out) =
+        calibrate_real_frame("extend = \"seed-internal-4k\"\n[scene.marker]\nsize_mm = 32.0\n");
+    let n = &out.calibration.imaging.noise;
+    let why = n.footage_not_identifiable.as_deref();
+    eprintln!(
+        "disc marker: noise {} / {} DN ({why:?})",
+        n.ink_sigma_dn, n.paper_sigma_dn
+    );
+    for s in [n.ink_sigma_dn, n.paper_sigma_dn] {
+        assert!(s.value <= 6.0, "{s}: not a phone sensor's noise");
+    }
+    let k = out.check.as_ref().expect("the re-render check ran");
+    let f = &k.structure.footage;
+    eprintln!(
+        "re-render: ratio {:.2}, smoothed {:.2} (model {:.2}), autocorrelation {:.2?}, edge \
+         energy {:.1}; {:?}",
+        k.ratio(),
+        f.smoothed_retention,
+        k.structure.model.smoothed_retention,
+        f.autocorrelation,
+        f.edge_energy_ratio,
+        k.failures()
+    );
+    // A uniform disc and paper cannot reproduce the frame: the check fails on the structure
+    // left (once calibrate carries the footage's appearance, this is where it must pass with a
+    // residual that keeps at most a third of its sd when smoothed).
+    assert!(!k.passed(), "{:?}", k.structure);
+    assert!(f.smoothed_retention > 0.5, "{f:?}");
+    assert!(
+        k.failures().iter().any(|w| w.contains("smoothed at 2 px")),
+        "{:?}",
+        k.failures()
+    );
+    let md = std::fs::read_to_string(dir.path().join("cal/calibration.md")).unwrap();
+    assert!(md.contains("## Re-rendering check: failed"), "{md}");
+    assert!(md.contains("What is left in the residual"), "{md}");
+    assert!(out
+        .calibration
+        .notes
+        .iter()
+        .any(|n| n.starts_with("warning: the re-render check failed")));
 }
 
 /// From a video (ffmpeg decode, ffprobe timestamps); a base naming the wrong mechanism is not

@@ -31,6 +31,10 @@ pub struct NoiseFit {
     pub match_residual_dn: [f64; 2],
     /// Why the sensor's σ before compression cannot be measured to 10 % (`None`: it can).
     pub not_identifiable: Option<String>,
+    /// Why the σ the footage shows cannot be told from its texture or processing at all
+    /// (`None`: it was measured). Then `ink_sigma_dn` and `paper_sigma_dn` are the base's σ at
+    /// the footage's levels (U = 0: not measured), and so are the electrons.
+    pub footage_not_identifiable: Option<String>,
     /// Under JPEG: how far the σ before compression moves over the quality range the quantiser
     /// allows, at the ink and the paper, DN (0 without compression).
     pub compression_u_dn: [f64; 2],
@@ -213,9 +217,179 @@ pub fn noise_electrons(
     (fw, read, vp - vi > resolvable_dn2)
 }
 
+/// The base scenario's pixel noise: what the calibrated scenario carries where the footage
+/// cannot tell its own.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BaseNoise {
+    pub enabled: bool,
+    pub black_level_dn: f64,
+    pub white_level_dn: f64,
+    pub full_well_e: f64,
+    pub read_noise_e: f64,
+}
+
+impl BaseNoise {
+    pub fn of(base: &crate::scenario::Scenario) -> BaseNoise {
+        let fx = &base.effects;
+        let span = fx.lighting.span_dn();
+        let black = if fx.lighting.enabled {
+            fx.lighting.black_level_dn
+        } else {
+            0.0
+        };
+        BaseNoise {
+            enabled: fx.pixel_noise.enabled,
+            black_level_dn: black,
+            white_level_dn: black + span,
+            full_well_e: fx.pixel_noise.full_well_e,
+            read_noise_e: fx.pixel_noise.read_noise_e,
+        }
+    }
+
+    /// The base's σ at `level_dn` with the 1/√12 DN quantisation (only that when it is off).
+    pub fn sigma_dn(&self, level_dn: f64) -> f64 {
+        if self.enabled {
+            sensor_sigma(
+                level_dn,
+                self.black_level_dn,
+                self.white_level_dn,
+                self.full_well_e,
+                self.read_noise_e,
+            )
+        } else {
+            QUANTISATION_FLOOR_DN
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        if self.enabled {
+            format!(
+                "the base's pixel noise (full well {} e⁻, read {} e⁻ over its levels {}–{} DN), \
+                 as σ in DN at the footage's levels",
+                self.full_well_e, self.read_noise_e, self.black_level_dn, self.white_level_dn
+            )
+        } else {
+            "the base's: no pixel noise".into()
+        }
+    }
+}
+
+/// The footage's σ of material `m` (0 ink, 1 paper) from the weak-texture estimates of its
+/// frames: the median over the frames whose estimate is the sensor's white noise, with the
+/// larger of the median's spread and one estimate's own standard error; or why there is none.
+pub fn spatial_sigma(stats: &FootageStats, m: usize) -> Result<Fitted, String> {
+    let est: Vec<&crate::imagestats::WeakTextureNoise> = stats
+        .spatial_noise
+        .iter()
+        .filter_map(|s| {
+            if m == 0 {
+                s.ink.as_ref()
+            } else {
+                s.paper.as_ref()
+            }
+        })
+        .collect();
+    if est.is_empty() {
+        return Err("no frame holds a region large enough for the weak-texture estimate".into());
+    }
+    let ok: Vec<_> = est
+        .iter()
+        .filter(|e| e.not_identifiable().is_none())
+        .collect();
+    if 2 * ok.len() <= est.len() {
+        return Err(est
+            .iter()
+            .find_map(|e| e.not_identifiable())
+            .unwrap_or_default());
+    }
+    let sigmas: Vec<f64> = ok.iter().map(|e| e.sigma_dn).collect();
+    let spread = robust_level(&sigmas, 0.0).ok_or("no estimate")?;
+    let mut se: Vec<f64> = ok.iter().map(|e| e.sigma_stderr_dn).collect();
+    let se = median(&mut se);
+    Ok(Fitted::new(
+        spread.value,
+        spread.u95.max(2.0 * se) + 0.03 * spread.value,
+    ))
+}
+
+/// Under JPEG, the plain σ of material `m` (median over frames of the σ about a plane, which
+/// holds texture too) when the footage's weak-texture σ agrees with the weak-texture σ of a flat
+/// patch at `level_dn` whose noise shows that plain σ after the same codec: then what the region
+/// holds is that noise through the codec, not texture. (On a flat patch at quality 85, noise of
+/// 0.8 DN leaves a weak-texture σ of 0 and 5 DN leaves 4.5; print mottle or a phone's denoising
+/// leaves a plain σ of several DN over flattened patches.)
+fn codec_explained(
+    stats: &FootageStats,
+    m: usize,
+    level_dn: f64,
+    regions: &[&RegionStats],
+    quality: u8,
+) -> Result<Fitted, String> {
+    let plain = robust_level(
+        &regions.iter().map(|s| s.noise_sigma_dn).collect::<Vec<_>>(),
+        0.0,
+    )
+    .ok_or("no region")?;
+    let mut weak: Vec<f64> = stats
+        .spatial_noise
+        .iter()
+        .filter_map(|s| {
+            if m == 0 {
+                s.ink.as_ref()
+            } else {
+                s.paper.as_ref()
+            }
+        })
+        .map(|e| e.sigma_dn)
+        .collect();
+    if weak.is_empty() {
+        return Err("no weak-texture estimate to compare with the codec's".into());
+    }
+    let footage = median(&mut weak);
+    // The flat patch: noise before the codec that shows the plain σ after it.
+    let mut pre = plain.value;
+    for _ in 0..3 {
+        pre = plain.value / jpeg_noise_ratio(level_dn, pre, quality).max(0.05);
+    }
+    let model = jpeg_flat_weak_texture_sigma(level_dn, pre, quality)
+        .ok_or("the codec's weak-texture σ could not be simulated")?;
+    let tolerance = 0.2 * plain.value + 0.1;
+    if (footage - model).abs() <= tolerance {
+        Ok(Fitted::new(plain.value, plain.u95 + 0.03 * plain.value))
+    } else {
+        Err(format!(
+            "its plain σ {:.2} DN is not noise through the JPEG at quality {quality}: such noise \
+             leaves a weak-texture σ of {model:.2} DN, the footage {footage:.2} DN",
+            plain.value
+        ))
+    }
+}
+
+/// The weak-texture σ of a flat 96×96 patch at `level_dn` with white noise of `sigma_dn`
+/// after a JPEG round trip at `quality`.
+fn jpeg_flat_weak_texture_sigma(level_dn: f64, sigma_dn: f64, quality: u8) -> Option<f64> {
+    let n = 96usize;
+    let key = frame_key(0x5754_4a50, 0);
+    let q: Vec<u8> = (0..n * n)
+        .map(|i| {
+            let v = level_dn + sigma_dn * normal_at(key, (i % n) as i64, (i / n) as i64) as f64;
+            (v + 0.5).clamp(0.0, 255.0) as u8
+        })
+        .collect();
+    let out = jpeg_round_trip(&q, n, n, quality).ok()?;
+    let view = crate::detect::GrayView::full(&out, n, n);
+    let pixels: Vec<(i64, i64)> = (0..n as i64)
+        .flat_map(|y| (0..n as i64).map(move |x| (x, y)))
+        .collect();
+    crate::imagestats::weak_texture_noise(&view, &pixels, &Default::default())
+        .ok()
+        .map(|e| e.sigma_dn)
+}
+
 /// Fits the image formation.
 pub fn fit_imaging(
     stats: &FootageStats,
+    base_noise: &BaseNoise,
     notes: &mut Vec<String>,
 ) -> Result<ImagingFit, CalibrateError> {
     let levels: Vec<_> = stats
@@ -346,44 +520,84 @@ pub fn fit_imaging(
             0.01 * s.noise.sigma_dn,
         ))
     };
-    let spatial = |r: &[&RegionStats]| {
-        robust_level(&r.iter().map(|s| s.noise_sigma_dn).collect::<Vec<_>>(), 0.0)
-            .map(|f| Fitted::new(f.value, f.u95 + 0.03 * f.value))
+    // Spatially, only what the weak-texture estimate can tell from texture (`spatial_noise`);
+    // a clipped region's σ is its censored normal's (below).
+    // Under JPEG the noise a frame shows is not white: its plain σ is taken when the
+    // weak-texture σ agrees with what the same noise through the same codec leaves.
+    let spatial = |m: usize, clipped: bool| -> Result<(Fitted, bool), String> {
+        if clipped {
+            return Ok((Fitted::new(0.0, 0.0), false));
+        }
+        let (level, r) = if m == 0 {
+            (ink_dn.value, &ink_r)
+        } else {
+            (paper_dn.value, &paper_r)
+        };
+        match (spatial_sigma(stats, m), jpeg_quality) {
+            (Ok(f), _) => Ok((f, false)),
+            (Err(why), Some((q, _, _))) => codec_explained(stats, m, level, r, q)
+                .map(|f| (f, true))
+                .map_err(|w| format!("{why}; {w}")),
+            (Err(why), None) => Err(why),
+        }
     };
-    let (ink_sigma, paper_sigma, mut source) = match (temporal("ink"), temporal("paper")) {
-        (Some(i), Some(p)) => (
-            i,
-            p,
-            format!(
-                "temporal σ of static pixels ({})",
-                stats
-                    .temporal
-                    .iter()
-                    .map(|s| format!(
-                        "{}: {} frames × {} px",
-                        s.what, s.noise.frames, s.noise.pixels
-                    ))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        ),
-        _ => {
-            let (Some(i), Some(p)) = (spatial(&ink_r), spatial(&paper_r)) else {
-                return Err(CalibrateError::Unresolved {
-                    what: "noise".into(),
-                    reason: "no flat region".into(),
-                });
-            };
-            (
+    let (ink_sigma, paper_sigma, mut source, footage_not_identifiable) =
+        match (temporal("ink"), temporal("paper")) {
+            (Some(i), Some(p)) => (
                 i,
                 p,
                 format!(
-                    "spatial σ about a plane fitted to the well-inside pixels, median over {} frames",
-                    ink_r.len()
+                    "temporal σ of static pixels ({})",
+                    stats
+                        .temporal
+                        .iter()
+                        .map(|s| format!(
+                            "{}: {} frames × {} px",
+                            s.what, s.noise.frames, s.noise.pixels
+                        ))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
-            )
-        }
-    };
+                None,
+            ),
+            _ => match (
+                spatial(0, ink_clip.is_some()),
+                spatial(1, paper_clip.is_some()),
+            ) {
+                (Ok((i, ci)), Ok((p, cp))) => (
+                    i,
+                    p,
+                    format!(
+                        "spatial σ of the weak-texture patches (Liu, Tanaka & Okutomi 2013: the \
+                         patches whose gradient energy white noise explains; σ² from their \
+                         covariance's noise eigenvalues, Chen, Zhu & Heng 2015), median over {} \
+                         frames{}",
+                        stats.spatial_noise.len(),
+                        if ci || cp {
+                            "; under JPEG, where that σ is not white noise's, the region's plain \
+                             σ about a plane, once the weak-texture σ agrees with what the same \
+                             noise through the same codec leaves"
+                        } else {
+                            ""
+                        }
+                    ),
+                    None,
+                ),
+                (i, p) => {
+                    let why: Vec<String> = [("ink", i), ("paper", p)]
+                        .into_iter()
+                        .filter_map(|(what, r)| r.err().map(|e| format!("at the {what}: {e}")))
+                        .collect();
+                    let sigma = |level: f64| Fitted::new(base_noise.sigma_dn(level), 0.0);
+                    (
+                        sigma(ink_dn.value),
+                        sigma(paper_dn.value),
+                        base_noise.describe(),
+                        Some(why.join("; ")),
+                    )
+                }
+            },
+        };
     let ink_sigma = ink_clip.map_or(ink_sigma, |c| c.1);
     let paper_sigma = paper_clip.map_or(paper_sigma, |c| c.1);
     if ink_clip.is_some() || paper_clip.is_some() {
@@ -411,13 +625,23 @@ pub fn fit_imaging(
         }
         guess
     };
+    // The base's σ (footage not identifiable) is a sensor's σ before compression already.
+    let measured = footage_not_identifiable.is_none();
     let pre = |level: f64, s: f64| -> f64 {
         match jpeg_quality {
-            Some((q, _, _)) => pre_at(level, s, q),
-            None => s,
+            Some((q, _, _)) if measured => pre_at(level, s, q),
+            _ => s,
         }
     };
     let (compression_u_dn, not_identifiable) = match jpeg_quality {
+        _ if !measured => (
+            [0.0, 0.0],
+            Some(format!(
+                "the footage's own noise cannot be told from its texture or processing ({}): \
+                 the scenario carries the base's",
+                footage_not_identifiable.clone().unwrap_or_default()
+            )),
+        ),
         Some((q, (lo, hi), _)) => {
             let spread = |level: f64, s: f64| {
                 let p = pre_at(level, s, q);
@@ -432,7 +656,10 @@ pub fn fit_imaging(
                     spread(paper_dn.value, paper_sigma.value),
                 ],
                 Some(format!(
-                    "JPEG at quality {q} ({lo}–{hi}) quantises the 8×8 block DCT coefficients and                      so removes part of the noise, by an amount that depends on the quality and                      on what else the blocks hold (the marker's edges): the σ after compression                      is matched by simulation, the sensor's σ before it is not measured to 10 %"
+                    "JPEG at quality {q} ({lo}–{hi}) quantises the 8×8 block DCT coefficients and \
+                     so removes part of the noise, by an amount that depends on the quality and \
+                     on what else the blocks hold (the marker's edges): the σ after compression \
+                     is matched by simulation, the sensor's σ before it is not measured to 10 %"
                 )),
             )
         }
@@ -456,8 +683,17 @@ pub fn fit_imaging(
     if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
         eprintln!("imaging: ink {ink_dn} paper {paper_dn} σ {ink_sigma} {paper_sigma} vars {vi} {vp} black {black} white {white} u {u_diff} → {full_well_e} {read_noise_e} {shot_resolved}");
     }
+    if let Some(why) = &footage_not_identifiable {
+        notes.push(format!(
+            "pixel noise: not identifiable from this footage ({why}). One frame cannot tell a \
+             sensor's noise from fixed texture or from what the camera's processing left; the \
+             scenario carries {} instead, flagged. A video with a static stretch (the wheel's \
+             dwell) measures it temporally",
+            base_noise.describe()
+        ));
+    }
     for (what, sigma) in [("ink", ink_sigma), ("paper", paper_sigma)] {
-        if sigma.value < QUANTISATION_LIMITED_DN {
+        if measured && sigma.value < QUANTISATION_LIMITED_DN {
             notes.push(format!(
                 "pixel noise at the {what}: the measured σ {sigma} DN is below \
                  {QUANTISATION_LIMITED_DN} DN, the region's pixels sit on two adjacent 8-bit \
@@ -466,7 +702,7 @@ pub fn fit_imaging(
             ));
         }
     }
-    if !shot_resolved {
+    if measured && !shot_resolved {
         notes.push(format!(
             "pixel noise: σ does not grow measurably from ink ({}) to paper ({}) DN: modelled as \
              read noise only",
@@ -539,10 +775,11 @@ pub fn fit_imaging(
             sensitivity: [1.0, 1.0],
             match_residual_dn: [0.0, 0.0],
             not_identifiable,
+            footage_not_identifiable,
             compression_u_dn,
             quantisation_limited: [
-                ink_sigma.value < QUANTISATION_LIMITED_DN,
-                paper_sigma.value < QUANTISATION_LIMITED_DN,
+                measured && ink_sigma.value < QUANTISATION_LIMITED_DN,
+                measured && paper_sigma.value < QUANTISATION_LIMITED_DN,
             ],
         },
         blockiness,

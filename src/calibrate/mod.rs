@@ -17,7 +17,13 @@
 //!   per-engagement polynomial): least squares of the exact Geneva kinematics to the unwrapped
 //!   marker angle (`motion`);
 //! - grey levels, blur σ, noise (shot + read), compression: medians and fits over the per-frame
-//!   image statistics (`imaging`);
+//!   image statistics (`imaging`). Noise is measured temporally on a static stretch when there
+//!   is one, else on single frames by the weak-texture estimate only
+//!   ([`crate::imagestats::weak_texture_noise`]); where that cannot tell noise from texture or
+//!   from the camera's processing, the noise is reported not identifiable and the scenario
+//!   carries the base's;
+//! - the re-render check: the calibrated scenario rendered at a footage frame, and the structure
+//!   left in footage − render (`rerender`, `residual`).
 //! - perspective tilt: the mean image-space metric of the marker's affine shape (aspect), with
 //!   the tilt's sign from the size gradient across the image (`geometry`).
 //!
@@ -30,15 +36,20 @@ mod imaging;
 mod motion;
 pub mod output;
 pub mod rerender;
+pub mod residual;
 
 #[cfg(test)]
 mod tests;
 
 pub use geometry::{fit_geometry, GeometryFit, TiltFit};
-pub use imaging::{fit_imaging, noise_electrons, sensor_sigma, ImagingFit, NoiseFit};
+pub use imaging::{
+    fit_imaging, noise_electrons, sensor_sigma, spatial_sigma, BaseNoise, ImagingFit, NoiseFit,
+};
 pub use motion::{fit_motion, MotionFit, MotionInput};
 
-use crate::imagestats::{Blockiness, EdgeProfile, JpegQuality, MarkerLevels, TemporalNoise};
+use crate::imagestats::{
+    Blockiness, EdgeProfile, JpegQuality, MarkerLevels, TemporalNoise, WeakTextureNoise,
+};
 use crate::timing::TimingFit;
 use std::fmt;
 
@@ -121,6 +132,15 @@ pub struct TemporalSample {
     pub noise: TemporalNoise,
 }
 
+/// One frame's weak-texture noise of the disc marker's ink and paper (`None`: the region holds
+/// too few patches).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialNoiseSample {
+    pub frame: usize,
+    pub ink: Option<WeakTextureNoise>,
+    pub paper: Option<WeakTextureNoise>,
+}
+
 /// Everything the pipeline measured on the footage.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FootageStats {
@@ -134,6 +154,8 @@ pub struct FootageStats {
     pub reference_edges: Vec<EdgeProfile>,
     /// Temporal noise on static runs.
     pub temporal: Vec<TemporalSample>,
+    /// Weak-texture noise of single frames (measured when there is no static run).
+    pub spatial_noise: Vec<SpatialNoiseSample>,
     /// 8-px blockiness of the frames where it was measured.
     pub blockiness: Vec<Blockiness>,
     /// JPEG quality estimates of those frames (`None`: no quantisation found).
@@ -213,7 +235,7 @@ pub fn calibrate(
         let input = MotionInput::from_geometry(&geometry, base)?;
         Some(fit_motion(&input, &mut notes)?)
     };
-    let imaging = fit_imaging(stats, &mut notes)?;
+    let imaging = fit_imaging(stats, &BaseNoise::of(base), &mut notes)?;
     Ok(Calibration {
         frames: stats.frames.len(),
         detected_frames: detected,

@@ -2,6 +2,7 @@
 //! comment) and the calibration report, as text. One list of [`Override`]s feeds both the file
 //! and the typed scenario (`scenario::with_overrides`), so they cannot disagree.
 
+use super::residual::{self, StructureCheck};
 use super::{significant_decimals, Calibration, Fitted};
 use crate::mechanism::Mechanism;
 use crate::scenario::Scenario;
@@ -58,13 +59,103 @@ pub struct ReRenderCheck {
     /// noise σ, the render's own rounding to whole DN (1/12 DN²) and, with the fitted
     /// compression, the codec's distortion of the clean render, in quadrature.
     pub expected_noise_dn: f64,
+    /// Structure in the aligned residual against a residual the noise model draws.
+    pub structure: StructureCheck,
 }
 
 pub use super::rerender::MAX_ALIGNMENT_PX;
 
+/// The largest residual RMS over the RMS the fitted model predicts that passes.
+pub const MAX_RESIDUAL_RATIO: f64 = 1.2;
+
 impl ReRenderCheck {
     pub fn ratio(&self) -> f64 {
         self.residual_rms_dn / self.expected_noise_dn.max(1e-9)
+    }
+
+    /// The residual is as large as the fitted model predicts and holds no structure the noise
+    /// model does not: the scenario reproduces the footage down to its noise.
+    pub fn passed(&self) -> bool {
+        self.ratio() <= MAX_RESIDUAL_RATIO && self.structure.passed()
+    }
+
+    /// What is left, one sentence per failed test (empty when passed).
+    pub fn failures(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !(self.ratio() <= MAX_RESIDUAL_RATIO) {
+            out.push(format!(
+                "the residual's RMS is {:.2} × what the fitted model predicts (at most \
+                 {MAX_RESIDUAL_RATIO})",
+                self.ratio()
+            ));
+        }
+        out.extend(self.structure.failures.iter().cloned());
+        out
+    }
+
+    /// Each test's figures (footage, noise model, limit) and whether it passed.
+    pub fn figure_lines(&self) -> Vec<(String, bool)> {
+        let (f, m) = (&self.structure.footage, &self.structure.model);
+        let tri = |a: &[f64; 3]| format!("{:+.2}/{:+.2}/{:+.2}", a[0], a[1], a[2]);
+        let quad = |a: &[f64; 4]| format!("{:+.2}/{:+.2}/{:+.2}/{:+.2}", a[0], a[1], a[2], a[3]);
+        let limits = residual::limits(m);
+        vec![
+            (
+                format!(
+                    "residual RMS {:.2} DN, the fitted model predicts {:.2} DN: ratio {:.2} (at \
+                     most {MAX_RESIDUAL_RATIO})",
+                    self.residual_rms_dn,
+                    self.expected_noise_dn,
+                    self.ratio()
+                ),
+                self.ratio() <= MAX_RESIDUAL_RATIO,
+            ),
+            (
+                format!(
+                    "smoothed at {} px the residual keeps {:.2} of its sd (white noise {:.2}, the \
+                     noise model {:.2}; at most {:.2})",
+                    residual::SMOOTHING_SIGMA_PX,
+                    f.smoothed_retention,
+                    residual::white_noise_retention(),
+                    m.smoothed_retention,
+                    limits.smoothed_retention
+                ),
+                f.smoothed_retention <= limits.smoothed_retention,
+            ),
+            (
+                format!(
+                    "autocorrelation at 1/2/3 px {} (the noise model {}; at most {:.2} above it)",
+                    tri(&f.autocorrelation),
+                    tri(&m.autocorrelation),
+                    residual::MAX_EXCESS_AUTOCORRELATION
+                ),
+                (0..3).all(|k| {
+                    f.autocorrelation[k] - m.autocorrelation[k]
+                        <= residual::MAX_EXCESS_AUTOCORRELATION
+                }),
+            ),
+            (
+                format!(
+                    "energy on the marker's edges over the flat regions' {:.2} (the noise model \
+                     {:.2}; at most {:.2})",
+                    f.edge_energy_ratio, m.edge_energy_ratio, limits.edge_energy_ratio
+                ),
+                f.edge_energy_ratio <= limits.edge_energy_ratio,
+            ),
+            (
+                format!(
+                    "correlation with the render's level/gradient across/gradient down/Laplacian \
+                     {} (the noise model {}; at most {:.2} apart)",
+                    quad(&f.render_correlation),
+                    quad(&m.render_correlation),
+                    residual::MAX_RENDER_CORRELATION
+                ),
+                (0..4).all(|t| {
+                    (f.render_correlation[t] - m.render_correlation[t]).abs()
+                        <= residual::MAX_RENDER_CORRELATION
+                }),
+            ),
+        ]
     }
 }
 
@@ -426,6 +517,32 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
         ));
     }
     let n = &im.noise;
+    if n.footage_not_identifiable.is_some() {
+        // Not measured: the base's noise, as σ in DN at the footage's levels, flagged.
+        let on = base.effects.pixel_noise.enabled;
+        o.push(ov(
+            "effects.pixel_noise.enabled",
+            Value::Boolean(on),
+            "NOT IDENTIFIABLE from this footage (calibration.md says why): the base's noise",
+        ));
+        if on {
+            o.push(ov(
+                "effects.pixel_noise.full_well_e",
+                num(n.full_well_e, 1),
+                format!(
+                    "the base's σ {:.2} DN at the ink, {:.2} DN at the paper, under these levels; \
+                     not measured",
+                    n.ink_sigma_dn.value, n.paper_sigma_dn.value
+                ),
+            ));
+            o.push(ov(
+                "effects.pixel_noise.read_noise_e",
+                num(n.read_noise_e, 2),
+                "the base's; not measured",
+            ));
+        }
+        return compression_overrides(im, o);
+    }
     o.push(ov("effects.pixel_noise.enabled", Value::Boolean(true), ""));
     o.push(ov(
         "effects.pixel_noise.full_well_e",
@@ -446,6 +563,11 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
         num(n.read_noise_e, 2),
         n.source.clone(),
     ));
+    compression_overrides(im, o)
+}
+
+/// The compression fields, appended to `o`.
+fn compression_overrides(im: &super::ImagingFit, mut o: Vec<Override>) -> Vec<Override> {
     match im.jpeg_quality {
         Some((q, (lo, hi), k)) => {
             o.push(ov("effects.compression.enabled", Value::Boolean(true), ""));
@@ -728,18 +850,21 @@ pub fn calibration_markdown(
         );
     }
     let n = &im.noise;
+    let shown = |f: &Fitted| match &n.footage_not_identifiable {
+        None => f.to_string(),
+        Some(_) => format!("not identifiable (the base's {:.2} written)", f.value),
+    };
+    let how = match &n.footage_not_identifiable {
+        None => n.source.clone(),
+        Some(why) => format!("{why}; the scenario carries {}", n.source),
+    };
     row(
         "noise σ at the ink",
-        n.ink_sigma_dn.to_string(),
+        shown(&n.ink_sigma_dn),
         "DN",
-        n.source.clone(),
+        how.clone(),
     );
-    row(
-        "noise σ at the paper",
-        n.paper_sigma_dn.to_string(),
-        "DN",
-        n.source.clone(),
-    );
+    row("noise σ at the paper", shown(&n.paper_sigma_dn), "DN", how);
     row(
         "shot + read noise",
         format!(
@@ -817,20 +942,53 @@ pub fn calibration_markdown(
     if let Some(c) = check {
         let _ = writeln!(
             s,
-            "\n## Re-rendering check\n\nFrame {} (t = {:.4} s) rendered from the calibrated scenario without noise or compression: RMS of \
-             footage − render over the marker window ({}×{} px at {}, {}) is {:.3} DN, against {:.3} DN the fitted \
-             model predicts there (its noise σ, the render's rounding to whole DN (1/12 DN²) and, with the fitted \
-             compression, the codec's distortion of the clean render, in quadrature): ratio {:.3} (≤ 1.2 means the \
-             scenario reproduces the footage down to its noise). {}",
+            "\n## Re-rendering check: {}\n\nFrame {} (t = {:.4} s) rendered from the calibrated \
+             scenario, compared with the footage over the marker window ({}×{} px at {}, {}). The \
+             scenario reproduces the footage only if footage − render is as large as the fitted \
+             model predicts and holds no structure that a residual the model draws (its render \
+             with noise and codec − its clean render) does not: structure wider than a few \
+             pixels, correlated neighbours, energy along the marker's edges, or a residual that \
+             follows the render's level, gradients or blur. `overlay.png` shows the footage, the \
+             render, their difference and the residual smoothed at 2 px.\n",
+            if c.passed() { "passed" } else { "failed" },
             c.frame,
             c.t_s,
             c.window.2,
             c.window.3,
             c.window.0,
             c.window.1,
-            c.residual_rms_dn,
-            c.expected_noise_dn,
-            c.ratio(),
+        );
+        let _ = writeln!(s, "| test | figures | passed |\n|---|---|---|");
+        for (k, (text, ok)) in c.figure_lines().into_iter().enumerate() {
+            let name = [
+                "residual RMS",
+                "smoothed at 2 px",
+                "autocorrelation",
+                "edge energy",
+                "render correlation",
+            ]
+            .get(k)
+            .copied()
+            .unwrap_or("");
+            let _ = writeln!(
+                s,
+                "| {name} | {text} | {} |",
+                if ok { "yes" } else { "**no**" }
+            );
+        }
+        let failures = c.failures();
+        if !failures.is_empty() {
+            let _ = writeln!(s, "\nWhat is left in the residual:\n");
+            for f in &failures {
+                let _ = writeln!(s, "- {f}");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\nThe RMS is that of footage − the render without noise or compression; the fitted \
+             model's prediction holds its noise σ, the render's rounding to whole DN (1/12 DN²) \
+             and, with the fitted compression, the codec's distortion of the clean render, in \
+             quadrature. {}",
             match c.alignment {
                 Some([dx, dy, rot, scale]) => format!(
                     "The render was first aligned to the footage by the marker's sub-pixel pose \
@@ -843,7 +1001,9 @@ pub fn calibration_markdown(
                 ),
                 None => format!(
                     "No pose alignment: the best one would move the marker by more than \
-                     {MAX_ALIGNMENT_PX} px (or was singular), so the residual is the unaligned one."
+                     {MAX_ALIGNMENT_PX} px (or was singular), so the residual is the unaligned one \
+                     ({:.3} DN RMS).",
+                    c.unaligned_rms_dn
                 ),
             }
         );

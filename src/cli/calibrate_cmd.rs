@@ -65,21 +65,32 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         );
     }
     let im = &c.imaging;
+    let noise = match &im.noise.footage_not_identifiable {
+        None => format!(
+            "noise {} / {} DN",
+            im.noise.ink_sigma_dn, im.noise.paper_sigma_dn
+        ),
+        Some(_) => format!(
+            "noise not identifiable (the base's {:.2} / {:.2} DN written; calibration.md says why)",
+            im.noise.ink_sigma_dn.value, im.noise.paper_sigma_dn.value
+        ),
+    };
     println!(
-        "levels ink {} / paper {} DN, noise {} / {} DN, blur σ {}",
+        "levels ink {} / paper {} DN, {noise}, blur σ {}",
         im.ink_dn,
         im.paper_dn,
-        im.noise.ink_sigma_dn,
-        im.noise.paper_sigma_dn,
         im.blur_sigma_px
             .map_or("not measured".into(), |b| format!("{b} px"))
     );
     if let Some(k) = &out.check {
         println!(
-            "re-render residual {:.3} DN vs noise {:.3} DN (ratio {:.3})",
+            "re-render check {}: residual {:.3} DN vs noise {:.3} DN (ratio {:.3}); smoothed at 2 px \
+             it keeps {:.2} of its sd (white noise 0.14)",
+            if k.passed() { "passed" } else { "FAILED" },
             k.residual_rms_dn,
             k.expected_noise_dn,
-            k.ratio()
+            k.ratio(),
+            k.structure.footage.smoothed_retention
         );
     }
     for n in &c.notes {

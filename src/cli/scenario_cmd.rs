@@ -57,6 +57,10 @@ pub fn run(cmd: ScenarioCmd) -> Result<()> {
                     );
                 }
             }
+            // Valid, but clipping its own noise: say so, with the statement that keeps the levels.
+            for w in scenario::clipping::warnings(&s) {
+                println!("warning: {}: {}", w.field, w.message);
+            }
             println!("{spec}: ok ({})", s.name);
             Ok(())
         }

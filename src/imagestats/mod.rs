@@ -11,6 +11,7 @@
 //! | [`region_stats`] | level and noise of any list of pixels |
 //! | [`motion_ratio`] | evidence of sub-pixel motion between two frames (edge over flat frame differences) |
 //! | [`temporal_noise`] | noise σ of a static set of pixels from its variation over frames |
+//! | [`weak_texture_noise`] | noise σ of one frame's region from its weak-texture patches (Liu, Tanaka & Okutomi 2013; Chen, Zhu & Heng 2015), and whether it is the sensor's white noise or texture |
 //! | [`outer_edge_profiles`] | blur σ of each outer side of the black square (erf-type edge model with free levels) with the side's unit normal, fitted edge line and standard errors |
 //! | [`inner_edge_profiles`] | the same on the straight boundaries between inner black and white cells |
 //! | [`fit_grid_edge`] | the edge fit on any grid line of the marker |
@@ -38,6 +39,7 @@ mod edge;
 mod grid;
 mod jpeg;
 mod levels;
+mod noise;
 mod shape;
 
 #[cfg(test)]
@@ -54,6 +56,10 @@ pub use levels::{
     censored_normal_fit, marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise,
     Clipping, LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,
     MIN_PILE_FRACTION,
+};
+pub use noise::{
+    texture_threshold, weak_texture_noise, WeakTextureNoise, WeakTextureOptions,
+    MIN_NOISE_DIMS_SHARE, MIN_SELECTED_PER_DIM, WHITE_CONSISTENCY,
 };
 pub use shape::{square_fit, SquareFit};
 

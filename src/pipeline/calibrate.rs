@@ -15,18 +15,19 @@ use crate::calibrate::output::{
     ReRenderCheck,
 };
 use crate::calibrate::rerender::{align, PixelResidual};
+use crate::calibrate::residual::{self, judge, Grid};
 use crate::calibrate::{
     calibrate as fit_rig, noise_electrons, CalibrateError, CalibrateOptions, Calibration,
-    FootageStats, FrameObservation, TemporalSample,
+    FootageStats, FrameObservation, SpatialNoiseSample, TemporalSample,
 };
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
 use crate::errors::FileError;
 use crate::imagestats::{
     blockiness, jpeg_quality, marker_levels, marker_regions, motion_ratio, outer_edge_profiles,
-    refined_corners, temporal_noise, EdgeOptions, EdgeProfile, LevelOptions, MarkerLayout,
+    refined_corners, temporal_noise, weak_texture_noise, EdgeOptions, EdgeProfile, LevelOptions,
+    MarkerLayout, MarkerLevels, WeakTextureOptions,
 };
 use crate::io::output_dir::OutputDir;
-use crate::io::png_out::write_gray_png;
 use crate::render::{render_frame, FrameRequest, PixelRect};
 use crate::scenario::Scenario;
 use crate::timing::fit_vfr;
@@ -37,7 +38,8 @@ use toml::Value;
 
 /// At most this many static poses, and as many moving frames, get their marker edges fitted.
 pub const EDGE_FRAMES: usize = 96;
-/// A re-render residual above this many times the fitted noise is reported as a misfit.
+/// A failed re-render check whose residual is above this many times the fitted noise points at
+/// the base's mechanism or marker.
 const MISFIT_RATIO: f64 = 2.5;
 /// Frames of the longest static run kept for the temporal noise and the overlay.
 const RUN_FRAMES: usize = 12;
@@ -160,6 +162,8 @@ pub enum CalibrateJobError {
     },
     #[error(transparent)]
     Png(#[from] crate::io::png_out::PngError),
+    #[error("{}: the overlay: {message}", file.display())]
+    Overlay { file: PathBuf, message: String },
 }
 
 /// The calibration and what was written.
@@ -174,13 +178,13 @@ pub struct CalibrateOutput {
 
 /// A copied window of a frame (absolute origin).
 #[derive(Debug, Clone)]
-struct Crop {
-    rect: PixelRect,
-    data: Vec<u8>,
+pub(crate) struct Crop {
+    pub(crate) rect: PixelRect,
+    pub(crate) data: Vec<u8>,
 }
 
 impl Crop {
-    fn of(data: &[u8], width: usize, height: usize, rect: PixelRect) -> Crop {
+    pub(crate) fn of(data: &[u8], width: usize, height: usize, rect: PixelRect) -> Crop {
         let r = rect.intersect(&PixelRect::new(0, 0, width, height));
         let mut out = Vec::with_capacity(r.len());
         for y in r.y0..r.y1() {
@@ -190,7 +194,7 @@ impl Crop {
         Crop { rect: r, data: out }
     }
 
-    fn view(&self) -> GrayView<'_> {
+    pub(crate) fn view(&self) -> GrayView<'_> {
         GrayView {
             data: &self.data,
             width: self.rect.width,
@@ -521,6 +525,15 @@ impl Measurer {
             add("reference", &crops, &rl);
         }
         self.stats.temporal = temporal;
+        let has_disc_temporal = self
+            .stats
+            .temporal
+            .iter()
+            .any(|t| t.what.starts_with("disc"));
+        if !has_disc_temporal {
+            self.stats.spatial_noise =
+                spatial_noise(&self.edge_jobs, &self.layout, &self.level_opts);
+        }
         if times.len() >= 5 {
             if let Ok(ts) = Timestamps::new(times.to_vec()) {
                 self.stats.timing = fit_vfr(&ts).ok();
@@ -534,6 +547,35 @@ impl Measurer {
         };
         (self.stats, overlay)
     }
+}
+
+/// Frames whose single-frame noise is measured when the footage has no static run.
+const SPATIAL_NOISE_FRAMES: usize = 8;
+
+/// The weak-texture noise of the disc marker's ink and paper on up to
+/// [`SPATIAL_NOISE_FRAMES`] of the frames kept for edge fits (static poses first), for footage
+/// without a static run to measure it temporally.
+fn spatial_noise(
+    jobs: &[(usize, Crop, Corners, bool)],
+    layout: &MarkerLayout,
+    opts: &LevelOptions,
+) -> Vec<SpatialNoiseSample> {
+    let mut chosen: Vec<&(usize, Crop, Corners, bool)> = jobs.iter().filter(|j| j.3).collect();
+    chosen.extend(jobs.iter().filter(|j| !j.3));
+    chosen.truncate(SPATIAL_NOISE_FRAMES);
+    let wt = WeakTextureOptions::default();
+    chosen
+        .par_iter()
+        .filter_map(|(k, crop, c, _)| {
+            let view = crop.view();
+            let regions = marker_regions(&view, c, layout, opts).ok()?;
+            Some(SpatialNoiseSample {
+                frame: *k,
+                ink: weak_texture_noise(&view, &regions.ink, &wt).ok(),
+                paper: weak_texture_noise(&view, &regions.paper, &wt).ok(),
+            })
+        })
+        .collect()
 }
 
 /// Reads the timestamps of a frame folder.
@@ -899,13 +941,25 @@ fn write_outputs(
     if check.is_some() {
         files.push(out_dir.join("overlay.png"));
     }
-    // A scenario that does not reproduce the footage is no calibration: most often the base
-    // names another mechanism (kind, slot count) or marker than the footage shows.
-    if let Some(k) = check.as_ref().filter(|k| k.ratio() > MISFIT_RATIO) {
+    // A scenario that does not reproduce the footage is no calibration. A residual many times
+    // the fitted noise most often means the base names another mechanism (kind, slot count) or
+    // marker than the footage shows.
+    if let Some(k) = check.as_ref().filter(|k| !k.passed()) {
+        let hint = if k.ratio() > MISFIT_RATIO {
+            format!(
+                "; the residual is {:.1} × the fitted noise: if the render's marker sits or turns \
+                 elsewhere than the footage's, check the base's mechanism (kind, slots) and marker \
+                 against the footage",
+                k.ratio()
+            )
+        } else {
+            String::new()
+        };
         cal.notes.push(format!(
-            "warning: the calibrated scenario does not reproduce the footage: re-rendered at frame {}, the residual is {:.1} × the fitted noise (expected ≈ 1); check the base's mechanism (kind, slots) and marker against the footage",
+            "warning: the re-render check failed at frame {}: the calibrated scenario does not \
+             reproduce the footage down to its noise ({}){hint}; overlay.png shows what is left",
             k.frame,
-            k.ratio()
+            k.failures().join("; ")
         ));
     }
     let md_path = out_dir.join("calibration.md");
@@ -923,7 +977,7 @@ fn write_outputs(
 /// The footage's level and noise statistics, measured the way [`simulated_stats`] measures the
 /// render: trimmed means (median over frames) and the noise σ (temporal on the disc marker's
 /// static run when there is one, else spatial, median over frames).
-fn footage_stats(stats: &FootageStats) -> Option<([f64; 3], [f64; 2], bool)> {
+fn footage_stats(stats: &FootageStats) -> Option<([f64; 3], [f64; 2], [SigmaStat; 2])> {
     let med = |mut v: Vec<f64>| -> Option<f64> {
         if v.is_empty() {
             return None;
@@ -950,17 +1004,59 @@ fn footage_stats(stats: &FootageStats) -> Option<([f64; 3], [f64; 2], bool)> {
             .find(|t| t.what == w)
             .map(|t| t.noise.sigma_dn)
     };
-    match (temporal("disc ink"), temporal("disc paper")) {
-        (Some(i), Some(p)) => Some(([ink, paper, disc], [i, p], true)),
-        _ => Some((
-            [ink, paper, disc],
-            [
-                med(lv.iter().map(|l| l.ink.noise_sigma_dn).collect())?,
-                med(lv.iter().map(|l| l.paper.noise_sigma_dn).collect())?,
-            ],
-            false,
-        )),
+    if let (Some(i), Some(p)) = (temporal("disc ink"), temporal("disc paper")) {
+        return Some(([ink, paper, disc], [i, p], [SigmaStat::Temporal; 2]));
     }
+    // Spatially: the weak-texture σ where it measured the noise; a clipped region's plain σ
+    // (its censored noise has no weak-texture law) or, where nothing was identifiable (the
+    // noise is then not matched), the plain σ.
+    let region = |m: usize, l: &MarkerLevels| {
+        if m == 0 {
+            l.ink.clone()
+        } else {
+            l.paper.clone()
+        }
+    };
+    let mut sigmas = [0.0; 2];
+    let mut kinds = [SigmaStat::PlaneResidual; 2];
+    for m in 0..2 {
+        let clipped = 2 * lv
+            .iter()
+            .filter(|l| region(m, l).clipping.is_some())
+            .count()
+            > lv.len();
+        let weak: Vec<f64> = stats
+            .spatial_noise
+            .iter()
+            .filter_map(|s| {
+                if m == 0 {
+                    s.ink.as_ref()
+                } else {
+                    s.paper.as_ref()
+                }
+            })
+            .filter(|e| e.not_identifiable().is_none())
+            .map(|e| e.sigma_dn)
+            .collect();
+        if !clipped && crate::calibrate::spatial_sigma(stats, m).is_ok() {
+            kinds[m] = SigmaStat::WeakTexture;
+            sigmas[m] = med(weak)?;
+        } else {
+            sigmas[m] = med(lv.iter().map(|l| region(m, l).noise_sigma_dn).collect())?;
+        }
+    }
+    Some(([ink, paper, disc], sigmas, kinds))
+}
+
+/// How a material's noise σ is measured on the footage, and so on the render.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SigmaStat {
+    /// Over frames of a static run.
+    Temporal,
+    /// [`weak_texture_noise`] on one frame.
+    WeakTexture,
+    /// The region's plain σ about a plane ([`crate::imagestats::RegionStats::noise_sigma_dn`]).
+    PlaneResidual,
 }
 
 /// The same statistics on renders of `scenario` at footage frame `frame` over the crop.
@@ -970,8 +1066,9 @@ fn simulated_stats(
     crop: &Crop,
     corners: &Corners,
     layout: &MarkerLayout,
-    temporal: bool,
+    kinds: [SigmaStat; 2],
 ) -> Option<([f64; 3], [f64; 2])> {
+    let temporal = kinds[0] == SigmaStat::Temporal;
     let rig = crate::pipeline::rig::Rig::new(scenario).ok()?;
     let times = rig.frame_times.as_slice();
     let k = frame.min(times.len().checked_sub(1)?);
@@ -1006,15 +1103,19 @@ fn simulated_stats(
         lv.paper.trimmed_mean_dn,
         lv.surround.as_ref().map_or(f64::NAN, |s| s.trimmed_mean_dn),
     ];
-    let sigmas = if temporal {
-        let regions = marker_regions(&views[0], corners, layout, &opts).ok()?;
-        [
-            temporal_noise(&views, &regions.ink).ok()?.sigma_dn,
-            temporal_noise(&views, &regions.paper).ok()?.sigma_dn,
-        ]
-    } else {
-        [lv.ink.noise_sigma_dn, lv.paper.noise_sigma_dn]
-    };
+    let regions = marker_regions(&views[0], corners, layout, &opts).ok()?;
+    let wt = WeakTextureOptions::default();
+    let mut sigmas = [0.0; 2];
+    for (m, (px, plain)) in [(&regions.ink, &lv.ink), (&regions.paper, &lv.paper)]
+        .into_iter()
+        .enumerate()
+    {
+        sigmas[m] = match kinds[m] {
+            SigmaStat::Temporal => temporal_noise(&views, px).ok()?.sigma_dn,
+            SigmaStat::WeakTexture => weak_texture_noise(&views[0], px, &wt).ok()?.sigma_dn,
+            SigmaStat::PlaneResidual => plain.noise_sigma_dn,
+        };
+    }
     Some((means, sigmas))
 }
 
@@ -1046,7 +1147,7 @@ fn match_by_simulation(
     cal: &mut Calibration,
     typed: &dyn Fn(&[Override]) -> Result<Scenario, CalibrateJobError>,
 ) {
-    let Some((target_means, target_sigmas, temporal)) = footage_stats(stats) else {
+    let Some((target_means, target_sigmas, kinds)) = footage_stats(stats) else {
         return;
     };
     let im = &cal.imaging;
@@ -1078,13 +1179,14 @@ fn match_by_simulation(
     let (si, sp) = (&im.noise.ink_sigma_dn, &im.noise.paper_sigma_dn);
     let resolvable = (2.0 * sp.value * sp.u95).hypot(2.0 * si.value * si.u95);
     let mut resolved = im.noise.shot_resolved;
+    // Noise the footage cannot tell is the base's σ in DN: kept as it is while the levels move.
+    let match_noise = im.noise.footage_not_identifiable.is_none();
     let mut last: [Option<(f64, f64)>; 2] = [None, None];
     for _ in 0..6 {
         let Ok(s) = typed(ovs) else {
             return;
         };
-        let Some((means, sigmas)) = simulated_stats(&s, frame, crop, corners, layout, temporal)
-        else {
+        let Some((means, sigmas)) = simulated_stats(&s, frame, crop, corners, layout, kinds) else {
             return;
         };
         for m in 0..3 {
@@ -1104,12 +1206,12 @@ fn match_by_simulation(
             }
         }
         if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
-            eprintln!("match: means {means:?} targets {target_means:?} sigmas {sigmas:?} targets {target_sigmas:?} temporal {temporal} pre {pre:?} black {black} white {white} fw {fw} read {read} resolvable {resolvable}");
+            eprintln!("match: means {means:?} targets {target_means:?} sigmas {sigmas:?} targets {target_sigmas:?} kinds {kinds:?} pre {pre:?} black {black} white {white} fw {fw} read {read} resolvable {resolvable}");
         }
         // Secant steps on σ_pre → measured σ (JPEG and clipping make it far from the
         // identity); a ratio step first.
         for m in 0..2 {
-            if !(sigmas[m] > 1e-3 && target_sigmas[m] > 0.0) {
+            if !(match_noise && sigmas[m] > 1e-3 && target_sigmas[m] > 0.0) {
                 continue;
             }
             let next = match last[m] {
@@ -1180,7 +1282,7 @@ fn match_by_simulation(
     let sim = |o: &[Override]| {
         typed(o)
             .ok()
-            .and_then(|s| simulated_stats(&s, frame, crop, corners, layout, temporal))
+            .and_then(|s| simulated_stats(&s, frame, crop, corners, layout, kinds))
     };
     let c = 1.25;
     let mut scaled = ovs.to_vec();
@@ -1196,9 +1298,12 @@ fn match_by_simulation(
     );
     let mut sensitivity = [1.0, 1.0];
     let mut match_residual = [0.0, 0.0];
-    if let (Some((_, s1)), Some((_, s2)), Some(li), Some(lp)) =
-        (sim(ovs), sim(&scaled), levels[0], levels[1])
-    {
+    let (s1, s2) = if match_noise {
+        (sim(ovs), sim(&scaled))
+    } else {
+        (None, None)
+    };
+    if let (Some((_, s1)), Some((_, s2)), Some(li), Some(lp)) = (s1, s2, levels[0], levels[1]) {
         for m in 0..2 {
             let d = (s1[m] - target_sigmas[m]).abs();
             if d.is_finite() {
@@ -1224,9 +1329,11 @@ fn match_by_simulation(
     im.noise.full_well_e = fw;
     im.noise.read_noise_e = read;
     im.noise.shot_resolved = resolved;
-    im.noise.source.push_str(
-        "; levels and electrons matched by rendering the calibrated scenario at a static frame and measuring it the same way",
-    );
+    im.noise.source.push_str(if match_noise {
+        "; levels and electrons matched by rendering the calibrated scenario at a static frame and measuring it the same way"
+    } else {
+        "; levels matched by rendering the calibrated scenario at a static frame and measuring it the same way (the noise is not matched: not identifiable)"
+    });
     if let (Some(li), Some(lp)) = (levels[0], levels[1]) {
         im.ink_radiance = ((li - black) / span).clamp(0.0, 1.0);
         im.paper_radiance = ((lp - black) / span).clamp(0.0, 1.0);
@@ -1338,6 +1445,38 @@ fn render_check(
     }
     let aligned = align(&rows, 0.5 * (x1 - x0).hypot(y1 - y0));
     let count = count.max(1) as f64;
+    // The structure tests: the aligned residual and the clean render over the window, against
+    // a residual the fitted model draws (the render with its noise and codec − the clean one).
+    let (mut residual, mut render, mut model) = (
+        Grid::new(win.width, win.height),
+        Grid::new(win.width, win.height),
+        Grid::new(win.width, win.height),
+    );
+    let mut row = rows.iter();
+    for y in win.y0..win.y1() {
+        for x in win.x0..win.x1() {
+            let (Some(_), Some(b)) = (
+                crate::imagestats::pixel_at(&crop.view(), x, y),
+                clean.get(x, y),
+            ) else {
+                continue;
+            };
+            let Some(p) = row.next() else { break };
+            let fit: f64 = aligned
+                .correction
+                .map_or(0.0, |c| (0..4).map(|k| p.jacobian[k] * c[k]).sum());
+            let (gx, gy) = ((x - win.x0) as usize, (y - win.y0) as usize);
+            residual.set(gx, gy, p.difference_dn - fit);
+            render.set(gx, gy, b as f64);
+            if let Some(f) = full.get(x, y) {
+                model.set(gx, gy, f as f64 - b as f64);
+            }
+        }
+    }
+    let structure = judge(
+        residual::structure(&residual, &render),
+        residual::structure(&model, &render),
+    );
     let check = ReRenderCheck {
         frame,
         t_s,
@@ -1351,25 +1490,19 @@ fn render_check(
         // independent of the footage's noise) is part of footage − render. The fitted σ already
         // holds the footage's own rounding; the codec's distortion is in `vs` when compressed.
         expected_noise_dn: (vs / count + 1.0 / 12.0).sqrt(),
+        structure,
     };
-    // Overlay: footage | render | 128 + 4·(footage − clean render).
-    let (w, h) = (crop.rect.width, crop.rect.height);
-    let gap = 8;
-    let ow = 3 * w + 2 * gap;
-    let mut img = vec![255u8; ow * h];
-    for y in 0..h {
-        for x in 0..w {
-            let (ax, ay) = (crop.rect.x0 + x as i64, crop.rect.y0 + y as i64);
-            let a = crop.data[y * w + x];
-            let b = full.get(ax, ay).unwrap_or(0);
-            let c = clean.get(ax, ay).unwrap_or(0);
-            img[y * ow + x] = a;
-            img[y * ow + w + gap + x] = b;
-            img[y * ow + 2 * (w + gap) + x] = (128.0 + 4.0 * (a as f64 - c as f64))
-                .round()
-                .clamp(0.0, 255.0) as u8;
-        }
-    }
-    write_gray_png(path, ow as u32, h as u32, &img)?;
+    let smooth = residual::smoothed(&residual, &render);
+    super::calibrate_overlay::write_overlay(
+        path,
+        &super::calibrate_overlay::OverlayPanels {
+            footage: crop,
+            full: &full,
+            clean: &clean,
+            window: win,
+            smoothed: &smooth,
+        },
+        &check,
+    )?;
     Ok(check)
 }

@@ -7,6 +7,7 @@
 
 use super::calibrate::{calibrate, CalibrateJobError, CalibrateOutput, Footage};
 use super::render_job::{render_job, RenderJob};
+use crate::calibrate::output::ReRenderCheck;
 use crate::calibrate::CalibrateOptions;
 use crate::calibrate::{sensor_sigma, Fitted};
 use crate::numeric::angle::wrap_180_deg;
@@ -42,6 +43,10 @@ pub struct CaseResult {
     pub checks: Vec<Check>,
     /// Re-render residual over the RMS the fitted model predicts.
     pub rerender_ratio: Option<f64>,
+    /// The whole re-render check (residual RMS and structure).
+    pub rerender: Option<ReRenderCheck>,
+    /// How the noise was measured: `temporal`, `spatial` (weak-texture) or `not identifiable`.
+    pub noise_measured: &'static str,
     /// The footage is JPEG-compressed (the noise it shows is partly the codec's).
     pub compressed: bool,
     /// The paper sits at the white level: its noise is clipped from above.
@@ -359,6 +364,14 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         truth_toml: text,
         checks: c,
         rerender_ratio: out.check.as_ref().map(|k| k.ratio()),
+        rerender: out.check.clone(),
+        noise_measured: if n.footage_not_identifiable.is_some() {
+            "not identifiable"
+        } else if n.source.starts_with("temporal") {
+            "temporal"
+        } else {
+            "spatial"
+        },
         compressed: truth.effects.compression.enabled,
         paper_clipped: truth.scene.paper_radiance >= 1.0,
         compression_found: im.jpeg_quality.is_some(),
@@ -544,6 +557,37 @@ pub fn criteria(results: &[CaseResult]) -> Vec<(String, String, Option<bool>)> {
         ),
         Some(ok == ratios.len()),
     ));
+    let checks: Vec<&ReRenderCheck> = results.iter().filter_map(|r| r.rerender.as_ref()).collect();
+    let clean = checks.iter().filter(|k| k.structure.passed()).count();
+    let worst = |f: &dyn Fn(&ReRenderCheck) -> f64| {
+        checks
+            .iter()
+            .map(|k| f(k))
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    out.push((
+        "re-render residual holds no structure the noise model does not (smoothed at 2 px it \
+         keeps at most a third of its sd; autocorrelation at 1–3 px at most 0.2 above the \
+         model's; energy on the marker's edges at most 2 × the model's ratio; |correlation| \
+         with the render's level, gradients and Laplacian at most 0.2 from the model's)"
+            .to_string(),
+        format!(
+            "{clean}/{} (worst: smoothed {:.2}, autocorrelation excess {:+.2}, edge energy {:.2} × \
+             the model's, render correlation {:.2} from the model's)",
+            checks.len(),
+            worst(&|k| k.structure.footage.smoothed_retention),
+            worst(&|k| (0..3)
+                .map(|i| k.structure.footage.autocorrelation[i] - k.structure.model.autocorrelation[i])
+                .fold(f64::NEG_INFINITY, f64::max)),
+            worst(&|k| k.structure.footage.edge_energy_ratio / k.structure.model.edge_energy_ratio.max(1.0)),
+            worst(&|k| (0..4)
+                .map(|t| (k.structure.footage.render_correlation[t]
+                    - k.structure.model.render_correlation[t])
+                    .abs())
+                .fold(0.0, f64::max)),
+        ),
+        Some(clean == checks.len()),
+    ));
     out
 }
 
@@ -609,16 +653,35 @@ pub fn calibration_report(
         }
     }
     std::fs::write(dir.join("checks.csv"), csv).map_err(io)?;
-    let mut per_case =
-        String::from("case,compressed,paper_clipped,compression_found,rerender_ratio\n");
+    let mut per_case = String::from(
+        "case,compressed,paper_clipped,compression_found,noise_measured,rerender_ratio,\
+         rerender_passed,smoothed_retention,model_smoothed_retention,autocorrelation_1px,\
+         model_autocorrelation_1px,edge_energy_ratio,model_edge_energy_ratio,\
+         render_correlation_from_model\n",
+    );
     for r in &results {
+        let k = r.rerender.as_ref();
+        let f = |g: &dyn Fn(&ReRenderCheck) -> f64| k.map_or(String::new(), |k| g(k).to_string());
         per_case.push_str(&format!(
-            "{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.index,
             r.compressed,
             r.paper_clipped,
             r.compression_found,
-            r.rerender_ratio.map_or(String::new(), |q| q.to_string())
+            r.noise_measured,
+            r.rerender_ratio.map_or(String::new(), |q| q.to_string()),
+            k.map_or(String::new(), |k| k.passed().to_string()),
+            f(&|k| k.structure.footage.smoothed_retention),
+            f(&|k| k.structure.model.smoothed_retention),
+            f(&|k| k.structure.footage.autocorrelation[0]),
+            f(&|k| k.structure.model.autocorrelation[0]),
+            f(&|k| k.structure.footage.edge_energy_ratio),
+            f(&|k| k.structure.model.edge_energy_ratio),
+            f(&|k| (0..4)
+                .map(|t| (k.structure.footage.render_correlation[t]
+                    - k.structure.model.render_correlation[t])
+                    .abs())
+                .fold(0.0, f64::max)),
         ));
     }
     std::fs::write(dir.join("cases.csv"), per_case).map_err(io)?;

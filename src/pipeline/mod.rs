@@ -8,6 +8,7 @@
 pub mod analyze;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate;
+mod calibrate_overlay;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate_roundtrip;
 #[cfg(feature = "opencv-detector")]

@@ -9,6 +9,7 @@
 //! [`Scenario::validate`]; downstream code may rely on every range check documented there.
 
 mod builtin;
+pub mod clipping;
 mod cross;
 pub mod effects;
 mod error;
