@@ -17,3 +17,5 @@ pub use geometry::{black_rectangles, CellRect, PlacedMarker};
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_render;
