@@ -66,13 +66,16 @@ impl Setup {
             .map(|r| quad(r.col0 as f64, r.row0 as f64, r.col1 as f64, r.row1 as f64))
             .collect();
         SceneSnapshot {
+            background: None,
             background_radiance: SURROUND,
             layers: vec![
                 Layer {
+                    texture: None,
                     radiance: self.paper,
                     polygons: vec![quad(-m, -m, n + m, n + m)],
                 },
                 Layer {
+                    texture: None,
                     radiance: INK,
                     polygons: ink,
                 },

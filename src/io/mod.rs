@@ -9,6 +9,7 @@ pub mod json;
 pub mod kinematics_csv;
 pub mod output_dir;
 pub mod png_out;
+pub mod texture_png;
 pub mod timing_log;
 pub mod tracks_csv;
 pub mod truth_csv;

@@ -248,6 +248,7 @@ mod tests {
     impl SceneAt for Flash {
         fn snapshot(&self, t_s: f64) -> SceneSnapshot {
             SceneSnapshot {
+                background: None,
                 background_radiance: if t_s >= self.on_s { 1.0 } else { 0.0 },
                 layers: vec![],
             }

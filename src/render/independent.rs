@@ -97,6 +97,9 @@ pub fn render_frame_independent(
                             *q = transform.apply(*q);
                         }
                     }
+                    if let Some(tex) = layer.texture.as_mut() {
+                        tex.map.transform = Some(transform);
+                    }
                 }
             }
             draw(&snapshot, &tone, y0, &mut pixmap);
@@ -142,8 +145,28 @@ fn draw(snapshot: &SceneSnapshot, tone: &Tone, y0: usize, pixmap: &mut Pixmap) {
         Color::from_rgba8(g, g, g, 255)
     };
     pixmap.fill(grey(snapshot.background_radiance));
+    if let Some(bg) = &snapshot.background {
+        let w = pixmap.width() as usize;
+        for (i, px) in pixmap.pixels_mut().iter_mut().enumerate() {
+            let g = quantise(tone.dn(bg.at((i % w) as i64, (y0 + i / w) as i64)));
+            *px = tiny_skia::ColorU8::from_rgba(g, g, g, 255).premultiply();
+        }
+    }
+    paint_layers(snapshot, tone, y0, pixmap);
+}
+
+/// Paints the layers of `snapshot` over rows `y0 ..` of `pixmap`, each over the ones before.
+fn paint_layers(snapshot: &SceneSnapshot, tone: &Tone, y0: usize, pixmap: &mut Pixmap) {
+    let grey = |radiance: f32| {
+        let g = quantise(tone.dn(radiance));
+        Color::from_rgba8(g, g, g, 255)
+    };
     let shift = Transform::from_translate(0.0, -(y0 as f32));
     for layer in &snapshot.layers {
+        if let Some(tex) = &layer.texture {
+            draw_textured(layer, tex, tone, y0, pixmap);
+            continue;
+        }
         let mut pb = PathBuilder::new();
         for polygon in &layer.polygons {
             let mut points = polygon.vertices_px.iter().map(|&p| opencv_to_tiny_skia(p));
@@ -161,6 +184,80 @@ fn draw(snapshot: &SceneSnapshot, tone: &Tone, y0: usize, pixmap: &mut Pixmap) {
             paint.anti_alias = true;
             pixmap.fill_path(&path, &paint, FillRule::Winding, shift, None);
         }
+    }
+}
+
+/// Paints a textured layer: its outline as tiny-skia's anti-aliased mask, the texture sampled
+/// bilinearly at each pixel's centre (as a GPU samples a texture, not by area), mixed in
+/// display space.
+fn draw_textured(
+    layer: &crate::render::shapes::Layer,
+    tex: &crate::render::texture::TexturedFill,
+    tone: &Tone,
+    y0: usize,
+    pixmap: &mut Pixmap,
+) {
+    let (w, h) = (pixmap.width(), pixmap.height());
+    let Some(mut mask) = tiny_skia::Mask::new(w, h) else {
+        return;
+    };
+    let mut pb = PathBuilder::new();
+    for polygon in &layer.polygons {
+        let mut points = polygon.vertices_px.iter().map(|&p| opencv_to_tiny_skia(p));
+        if let Some(first) = points.next() {
+            pb.move_to(first.x, first.y);
+            for p in points {
+                pb.line_to(p.x, p.y);
+            }
+            pb.close();
+        }
+    }
+    let Some(path) = pb.finish() else {
+        return;
+    };
+    mask.fill_path(
+        &path,
+        FillRule::Winding,
+        true,
+        Transform::from_translate(0.0, -(y0 as f32)),
+    );
+    let w = w as usize;
+    for (i, (px, &m)) in pixmap.pixels_mut().iter_mut().zip(mask.data()).enumerate() {
+        if m == 0 {
+            continue;
+        }
+        let centre = glam::DVec2::new((i % w) as f64, (y0 + i / w) as f64);
+        let Some(value) = tex
+            .map
+            .to_plane(centre)
+            .and_then(|p| tex.mesh.radiance_at(p, true))
+        else {
+            continue;
+        };
+        let g = tone.dn(value).clamp(0.0, 255.0);
+        let a = m as f32 / 255.0;
+        let mixed = quantise(px.red() as f32 * (1.0 - a) + g * a);
+        *px = tiny_skia::ColorU8::from_rgba(mixed, mixed, mixed, 255).premultiply();
+    }
+    // A uniform paper is painted over it as a polygon (anti-aliased like any other).
+    if let (Some(core), Some(r)) = (&tex.core_px, tex.mesh.paper_radiance()) {
+        let core_px: Vec<glam::DVec2> = core
+            .vertices_px
+            .iter()
+            .map(|&q| tex.map.transform.map_or(q, |t| t.apply(q)))
+            .collect();
+        let paper = SceneSnapshot {
+            background_radiance: 0.0,
+            background: None,
+            layers: vec![crate::render::shapes::Layer {
+                radiance: r,
+                polygons: vec![crate::render::shapes::Polygon {
+                    vertices_px: core_px,
+                }],
+                texture: None,
+            }],
+        };
+        paint_layers(&paper, tone, y0, pixmap);
     }
 }
 
@@ -272,8 +369,10 @@ mod tests {
 
     fn scene() -> Still {
         Still(SceneSnapshot {
+            background: None,
             background_radiance: 1.0,
             layers: vec![Layer {
+                texture: None,
                 radiance: 0.0,
                 polygons: vec![square(10.3, 8.6, 20.0)],
             }],
@@ -350,6 +449,7 @@ mod tests {
         fx.pixel_noise.enabled = true;
         let s = settings(fx.clone());
         let flat = Still(SceneSnapshot {
+            background: None,
             background_radiance: 0.5,
             layers: vec![],
         });

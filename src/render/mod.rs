@@ -14,6 +14,7 @@ pub mod real_frame;
 pub mod shapes;
 #[doc(hidden)]
 pub mod test_scenes;
+pub mod texture;
 pub mod tiny_skia_ref;
 
 pub use effects::EffectsConfig;

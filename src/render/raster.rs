@@ -28,9 +28,11 @@
 mod composite;
 mod exposure;
 mod nesting;
+mod textured;
 
 pub use composite::{static_layers, RasterScratch, StaticCoverage};
 pub use exposure::{average_exposure, ExposurePlan, ExposureScratch};
+pub use textured::FillScratch;
 
 use super::shapes::{Layer, Polygon, SceneSnapshot};
 use glam::DVec2;
@@ -305,6 +307,8 @@ struct PreparedLayer {
 /// The fixed-point edges of a layer and their extent.
 #[derive(Debug, PartialEq)]
 struct LayerShape {
+    /// The polygons' edges; a textured layer's outline (for its extent only: its coverage and
+    /// radiance come from `fill`).
     edges: Vec<Edge>,
     y_min: i64,
     y_max: i64,
@@ -312,6 +316,8 @@ struct LayerShape {
     /// windings cancel left and right of their extent.
     col_min: i64,
     col_max: i64,
+    /// A textured layer's pieces (`None` for a uniform layer).
+    fill: Option<textured::PreparedFill>,
 }
 
 impl std::ops::Deref for PreparedLayer {
@@ -325,21 +331,42 @@ impl std::ops::Deref for PreparedLayer {
 impl PreparedLayer {
     fn new(layer: &Layer, transform: Option<&RigidTransform>) -> Self {
         let mut edges = Vec::new();
-        for polygon in &layer.polygons {
-            push_polygon_edges(polygon, transform, &mut edges);
+        let fill = layer
+            .texture
+            .as_ref()
+            .map(|t| textured::PreparedFill::new(t, transform));
+        match &fill {
+            // The outline's image: the split outline the fill draws follows the same plane
+            // edges, so its extent is this one's within the fill's margin (added below).
+            Some(f) => push_polygon_edges(
+                &Polygon {
+                    vertices_px: f.outline_px(),
+                },
+                None,
+                &mut edges,
+            ),
+            None => {
+                for polygon in &layer.polygons {
+                    push_polygon_edges(polygon, transform, &mut edges);
+                }
+            }
         }
-        let y_min = edges.iter().map(|e| e.ya).min().unwrap_or(0);
-        let y_max = edges.iter().map(|e| e.yb).max().unwrap_or(0);
+        // A textured layer's pieces may reach a pixel beyond its outline polygon's extent.
+        let grow = if fill.is_some() { 1 } else { 0 };
+        let y_min = edges.iter().map(|e| e.ya).min().unwrap_or(0) - grow * ONE;
+        let y_max = edges.iter().map(|e| e.yb).max().unwrap_or(0) + grow * ONE;
         let col_min = edges
             .iter()
             .map(|e| e.x_min.div_euclid(ONE))
             .min()
-            .unwrap_or(0);
+            .unwrap_or(0)
+            - grow;
         let col_max = edges
             .iter()
             .map(|e| e.xa.max(e.xb).div_euclid(ONE))
             .max()
-            .unwrap_or(0);
+            .unwrap_or(0)
+            + grow;
         Self {
             radiance: layer.radiance,
             shape: Arc::new(LayerShape {
@@ -348,13 +375,15 @@ impl PreparedLayer {
                 y_max,
                 col_min,
                 col_max,
+                fill,
             }),
         }
     }
 
     /// Whether both layers have the same edges (shared shapes are compared by address).
     fn same_edges(&self, other: &PreparedLayer) -> bool {
-        Arc::ptr_eq(&self.shape, &other.shape) || self.edges == other.edges
+        Arc::ptr_eq(&self.shape, &other.shape)
+            || (self.edges == other.edges && self.fill == other.fill)
     }
 }
 
@@ -369,6 +398,45 @@ impl LayerShape {
             ((self.y_max - 1).div_euclid(ONE) - rows.y0 + 1).max(0) as usize,
         );
         window.intersect(&bbox)
+    }
+
+    /// A textured layer's exact coverage and radiance (linear, Σ radiance × area) of every
+    /// pixel of `window` (row-major) into `cov_out` and `rad_out`; false for a uniform layer.
+    fn textured_coverage(
+        &self,
+        window: &PixelRect,
+        raster: &mut RasterScratch,
+        cov_out: &mut [f32],
+        rad_out: &mut [f32],
+    ) -> bool {
+        let Some(fill) = &self.fill else {
+            return false;
+        };
+        let stride = window.width + 1;
+        let n = stride * window.height;
+        raster.acc.clear();
+        raster.acc.resize(n, 0);
+        raster.rad.clear();
+        raster.rad.resize(n, 0);
+        fill.deposit(window, &mut raster.acc, &mut raster.rad, &mut raster.fill);
+        let (cs, rs) = textured_scales(1);
+        for (((a, r), c_row), r_row) in raster
+            .acc
+            .chunks_exact(stride)
+            .zip(raster.rad.chunks_exact(stride))
+            .zip(cov_out.chunks_exact_mut(window.width))
+            .zip(rad_out.chunks_exact_mut(window.width))
+        {
+            let (mut sc, mut sr) = (0i64, 0i64);
+            for (((a, r), c), v) in a.iter().zip(r).zip(c_row.iter_mut()).zip(r_row.iter_mut()) {
+                sc += a;
+                sr += r;
+                *c = (sc as f64 * cs).clamp(0.0, 1.0) as f32;
+                *v = (sr as f64 * rs).clamp(0.0, 1.0) as f32;
+            }
+        }
+        raster.acc.fill(0);
+        true
     }
 
     /// Exact coverage of every pixel of `window` (row-major) into `out`.
@@ -398,6 +466,16 @@ impl LayerShape {
         }
         true
     }
+}
+
+/// Factors turning a textured layer's summed deposits over `samples` exposure samples into a
+/// mean coverage and a mean radiance.
+fn textured_scales(samples: usize) -> (f64, f64) {
+    let full = samples as f64 * FULL as f64;
+    (
+        1.0 / full,
+        1.0 / (full * crate::render::texture::RADIANCE_UNITS as f64),
+    )
 }
 
 fn push_polygon_edges(
@@ -438,6 +516,7 @@ fn push_polygon_edges(
 #[derive(Debug, Clone)]
 pub struct PreparedSnapshot {
     background_radiance: f32,
+    background: Option<Arc<crate::render::texture::BackgroundTexture>>,
     layers: Vec<PreparedLayer>,
 }
 
@@ -447,6 +526,7 @@ impl PreparedSnapshot {
     pub fn new(snapshot: &SceneSnapshot, transform: Option<&RigidTransform>) -> Self {
         Self {
             background_radiance: snapshot.background_radiance,
+            background: snapshot.background.clone(),
             layers: snapshot
                 .layers
                 .iter()
@@ -466,6 +546,7 @@ impl PreparedSnapshot {
     ) -> Self {
         Self {
             background_radiance: snapshot.background_radiance,
+            background: snapshot.background.clone(),
             layers: snapshot
                 .layers
                 .iter()
@@ -474,7 +555,8 @@ impl PreparedSnapshot {
                     |(j, l)| match (earlier_snapshot.layers.get(j), earlier.layers.get(j)) {
                         (Some(e), Some(p))
                             if earlier.layers.len() == earlier_snapshot.layers.len()
-                                && e.polygons == l.polygons =>
+                                && e.polygons == l.polygons
+                                && e.texture == l.texture =>
                         {
                             PreparedLayer {
                                 radiance: l.radiance,
@@ -488,9 +570,25 @@ impl PreparedSnapshot {
         }
     }
 
-    /// Radiance of every pixel no layer covers.
+    /// Radiance of every pixel no layer covers, when the background is uniform.
     pub fn background_radiance(&self) -> f32 {
         self.background_radiance
+    }
+
+    /// Whether the background is a texture (every pixel its own value).
+    pub fn has_background_texture(&self) -> bool {
+        self.background.is_some()
+    }
+
+    /// Whether both have the same background (the same texture, or the same uniform bits).
+    pub(crate) fn same_background(&self, other: &PreparedSnapshot) -> bool {
+        match (&self.background, &other.background) {
+            (None, None) => {
+                self.background_radiance.to_bits() == other.background_radiance.to_bits()
+            }
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b) || a == b,
+            _ => false,
+        }
     }
 
     /// Columns `[a, b)` (absolute) outside which no layer can cover any pixel of rows
@@ -538,6 +636,16 @@ pub fn layer_coverage(layer: &Layer, window: &PixelRect) -> Vec<f32> {
         PreparedLayer::new(layer, None).coverage(window, &mut Vec::new(), &mut out);
     }
     out
+}
+
+/// A textured layer's exact coverage and radiance (Σ radiance × area) of each pixel of
+/// `window` (row-major); `None` for a uniform layer.
+pub fn textured_layer_values(layer: &Layer, window: &PixelRect) -> Option<(Vec<f32>, Vec<f32>)> {
+    let mut cov = vec![0.0; window.len()];
+    let mut rad = vec![0.0; window.len()];
+    PreparedLayer::new(layer, None)
+        .textured_coverage(window, &mut RasterScratch::default(), &mut cov, &mut rad)
+        .then_some((cov, rad))
 }
 
 /// Linear radiance of `window` for one snapshot (no effects).

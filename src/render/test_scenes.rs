@@ -39,8 +39,13 @@ pub fn half_plane_left_of(point_px: DVec2, angle_rad: f64) -> Polygon {
 
 pub fn single_layer(polygons: Vec<Polygon>, radiance: f32, background: f32) -> SceneSnapshot {
     SceneSnapshot {
+        background: None,
         background_radiance: background,
-        layers: vec![Layer { radiance, polygons }],
+        layers: vec![Layer {
+            radiance,
+            polygons,
+            texture: None,
+        }],
     }
 }
 
@@ -63,17 +68,21 @@ pub fn marker_snapshot(centre_px: DVec2, side_px: f64, angle_rad: f64) -> SceneS
         }
     }
     SceneSnapshot {
+        background: None,
         background_radiance: 0.5,
         layers: vec![
             Layer {
+                texture: None,
                 radiance: 0.95,
                 polygons: vec![quad(-0.7, -0.7, 0.7, 0.7)],
             },
             Layer {
+                texture: None,
                 radiance: 0.05,
                 polygons: vec![quad(-0.5, -0.5, 0.5, 0.5)],
             },
             Layer {
+                texture: None,
                 radiance: 0.95,
                 polygons: cells,
             },

@@ -69,6 +69,7 @@ mod tests {
         let window = PixelRect::new(0, 0, w as usize, h as usize);
         let exact = layer_coverage(
             &Layer {
+                texture: None,
                 radiance: 1.0,
                 polygons: vec![poly],
             },

@@ -70,6 +70,7 @@ fn read_text(reference: &str, file: &Path, field: &str) -> Result<String, Scenar
 
 /// Reads every data file the scenario names and fills the in-memory fields.
 pub fn load_external(scenario: &mut Scenario, file: &Path) -> Result<(), ScenarioError> {
+    attach_appearance(scenario, file, None)?;
     if let DriveSpeedConfig::Table {
         t_s,
         omega1_rad_s,
@@ -98,5 +99,147 @@ pub fn load_external(scenario: &mut Scenario, file: &Path) -> Result<(), Scenari
         })?;
         scenario.timing_log = Some(ts);
     }
+    Ok(())
+}
+
+/// Reads the textures `scene.appearance` names (reusing `base`'s where it names the same
+/// file) and checks them against the scene: bit depth and layout (by the reader), a disc
+/// texture that covers the disc, a marker texture the size of the marker's paper, a background
+/// the camera's size. Errors name the scenario, the field and the texture file.
+pub fn attach_appearance(
+    scenario: &mut Scenario,
+    file: &Path,
+    base: Option<&Scenario>,
+) -> Result<(), ScenarioError> {
+    use crate::render::texture::{BackgroundTexture, Texture};
+    use std::sync::Arc;
+    let external = |field: &str, path: &str, message: String| ScenarioError::External {
+        file: file.to_path_buf(),
+        field: format!("scene.appearance.{field}"),
+        path: PathBuf::from(path),
+        message,
+    };
+    let read = |field: &str, path: &str| -> Result<Arc<Texture>, ScenarioError> {
+        let t = crate::io::texture_png::read_texture(Path::new(path))
+            .map_err(|e| external(field, path, e.reason()))?;
+        Ok(Arc::new(Texture {
+            width: t.width,
+            height: t.height,
+            values: t.values,
+        }))
+    };
+    let previous = base.map(|b| &b.scene.appearance);
+    let a = &scenario.scene.appearance;
+    // A file the base names too is the base's texture (the same file, read once).
+    let same_file = |name: &Option<String>, old: Option<&Option<String>>| -> bool {
+        matches!((name, old), (Some(n), Some(Some(o))) if n == o)
+    };
+    let disc = match (&a.disc_file, previous) {
+        (None, _) => None,
+        (Some(_), Some(p))
+            if same_file(&a.disc_file, Some(&p.disc_file)) && p.loaded.disc.is_some() =>
+        {
+            p.loaded.disc.clone()
+        }
+        (Some(path), _) => Some(read("disc_file", path)?),
+    };
+    let marker = match (&a.marker_file, previous) {
+        (None, _) => None,
+        (Some(_), Some(p))
+            if same_file(&a.marker_file, Some(&p.marker_file)) && p.loaded.marker.is_some() =>
+        {
+            p.loaded.marker.clone()
+        }
+        (Some(path), _) => Some(read("marker_file", path)?),
+    };
+    let background = match (&a.background_file, previous) {
+        (None, _) => None,
+        (Some(_), Some(p))
+            if same_file(&a.background_file, Some(&p.background_file))
+                && p.loaded.background.is_some() =>
+        {
+            p.loaded.background.clone()
+        }
+        (Some(path), _) => Some(Arc::new(BackgroundTexture(
+            Arc::try_unwrap(read("background_file", path)?).unwrap_or_else(|t| (*t).clone()),
+        ))),
+    };
+    let sc = &scenario.scene;
+    if let (Some(t), Some(path)) = (&disc, &a.disc_file) {
+        let s = a.disc_mm_per_texel;
+        let [cu, cv] = a
+            .disc_centre_texel
+            .unwrap_or([(t.width as f64 - 1.0) / 2.0, (t.height as f64 - 1.0) / 2.0]);
+        // Texel i covers [i − ½, i + ½]: the texture spans [−½, width − ½] texels.
+        let reach_mm = s * [
+            cu + 0.5,
+            t.width as f64 - 0.5 - cu,
+            cv + 0.5,
+            t.height as f64 - 0.5 - cv,
+        ]
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+        if reach_mm < sc.disc_radius_mm {
+            return Err(external(
+                "disc_file",
+                path,
+                format!(
+                    "a texture smaller than the disc: {}x{} texels of {} mm with the wheel \
+                     centre at texel ({cu}, {cv}) reach {reach_mm:.3} mm from the centre, the \
+                     disc's radius is {} mm (scene.disc_radius_mm)",
+                    t.width,
+                    t.height,
+                    crate::validation::short(s),
+                    crate::validation::short(sc.disc_radius_mm)
+                ),
+            ));
+        }
+    }
+    if let (Some(t), Some(path)) = (&marker, &a.marker_file) {
+        let m = &sc.marker;
+        let cells = m.dictionary.marker_size_bits() + 2 * m.border_bits;
+        let want = crate::scene::MarkerTexels::new(
+            cells,
+            m.size_mm,
+            m.white_margin_mm,
+            a.marker_texels_per_cell,
+        );
+        let side = want.side.round() as usize;
+        if t.width != side || t.height != side {
+            return Err(external(
+                "marker_file",
+                path,
+                format!(
+                    "is {}x{} texels; the marker's paper at {} texels per cell is {side}x{side} \
+                     ({cells} cells and {} texels of white margin on each side)",
+                    t.width,
+                    t.height,
+                    a.marker_texels_per_cell,
+                    want.margin.round()
+                ),
+            ));
+        }
+    }
+    if let (Some(BackgroundTexture(t)), Some(path)) = (background.as_deref(), &a.background_file) {
+        let (w, h) = (
+            scenario.camera.width_px as usize,
+            scenario.camera.height_px as usize,
+        );
+        if (t.width, t.height) != (w, h) {
+            return Err(external(
+                "background_file",
+                path,
+                format!(
+                    "is {}x{} texels; a background is the camera's size, {w}x{h} px \
+                     (camera.width_px, camera.height_px)",
+                    t.width, t.height
+                ),
+            ));
+        }
+    }
+    let loaded = &mut scenario.scene.appearance.loaded;
+    loaded.disc = disc;
+    loaded.marker = marker;
+    loaded.background = background;
     Ok(())
 }

@@ -256,7 +256,7 @@ pub fn with_overrides(
             external::load_external(s, origin)
         } else {
             s.timing_log = base.timing_log.clone();
-            Ok(())
+            external::attach_appearance(s, origin, Some(base))
         }
     })
 }

@@ -11,7 +11,11 @@ use super::SceneConfig;
 use crate::camera::Camera;
 use crate::marker::cells;
 use crate::render::shapes::{Layer, Polygon, SceneAt, SceneSnapshot};
+use crate::render::texture::{
+    value_of, BackgroundTexture, GridSpec, LayerContent, PlaneMap, TextureMesh, TexturedFill,
+};
 use crate::validation::Problems;
+use std::sync::Arc;
 
 /// Polygons follow the exact image of every edge within this distance, px.
 pub const TOLERANCE_PX: f64 = 0.001;
@@ -82,6 +86,26 @@ pub struct Scene {
     /// for a snapshot per row and per exposure sample, and rebuilding thousands of rim
     /// vertices each time would dominate rendering.
     disc_at_rest: Polygon,
+    /// The textured disc (`scene.appearance` with a disc or marker texture).
+    textured: Option<TexturedDisc>,
+    background: Option<Arc<BackgroundTexture>>,
+}
+
+/// A disc drawn from textures: its arrangement in the wheel's frame, and the camera's map of
+/// the world plane (z = 0) to camera coordinates, x·ex + y·ey + origin.
+#[derive(Debug, Clone)]
+struct TexturedDisc {
+    mesh: Arc<TextureMesh>,
+    ex: DVec3,
+    ey: DVec3,
+    origin: DVec3,
+}
+
+impl PartialEq for TexturedDisc {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.mesh, &other.mesh)
+            && (self.ex, self.ey, self.origin) == (other.ex, other.ey, other.origin)
+    }
 }
 
 impl Scene {
@@ -149,9 +173,131 @@ impl Scene {
             disc_at_rest: Polygon {
                 vertices_px: Vec::new(),
             },
+            textured: None,
+            background: None,
         };
         scene.disc_at_rest = scene.build_disc_polygon([0.0, 0.0]);
+        scene.attach_appearance()?;
         Ok(scene)
+    }
+
+    /// Builds the textured disc and the background from `scene.appearance`'s textures.
+    fn attach_appearance(&mut self) -> Result<(), SceneError> {
+        let a = &self.config.appearance;
+        let l = &a.loaded;
+        let unloaded = (a.disc_file.is_some() && l.disc.is_none())
+            || (a.marker_file.is_some() && l.marker.is_none())
+            || (a.background_file.is_some() && l.background.is_none());
+        if unloaded {
+            return Err(SceneError::Invalid(
+                "scene.appearance names textures that were not read (scenarios read them when \
+                 loaded)"
+                    .into(),
+            ));
+        }
+        if let Some(bg) = &l.background {
+            let size = (
+                self.camera.width_px() as usize,
+                self.camera.height_px() as usize,
+            );
+            if (bg.0.width, bg.0.height) != size {
+                return Err(SceneError::Invalid(format!(
+                    "scene.appearance.background_file: {}x{} texels for a {}x{} px camera",
+                    bg.0.width, bg.0.height, size.0, size.1
+                )));
+            }
+            self.background = Some(Arc::clone(bg));
+        }
+        if l.disc.is_none() && l.marker.is_none() {
+            return Ok(());
+        }
+        let c = &self.config;
+        let rest = self.placed_marker(&WheelPose::default());
+        let outer = match &l.disc {
+            Some(t) => {
+                let s_m = a.disc_mm_per_texel * 1e-3;
+                let [cu, cv] = a
+                    .disc_centre_texel
+                    .unwrap_or([(t.width as f64 - 1.0) / 2.0, (t.height as f64 - 1.0) / 2.0]);
+                LayerContent::Grid(GridSpec {
+                    texture: Arc::clone(t),
+                    origin: -DVec2::new(cu + 0.5, cv + 0.5) * s_m,
+                    step_u: DVec2::new(s_m, 0.0),
+                    step_v: DVec2::new(0.0, s_m),
+                })
+            }
+            None => LayerContent::Uniform(value_of(c.disc_radiance)),
+        };
+        // A marker texture spans the paper itself (the black square without a margin); a
+        // uniform paper is the one the marker layers draw.
+        let paper = if l.marker.is_some() {
+            rest.paper_corners_m()
+        } else {
+            self.paper_corners_m(&self.marker, &rest)
+        }
+        .map(|p| p.truncate());
+        let inner = match &l.marker {
+            Some(t) => {
+                let cells = self.marker.side_cells as f64;
+                let tpc = a.marker_texels_per_cell as f64;
+                let margin = super::MarkerTexels::new(
+                    self.marker.side_cells,
+                    c.marker.size_mm,
+                    c.marker.white_margin_mm,
+                    a.marker_texels_per_cell,
+                )
+                .margin
+                .round();
+                let per_texel = 1.0 / (cells * tpc);
+                let o = rest.at(-margin * per_texel, -margin * per_texel).truncate();
+                LayerContent::Grid(GridSpec {
+                    texture: Arc::clone(t),
+                    origin: o,
+                    step_u: rest.at(per_texel, 0.0).truncate() - rest.at(0.0, 0.0).truncate(),
+                    step_v: rest.at(0.0, per_texel).truncate() - rest.at(0.0, 0.0).truncate(),
+                })
+            }
+            None => LayerContent::Uniform(value_of(c.paper_radiance)),
+        };
+        let mesh = TextureMesh::new(
+            c.disc_radius_mm * 1e-3,
+            self.disc_at_rest.vertices_px.len(),
+            paper,
+            outer,
+            inner,
+        )
+        .map_err(|e| SceneError::Invalid(format!("scene.appearance: {e}")))?;
+        let origin = self.camera.to_camera_m(DVec3::ZERO);
+        self.textured = Some(TexturedDisc {
+            mesh: Arc::new(mesh),
+            ex: self.camera.to_camera_m(DVec3::X) - origin,
+            ey: self.camera.to_camera_m(DVec3::Y) - origin,
+            origin,
+        });
+        Ok(())
+    }
+
+    /// The map of the wheel's frame (metres, the disc centre at the origin) to the image at
+    /// `pose`: world = R(θ2)·p + offset, then the camera.
+    fn wheel_map(&self, t: &TexturedDisc, pose: &WheelPose) -> PlaneMap {
+        let (sn, cs) = pose.theta2_rad.sin_cos();
+        let o = DVec2::from(pose.centre_offset_m);
+        PlaneMap {
+            plane_to_camera: glam::DMat3::from_cols(
+                t.ex * cs + t.ey * sn,
+                -t.ex * sn + t.ey * cs,
+                t.ex * o.x + t.ey * o.y + t.origin,
+            ),
+            lens: self
+                .camera
+                .config()
+                .lens_distortion
+                .enabled
+                .then(|| self.camera.config().lens_distortion.clone()),
+            focal_px: self.camera.focal_px(),
+            principal_point_px: self.camera.principal_point_px(),
+            transform: None,
+        }
     }
 
     pub fn camera(&self) -> &Camera {
@@ -227,15 +373,52 @@ impl Scene {
         if let Some((art, placed)) = &self.reference {
             layers.extend(self.marker_layers(art, placed));
         }
-        layers.push(Layer {
-            radiance: c.disc_radiance as f32,
-            polygons: vec![self.disc_polygon(pose)],
-        });
-        layers.extend(self.marker_layers(&self.marker, &self.placed_marker(pose)));
+        match &self.textured {
+            None => {
+                layers.push(Layer {
+                    texture: None,
+                    radiance: c.disc_radiance as f32,
+                    polygons: vec![self.disc_polygon(pose)],
+                });
+                layers.extend(self.marker_layers(&self.marker, &self.placed_marker(pose)));
+            }
+            Some(t) => layers.extend(self.textured_layers(t, pose)),
+        }
         SceneSnapshot {
+            background: self.background.clone(),
             background_radiance: c.background_radiance as f32,
             layers,
         }
+    }
+
+    /// The textured disc (its marker's paper included), then the ink when the paper is
+    /// uniform.
+    fn textured_layers(&self, t: &TexturedDisc, pose: &WheelPose) -> Vec<Layer> {
+        let map = self.wheel_map(t, pose);
+        let outline = Polygon {
+            vertices_px: t
+                .mesh
+                .outline_plane()
+                .into_iter()
+                .map(|p| map.to_image(p))
+                .collect(),
+        };
+        let placed = self.placed_marker(pose);
+        let uniform_paper = t.mesh.paper_is_uniform();
+        let [paper, ink] = self.marker_layers(&self.marker, &placed);
+        let mut layers = vec![Layer {
+            radiance: self.config.disc_radiance as f32,
+            polygons: vec![outline],
+            texture: Some(TexturedFill {
+                mesh: Arc::clone(&t.mesh),
+                map,
+                core_px: uniform_paper.then(|| paper.polygons[0].clone()),
+            }),
+        }];
+        if uniform_paper {
+            layers.push(ink);
+        }
+        layers
     }
 
     fn disc_polygon(&self, pose: &WheelPose) -> Polygon {
@@ -305,8 +488,9 @@ impl Scene {
     /// With a margin the outline lies outside the black square; without one the paper is only
     /// visible in the white cells, so its outline is drawn along the middle of the black border
     /// ring, where the ink covers whole pixels.
-    fn marker_layers(&self, art: &MarkerArt, placed: &PlacedMarker) -> [Layer; 2] {
-        let paper_corners = if art.margin_m > 0.0 {
+    /// The corners of the paper as drawn (see [`Self::marker_layers`]), world frame.
+    fn paper_corners_m(&self, art: &MarkerArt, placed: &PlacedMarker) -> [DVec3; 4] {
+        if art.margin_m > 0.0 {
             placed.paper_corners_m()
         } else {
             let e = 0.5 * art.border_bits as f64 / art.side_cells as f64;
@@ -316,7 +500,11 @@ impl Scene {
                 placed.at(1.0 - e, 1.0 - e),
                 placed.at(e, 1.0 - e),
             ]
-        };
+        }
+    }
+
+    fn marker_layers(&self, art: &MarkerArt, placed: &PlacedMarker) -> [Layer; 2] {
+        let paper_corners = self.paper_corners_m(art, placed);
         let paper = Polygon {
             vertices_px: projected_quad(&self.camera, &paper_corners, TOLERANCE_PX, self.distorted),
         };
@@ -343,10 +531,12 @@ impl Scene {
             .collect();
         [
             Layer {
+                texture: None,
                 radiance: self.config.paper_radiance as f32,
                 polygons: vec![paper],
             },
             Layer {
+                texture: None,
                 radiance: self.config.ink_radiance as f32,
                 polygons,
             },

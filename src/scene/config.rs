@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::appearance::AppearanceConfig;
 use crate::marker::Dictionary;
 use crate::validation::{join, Problems};
 
@@ -104,6 +105,10 @@ pub struct SceneConfig {
     pub marker: MarkerConfig,
     /// Optional static reference marker (drawn under the disc where they overlap).
     pub reference_marker: ReferenceMarkerConfig,
+    /// Textures measured from footage (`scene::appearance`): the disc, the marker, the
+    /// background. Default: none (uniform radiances).
+    #[serde(skip_serializing_if = "AppearanceConfig::is_empty")]
+    pub appearance: AppearanceConfig,
 }
 
 impl Default for SceneConfig {
@@ -116,6 +121,7 @@ impl Default for SceneConfig {
             ink_radiance: 0.04,
             marker: MarkerConfig::default(),
             reference_marker: ReferenceMarkerConfig::default(),
+            appearance: AppearanceConfig::default(),
         }
     }
 }
@@ -237,5 +243,15 @@ impl SceneConfig {
         }
         self.reference_marker
             .validate(&join(path, "reference_marker"), problems);
+        let m = &self.marker;
+        let cells = (m.id < m.dictionary.marker_count() && (1..=4).contains(&m.border_bits))
+            .then(|| m.dictionary.marker_size_bits() + 2 * m.border_bits);
+        self.appearance.validate(
+            &join(path, "appearance"),
+            cells,
+            m.size_mm,
+            m.white_margin_mm,
+            problems,
+        );
     }
 }

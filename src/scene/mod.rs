@@ -6,14 +6,20 @@
 //! towards +y, i.e. clockwise as seen in the image. Every pixel coordinate is in OpenCV's
 //! convention (centre of pixel (i, j) at (i, j)).
 
+pub mod appearance;
 pub mod compose;
 pub mod config;
 pub mod geometry;
 pub mod tessellate;
 
+pub use appearance::{AppearanceConfig, LoadedAppearance, MarkerTexels};
 pub use compose::{AnimatedScene, BoundingBox, Scene, SceneError, WheelPose, TOLERANCE_PX};
 pub use config::{MarkerConfig, ReferenceMarkerConfig, SceneConfig};
 pub use geometry::{black_rectangles, CellRect, PlacedMarker};
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_appearance;
+#[cfg(test)]
+mod tests_render;

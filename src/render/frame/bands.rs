@@ -97,10 +97,17 @@ impl BandPipeline<'_> {
         // The uncovered value of each radiance row; rows that disagree (a background changing
         // during a rolling readout) make the whole band active.
         let background = exposure_average(snaps_of_row(0).iter().map(|s| s.background_radiance()));
-        let uniform = (1..n_rows).all(|i| {
-            exposure_average(snaps_of_row(i).iter().map(|s| s.background_radiance())).to_bits()
-                == background.to_bits()
+        // A background texture gives every pixel its own value: the whole band is active.
+        let textured = (0..n_rows).any(|i| {
+            snaps_of_row(i)
+                .iter()
+                .any(PreparedSnapshot::has_background_texture)
         });
+        let uniform = !textured
+            && (1..n_rows).all(|i| {
+                exposure_average(snaps_of_row(i).iter().map(|s| s.background_radiance())).to_bits()
+                    == background.to_bits()
+            });
         let hull = if !uniform {
             Some((band.x0 - ri, band.x1() + ri))
         } else {
@@ -228,6 +235,7 @@ mod tests {
             s.layers.insert(
                 0,
                 Layer {
+                    texture: None,
                     radiance: 0.3,
                     polygons: vec![rotated_square(DVec2::new(60.2, 47.9), 150.0, 0.3)],
                 },

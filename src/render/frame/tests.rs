@@ -353,13 +353,16 @@ impl SceneAt for HalfStatic {
     fn snapshot(&self, t_s: f64) -> SceneSnapshot {
         let dx = 300.0 * t_s;
         SceneSnapshot {
+            background: None,
             background_radiance: 0.3,
             layers: vec![
                 crate::render::shapes::Layer {
+                    texture: None,
                     radiance: 0.9,
                     polygons: vec![rotated_square(DVec2::new(40.3, 30.1), 30.0, 0.4)],
                 },
                 crate::render::shapes::Layer {
+                    texture: None,
                     radiance: 0.1,
                     polygons: vec![rotated_square(DVec2::new(45.0 + dx, 38.7), 20.0, 0.2)],
                 },

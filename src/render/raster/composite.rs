@@ -13,13 +13,25 @@
 //! Layers that do not move during an exposure ([`StaticCoverage`]) have their coverage computed
 //! once per window and reused by every sample.
 
-use super::{PixelRect, PreparedLayer, PreparedSnapshot, FULL, ONE};
+use super::textured::FillScratch;
+use super::{textured_scales, PixelRect, PreparedLayer, PreparedSnapshot, FULL, ONE};
 
 /// Reusable buffers for [`PreparedSnapshot::render_into`].
 #[derive(Debug, Default)]
 pub struct RasterScratch {
     /// Deposit accumulator, all zero between uses (each use re-zeroes the cells it touched).
     pub(super) acc: Vec<i64>,
+    /// A textured layer's radiance deposits (cleared by each use).
+    pub(super) rad: Vec<i64>,
+    pub(super) fill: FillScratch,
+}
+
+/// A static layer's coverage over its footprint, and a textured layer's radiance there.
+#[derive(Debug)]
+pub(super) struct StaticLayer {
+    pub fp: PixelRect,
+    pub cov: Vec<f32>,
+    pub rad: Option<Vec<f32>>,
 }
 
 /// Coverage of the layers whose edges are identical in every sample of an exposure, over one
@@ -31,8 +43,8 @@ pub struct RasterScratch {
 /// order, so the same bits).
 #[derive(Debug, Default)]
 pub struct StaticCoverage {
-    /// Per layer index: `Some((footprint, coverage))` if static (row-major over the footprint).
-    layers: Vec<Option<(PixelRect, Vec<f32>)>>,
+    /// Per layer index: its coverage (and radiance) over its footprint if static.
+    layers: Vec<Option<StaticLayer>>,
     acc: Vec<i64>,
     /// Number of leading layers whose contribution is the same in every sample (0: no `base`).
     prefix: usize,
@@ -64,11 +76,10 @@ pub(super) fn identical_prefix(snaps: &[PreparedSnapshot], fixed: &[bool]) -> us
     let Some(first) = snaps.first() else {
         return 0;
     };
-    let bg = first.background_radiance.to_bits();
     if snaps.len() < 2
         || snaps
             .iter()
-            .any(|s| s.layers.len() != first.layers.len() || s.background_radiance.to_bits() != bg)
+            .any(|s| s.layers.len() != first.layers.len() || !s.same_background(first))
     {
         return 0;
     }
@@ -105,11 +116,25 @@ impl StaticCoverage {
                 self.layers[j] = None;
                 continue;
             }
-            let mut cov = self.layers[j].take().map(|(_, c)| c).unwrap_or_default();
-            cov.clear();
-            cov.resize(fp.len(), 0.0);
-            first.coverage(&fp, &mut self.acc, &mut cov);
-            self.layers[j] = Some((fp, cov));
+            let mut st = self.layers[j].take().unwrap_or(StaticLayer {
+                fp,
+                cov: Vec::new(),
+                rad: None,
+            });
+            st.fp = fp;
+            st.cov.clear();
+            st.cov.resize(fp.len(), 0.0);
+            if first.fill.is_some() {
+                let mut rad = st.rad.take().unwrap_or_default();
+                rad.clear();
+                rad.resize(fp.len(), 0.0);
+                first.textured_coverage(&fp, &mut self.raster, &mut st.cov, &mut rad);
+                st.rad = Some(rad);
+            } else {
+                st.rad = None;
+                first.coverage(&fp, &mut self.acc, &mut st.cov);
+            }
+            self.layers[j] = Some(st);
         }
         if self.prefix == 0 {
             return;
@@ -119,7 +144,8 @@ impl StaticCoverage {
         let skip_uncovered = first.uncovered_unchanged();
         self.base_window = Some(*window);
         self.base.clear();
-        self.base.resize(window.len(), first.background_radiance);
+        self.base.resize(window.len(), 0.0);
+        first.fill_background(window, &mut self.base);
         for layer in &first.layers[..self.prefix] {
             if layer.edges.is_empty() {
                 continue;
@@ -129,7 +155,7 @@ impl StaticCoverage {
                 layer.blend_into(
                     &fp,
                     window,
-                    &mut self.raster.acc,
+                    &mut self.raster,
                     &mut self.base,
                     skip_uncovered,
                 );
@@ -137,7 +163,7 @@ impl StaticCoverage {
         }
     }
 
-    pub(super) fn layer(&self, j: usize) -> Option<&(PixelRect, Vec<f32>)> {
+    pub(super) fn layer(&self, j: usize) -> Option<&StaticLayer> {
         self.layers.get(j).and_then(|l| l.as_ref())
     }
 
@@ -172,7 +198,7 @@ impl PreparedSnapshot {
                 s.prefix
             }
             _ => {
-                out[..window.len()].fill(self.background_radiance);
+                self.fill_background(window, &mut out[..window.len()]);
                 0
             }
         };
@@ -184,15 +210,15 @@ impl PreparedSnapshot {
             if layer.edges.is_empty() {
                 continue;
             }
-            if let Some((fp, cov)) = statics.and_then(|s| s.layer(j)) {
-                blend_coverage_clipped(fp, cov, layer.radiance, window, out);
+            if let Some(st) = statics.and_then(|s| s.layer(j)) {
+                blend_coverage_clipped(st, layer.radiance, window, out);
                 continue;
             }
             // Only the layer's bounding box can change (coverage is 0 elsewhere); the integer
             // rasteriser gives the same coverage there whatever window it runs on.
             let fp = layer.footprint(window);
             if !fp.is_empty() {
-                layer.blend_into(&fp, window, &mut scratch.acc, out, skip_uncovered);
+                layer.blend_into(&fp, window, scratch, out, skip_uncovered);
             }
         }
     }
@@ -205,6 +231,22 @@ impl PreparedSnapshot {
         let clean = |v: f32| v.is_finite() && v.is_sign_positive();
         clean(self.background_radiance) && self.layers.iter().all(|l| clean(l.radiance))
     }
+
+    /// The background's radiance over `window` (row-major) into `out`: the uniform radiance,
+    /// or the background texture's pixels.
+    pub(super) fn fill_background(&self, window: &PixelRect, out: &mut [f32]) {
+        match &self.background {
+            None => out[..window.len()].fill(self.background_radiance),
+            Some(bg) => {
+                for (row, o) in out[..window.len()]
+                    .chunks_exact_mut(window.width.max(1))
+                    .enumerate()
+                {
+                    bg.row_into(window.x0, window.y0 + row as i64, o);
+                }
+            }
+        }
+    }
 }
 
 impl PreparedLayer {
@@ -213,10 +255,15 @@ impl PreparedLayer {
         &self,
         fp: &PixelRect,
         window: &PixelRect,
-        acc: &mut Vec<i64>,
+        raster: &mut RasterScratch,
         out: &mut [f32],
         skip_uncovered: bool,
     ) {
+        if self.fill.is_some() {
+            self.blend_textured(fp, window, raster, out);
+            return;
+        }
+        let acc = &mut raster.acc;
         let (row_lo, row_hi) = (fp.y0 * ONE, fp.y1() * ONE);
         if self.y_max <= row_lo || self.y_min >= row_hi {
             return;
@@ -272,6 +319,49 @@ impl PreparedLayer {
     }
 }
 
+impl PreparedLayer {
+    /// A textured layer over `out` inside its footprint: v ← v·(1 − c) + R with c its
+    /// coverage and R its radiance-weighted coverage.
+    fn blend_textured(
+        &self,
+        fp: &PixelRect,
+        window: &PixelRect,
+        raster: &mut RasterScratch,
+        out: &mut [f32],
+    ) {
+        let Some(fill) = &self.fill else {
+            return;
+        };
+        let stride = fp.width + 1;
+        let n = stride * fp.height;
+        let acc = &mut raster.acc;
+        if acc.len() < n {
+            acc.resize(n, 0);
+        }
+        raster.rad.clear();
+        raster.rad.resize(n, 0);
+        fill.deposit(fp, &mut acc[..n], &mut raster.rad, &mut raster.fill);
+        let (cs, rs) = textured_scales(1);
+        for (row, (a, r)) in acc[..n]
+            .chunks_exact_mut(stride)
+            .zip(raster.rad.chunks_exact(stride))
+            .enumerate()
+        {
+            let start = window.index(fp.x0, fp.y0 + row as i64).unwrap_or(0);
+            let o = &mut out[start..start + fp.width];
+            let (mut sc, mut sr) = (0i64, 0i64);
+            for ((v, a), r) in o.iter_mut().zip(a.iter()).zip(r) {
+                sc += a;
+                sr += r;
+                let c = (sc as f64 * cs).clamp(0.0, 1.0) as f32;
+                let rv = (sr as f64 * rs).clamp(0.0, 1.0) as f32;
+                *v = *v * (1.0 - c) + rv;
+            }
+            a.fill(0);
+        }
+    }
+}
+
 /// Cells scanned at once when looking for deposits (an OR over a block vectorises).
 const SCAN: usize = 16;
 
@@ -322,25 +412,32 @@ fn blend_constant(out: &mut [f32], r: f32, c: f32) {
     }
 }
 
-/// `v ← v·(1 − c) + r·c` with per-pixel coverage `cov` (row-major over footprint `fp`), for the
-/// pixels of `fp` inside `sub`, into a `sub` buffer.
-pub(super) fn blend_coverage_clipped(
-    fp: &PixelRect,
-    cov: &[f32],
-    r: f32,
-    sub: &PixelRect,
-    out: &mut [f32],
-) {
+/// `v ← v·(1 − c) + r·c` with a static layer's per-pixel coverage `c` (for a textured layer
+/// `v ← v·(1 − c) + R` with its per-pixel radiance R), for the pixels of its footprint inside
+/// `sub`, into a `sub` buffer.
+pub(super) fn blend_coverage_clipped(st: &StaticLayer, r: f32, sub: &PixelRect, out: &mut [f32]) {
+    let fp = &st.fp;
     let clip = fp.intersect(sub);
     if clip.is_empty() {
         return;
     }
     let dx = (clip.x0 - fp.x0) as usize;
     for y in clip.y0..clip.y1() {
-        let c = &cov[(y - fp.y0) as usize * fp.width + dx..][..clip.width];
+        let at = (y - fp.y0) as usize * fp.width + dx;
+        let c = &st.cov[at..][..clip.width];
         let start = sub.index(clip.x0, y).unwrap_or(0);
-        for (v, &c) in out[start..start + clip.width].iter_mut().zip(c) {
-            *v = *v * (1.0 - c) + r * c;
+        let o = &mut out[start..start + clip.width];
+        match &st.rad {
+            None => {
+                for (v, &c) in o.iter_mut().zip(c) {
+                    *v = *v * (1.0 - c) + r * c;
+                }
+            }
+            Some(rad) => {
+                for ((v, &c), &rv) in o.iter_mut().zip(c).zip(&rad[at..][..clip.width]) {
+                    *v = *v * (1.0 - c) + rv;
+                }
+            }
         }
     }
 }

@@ -20,7 +20,9 @@
 
 use super::composite::{blend_coverage_clipped, identical_prefix, static_layers, StaticCoverage};
 use super::nesting::layers_nest;
-use super::{PixelRect, PreparedSnapshot, RasterScratch, RigidTransform, FULL, ONE};
+use super::{
+    textured_scales, PixelRect, PreparedSnapshot, RasterScratch, RigidTransform, FULL, ONE,
+};
 use crate::render::shapes::SceneSnapshot;
 
 /// Buffers of [`average_exposure`], reused from window to window.
@@ -32,6 +34,8 @@ pub struct ExposureScratch {
     sample: Vec<f32>,
     /// Per nested moving layer: the K samples' deposits summed, over the moving footprint.
     deposits: Vec<Vec<i64>>,
+    /// Per nested moving layer: a textured layer's radiance deposits summed likewise.
+    rad_deposits: Vec<Vec<i64>>,
     /// The background over the window when no leading layer is shared by every sample.
     background: Vec<f32>,
 }
@@ -88,11 +92,8 @@ fn nested_layers(
         return None;
     }
     let n_layers = first.layers.len();
-    let bg = first.background_radiance.to_bits();
     if snaps.iter().any(|s| {
-        s.layers.len() != n_layers
-            || s.background_radiance.to_bits() != bg
-            || !s.uncovered_unchanged()
+        s.layers.len() != n_layers || !s.same_background(first) || !s.uncovered_unchanged()
     }) {
         return None;
     }
@@ -283,8 +284,10 @@ fn average_nested(
     out: &mut [f32],
 ) {
     let ExposureScratch {
+        raster,
         statics,
         deposits,
+        rad_deposits,
         background,
         ..
     } = scratch;
@@ -292,7 +295,8 @@ fn average_nested(
         Some((_, base)) => base,
         None => {
             background.clear();
-            background.resize(window.len(), snaps[0].background_radiance);
+            background.resize(window.len(), 0.0);
+            snaps[0].fill_background(window, background);
             background
         }
     };
@@ -304,11 +308,23 @@ fn average_nested(
     let stride = moving.width + 1;
     let (row_lo, row_hi) = (moving.y0 * ONE, moving.y1() * ONE);
     deposits.resize_with(layers.len(), Vec::new);
-    for (acc, &j) in deposits.iter_mut().zip(layers) {
+    rad_deposits.resize_with(layers.len(), Vec::new);
+    let textured: Vec<bool> = layers
+        .iter()
+        .map(|&j| snaps[0].layers[j].fill.is_some())
+        .collect();
+    for ((acc, rad), &j) in deposits.iter_mut().zip(rad_deposits.iter_mut()).zip(layers) {
         acc.clear();
         acc.resize(stride * moving.height, 0);
+        rad.clear();
         for s in snaps {
-            for e in &s.layers[j].edges {
+            let layer = &s.layers[j];
+            if let Some(fill) = &layer.fill {
+                rad.resize(stride * moving.height, 0);
+                fill.deposit(&moving, acc, rad, &mut raster.fill);
+                continue;
+            }
+            for e in &layer.edges {
                 if e.yb > row_lo && e.ya < row_hi {
                     e.deposit(&moving, acc);
                 }
@@ -321,17 +337,26 @@ fn average_nested(
         .collect();
     // Mean coverage = deposit sum / (K · FULL), exact in integers up to the final division.
     let scale = 1.0 / (snaps.len() as f64 * FULL as f64);
+    let (_, rad_scale) = textured_scales(snaps.len());
     let mut sums = vec![0i64; layers.len()];
+    let mut rad_sums = vec![0i64; layers.len()];
     let dx = (moving.x0 - window.x0) as usize;
     for row in 0..moving.height {
         let start = (moving.y0 - window.y0) as usize + row;
         let o = &mut out[start * window.width + dx..][..moving.width];
         sums.iter_mut().for_each(|s| *s = 0);
+        rad_sums.iter_mut().for_each(|s| *s = 0);
         for (x, v) in o.iter_mut().enumerate() {
-            for ((sum, acc), &r) in sums.iter_mut().zip(deposits.iter()).zip(&radiance) {
-                *sum += acc[row * stride + x];
-                let c = (*sum as f64 * scale).clamp(0.0, 1.0) as f32;
-                *v = *v * (1.0 - c) + r * c;
+            for (m, &r) in radiance.iter().enumerate() {
+                sums[m] += deposits[m][row * stride + x];
+                let c = (sums[m] as f64 * scale).clamp(0.0, 1.0) as f32;
+                if textured[m] {
+                    rad_sums[m] += rad_deposits[m][row * stride + x];
+                    let rv = (rad_sums[m] as f64 * rad_scale).clamp(0.0, 1.0) as f32;
+                    *v = *v * (1.0 - c) + rv;
+                } else {
+                    *v = *v * (1.0 - c) + r * c;
+                }
             }
         }
     }
@@ -361,13 +386,13 @@ impl PreparedSnapshot {
             if layer.edges.is_empty() {
                 continue;
             }
-            if let Some((fp, cov)) = statics.layer(j) {
-                blend_coverage_clipped(fp, cov, layer.radiance, sub, out);
+            if let Some(st) = statics.layer(j) {
+                blend_coverage_clipped(st, layer.radiance, sub, out);
                 continue;
             }
             let fp = layer.footprint(sub);
             if !fp.is_empty() {
-                layer.blend_into(&fp, sub, &mut raster.acc, out, skip_uncovered);
+                layer.blend_into(&fp, sub, raster, out, skip_uncovered);
             }
         }
     }
@@ -424,25 +449,30 @@ mod tests {
                 let d = i as f64 * step;
                 let mut layers = vec![
                     Layer {
+                        texture: None,
                         radiance: 0.45,
                         polygons: vec![disc(40.0, 40.0, 33.3)],
                     },
                     Layer {
+                        texture: None,
                         radiance: 0.9,
                         polygons: vec![square(cx + d, cy, 9.3, turn * i as f64)],
                     },
                     Layer {
+                        texture: None,
                         radiance: 0.1,
                         polygons: vec![square(cx + d, cy, 5.1, turn * i as f64)],
                     },
                 ];
                 if top {
                     layers.push(Layer {
+                        texture: None,
                         radiance: 0.7,
                         polygons: vec![square(12.2, 61.7, 4.4, 0.3)],
                     });
                 }
                 SceneSnapshot {
+                    background: None,
                     background_radiance: 0.2,
                     layers,
                 }

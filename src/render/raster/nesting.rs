@@ -38,6 +38,18 @@ pub(super) fn layers_nest(
                 .collect(),
         )
     };
+    // What a later layer must nest in: a uniform layer's polygon; a textured layer's uniform
+    // core (the marker's paper, where its value is one constant), none without one.
+    let holder = |s: usize, j: usize| -> Option<Vec<Vec<DVec2>>> {
+        let layer = samples[s].layers.get(j)?;
+        match &layer.texture {
+            None => vertices(s, j),
+            Some(t) => t
+                .core_px
+                .as_ref()
+                .map(|p| vec![transformed(p, transforms[s].as_ref())]),
+        }
+    };
     for pair in layers.windows(2) {
         let (outer, inner) = (pair[0], pair[1]);
         let mut inner_points = Vec::new();
@@ -55,7 +67,7 @@ pub(super) fn layers_nest(
         }
         let hull = convex_hull(inner_points);
         for s in 0..samples.len() {
-            let Some(polys) = vertices(s, outer) else {
+            let Some(polys) = holder(s, outer) else {
                 return false;
             };
             let [outer_polygon] = polys.as_slice() else {
@@ -167,13 +179,16 @@ mod tests {
 
     fn scene(paper: Polygon, ink: Vec<Polygon>) -> SceneSnapshot {
         SceneSnapshot {
+            background: None,
             background_radiance: 0.2,
             layers: vec![
                 Layer {
+                    texture: None,
                     radiance: 0.9,
                     polygons: vec![paper],
                 },
                 Layer {
+                    texture: None,
                     radiance: 0.1,
                     polygons: ink,
                 },

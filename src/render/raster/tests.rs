@@ -10,6 +10,7 @@ fn reversed(p: &Polygon) -> Polygon {
 
 fn layer(polygons: Vec<Polygon>) -> Layer {
     Layer {
+        texture: None,
         radiance: 1.0,
         polygons,
     }
@@ -182,13 +183,16 @@ proptest! {
 #[test]
 fn over_compositing_follows_layer_order() {
     let snap = SceneSnapshot {
+        background: None,
         background_radiance: 0.2,
         layers: vec![
             Layer {
+                texture: None,
                 radiance: 1.0,
                 polygons: vec![rect(-0.5, -0.5, 0.0, 0.5)],
             },
             Layer {
+                texture: None,
                 radiance: 0.0,
                 polygons: vec![rect(-0.5, -0.5, 0.5, 0.0)],
             },
