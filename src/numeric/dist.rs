@@ -198,16 +198,12 @@ mod tests {
         // series to ν⁻⁴ in 40-digit decimal arithmetic).
         for (dof, want) in [
             (20_000, 1.960_082_605_158_135),
-            (100_000, 1.959_987_707_534_610),
+            (100_000, 1.959_987_707_534_61),
             (1_000_000, 1.959_966_356_814_107),
         ] {
             close(t975(dof), want, 1e-12);
         }
-        close(
-            student_t_quantile(0.025, 1e5),
-            -1.959_987_707_534_610,
-            1e-12,
-        );
+        close(student_t_quantile(0.025, 1e5), -1.959_987_707_534_61, 1e-12);
         close(student_t_quantile(0.025, 15.0), -2.131_449_546, 1e-8);
         close(
             student_t_quantile(0.975, f64::INFINITY),
