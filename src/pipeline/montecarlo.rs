@@ -538,10 +538,12 @@ mod tests {
         assert_eq!(m["omega"]["n"], 15.0);
         assert_eq!(m["ok"], false);
         assert_eq!(m["name"], "x");
-        // t(1) = 12.706, s = √2, half = 12.706·√2/√2 = 12.706.
+        // t₀.₉₇₅(1) = 12.7062, s = √2, half = t·√2/√2 = t.
+        let t = crate::numeric::dist::t975(1);
+        assert!((t - 12.706_204_736).abs() < 1e-8);
         let ci = m["omega"]["ci95"]["rms"].as_array().unwrap();
-        assert!((ci[0].as_f64().unwrap() - (2.0 - 12.706)).abs() < 1e-9);
-        assert!((ci[1].as_f64().unwrap() - (2.0 + 12.706)).abs() < 1e-9);
+        assert!((ci[0].as_f64().unwrap() - (2.0 - t)).abs() < 1e-9);
+        assert!((ci[1].as_f64().unwrap() - (2.0 + t)).abs() < 1e-9);
         assert!(
             m.get("ci95").is_none(),
             "top level is not a statistics block"
