@@ -82,7 +82,8 @@ impl ReRenderCheck {
     /// What is left, one sentence per failed test (empty when passed).
     pub fn failures(&self) -> Vec<String> {
         let mut out = Vec::new();
-        if !(self.ratio() <= MAX_RESIDUAL_RATIO) {
+        let ratio = self.ratio();
+        if ratio.is_nan() || ratio > MAX_RESIDUAL_RATIO {
             out.push(format!(
                 "the residual's RMS is {:.2} × what the fitted model predicts (at most \
                  {MAX_RESIDUAL_RATIO})",

@@ -307,7 +307,7 @@ pub fn judge(footage: Structure, model: Structure) -> StructureCheck {
     let lim = limits(&model);
     let limit = lim.smoothed_retention;
     let r = footage.smoothed_retention;
-    if !(r <= limit) {
+    if r.is_nan() || r > limit {
         failures.push(format!(
             "smoothed at {SMOOTHING_SIGMA_PX} px the residual keeps {r:.2} of its sd (white \
              noise {:.2}, the noise model {:.2}, at most {limit:.2}): structure wider than a few \
@@ -319,7 +319,7 @@ pub fn judge(footage: Structure, model: Structure) -> StructureCheck {
     let excess = (0..3)
         .map(|k| footage.autocorrelation[k] - model.autocorrelation[k])
         .fold(f64::NEG_INFINITY, f64::max);
-    if !(excess <= MAX_EXCESS_AUTOCORRELATION) {
+    if excess.is_nan() || excess > MAX_EXCESS_AUTOCORRELATION {
         let show = |a: &[f64; 3]| format!("{:.2}/{:.2}/{:.2}", a[0], a[1], a[2]);
         failures.push(format!(
             "neighbouring residual pixels correlate {} at 1/2/3 px (the noise model {}, at most \
@@ -329,7 +329,7 @@ pub fn judge(footage: Structure, model: Structure) -> StructureCheck {
         ));
     }
     let edge_limit = lim.edge_energy_ratio;
-    if !(footage.edge_energy_ratio <= edge_limit) {
+    if footage.edge_energy_ratio.is_nan() || footage.edge_energy_ratio > edge_limit {
         failures.push(format!(
             "along the marker's edges the residual's energy is {:.1} × the flat regions' (the \
              noise model {:.1}, at most {edge_limit:.1}): the edges' blur, position or the ink's \
@@ -343,7 +343,7 @@ pub fn judge(footage: Structure, model: Structure) -> StructureCheck {
     let worst = (0..4)
         .max_by(|&a, &b| excess(a).total_cmp(&excess(b)))
         .unwrap_or(0);
-    if !(excess(worst) <= MAX_RENDER_CORRELATION) {
+    if excess(worst).is_nan() || excess(worst) > MAX_RENDER_CORRELATION {
         failures.push(format!(
             "the residual follows the render's {} (correlation {:+.2}, the noise model {:+.2}, \
              at most {MAX_RENDER_CORRELATION} apart)",
@@ -371,7 +371,7 @@ mod tests {
     fn square(blur: f64) -> Grid {
         let mut g = Grid::new(SIZE, SIZE);
         let c = SIZE as f64 / 2.0 - 0.5;
-        let inside = |t: f64| crate::imagestats::normal_cdf((24.0 - (t - c).abs()) / blur);
+        let inside = |t: f64| crate::numeric::dist::normal_cdf((24.0 - (t - c).abs()) / blur);
         for y in 0..SIZE {
             for x in 0..SIZE {
                 g.set(x, y, 200.0 - 150.0 * inside(x as f64) * inside(y as f64));

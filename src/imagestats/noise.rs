@@ -114,7 +114,7 @@ impl WeakTextureNoise {
     /// patches, or variation that is not white ([`WHITE_CONSISTENCY`],
     /// [`MIN_NOISE_DIMS_SHARE`]).
     pub fn not_identifiable(&self) -> Option<String> {
-        if !(self.sigma_dn > 0.0) {
+        if self.sigma_dn.is_nan() || self.sigma_dn <= 0.0 {
             return Some(
                 "its flattest patches hold no variation at all: noise below the 8-bit \
                  quantisation (σ under ½ DN) or flattened by the camera's processing (denoising, \

@@ -185,16 +185,6 @@ impl std::fmt::Display for NumberingMismatch {
     }
 }
 
-/// The median of `v` (NaN when empty).
-fn median_of(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
-}
-
 /// Whether the rows' frame numbers and times disagree (see [`NumberingMismatch`]). A time step
 /// longer than its numbers say (a variable frame rate, a dropped frame the numbering did not
 /// count) is no disagreement: phones do that.
@@ -208,7 +198,7 @@ pub fn numbering_mismatch(rows: &[TrackRow]) -> Option<NumberingMismatch> {
         return None;
     }
     let number_steps: Vec<f64> = steps.iter().map(|(a, b, _)| (b - a) as f64).collect();
-    let median_number_step = median_of(number_steps) as usize;
+    let median_number_step = crate::numeric::robust::median(&number_steps) as usize;
     let consecutive: Vec<f64> = steps
         .iter()
         .filter(|(a, b, _)| b - a == 1)
@@ -222,7 +212,7 @@ pub fn numbering_mismatch(rows: &[TrackRow]) -> Option<NumberingMismatch> {
             median_number_step,
         });
     }
-    let h = median_of(consecutive);
+    let h = crate::numeric::robust::median(&consecutive);
     let bad: Vec<&(usize, usize, f64)> = steps
         .iter()
         .filter(|(a, b, dt)| b - a > 1 && *dt < ((b - a) as f64 - 0.5) * h)

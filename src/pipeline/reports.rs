@@ -35,7 +35,7 @@ pub enum ReportsError {
     #[error("{name}")]
     MonteCarlo {
         name: String,
-        source: MonteCarloError,
+        source: Box<MonteCarloError>,
     },
     #[error(transparent)]
     Decomposition(#[from] DecompositionError),
@@ -117,7 +117,7 @@ fn mc(
     };
     monte_carlo(scenario, out_dir, &options).map_err(|source| ReportsError::MonteCarlo {
         name: name.into(),
-        source,
+        source: Box::new(source),
     })
 }
 

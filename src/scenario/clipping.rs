@@ -64,7 +64,7 @@ impl Tone {
 
 /// Share of a normal's mass beyond `z` σ: Φ(−z).
 fn beyond(z: f64) -> f64 {
-    crate::imagestats::normal_cdf(-z)
+    crate::numeric::dist::normal_cdf(-z)
 }
 
 /// The warnings of `s` (none when its pixel noise is off).
@@ -185,7 +185,7 @@ mod tests {
     fn stated(message: &str, field: &str) -> f64 {
         let at = message.find(&format!("{field} = ")).expect(field) + field.len() + 3;
         message[at..]
-            .split(|c: char| c == ',' || c == ' ')
+            .split([',', ' '])
             .next()
             .and_then(|v| v.parse().ok())
             .expect("a number")
