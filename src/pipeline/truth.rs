@@ -378,6 +378,7 @@ mod tests {
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
         let mechanism = Mechanism::new(&s.mechanism, &s.drive_speed, &s.dynamics, 2.5).unwrap();
+        let mut differs = false;
         for (line, &t) in lines.zip(&times) {
             let cells: Vec<f64> = line
                 .split(',')
@@ -387,7 +388,10 @@ mod tests {
             assert_eq!(cells[col("t_s")], t);
             assert!((cells[col("theta2_actual_rad")] - actual.theta2_rad).abs() < 1e-12);
             assert!((cells[col("centre_offset_x_m")] - actual.centre_offset_m[0]).abs() < 1e-15);
-            assert!(cells[col("theta2_actual_rad")] != cells[col("theta2_rad")] || t == 0.0);
+            differs |= cells[col("theta2_actual_rad")] != cells[col("theta2_rad")];
         }
+        // The disc's vibration rings after an engagement: the actual motion leaves the ideal
+        // one at some listed instant (not at every one: before the first impact they agree).
+        assert!(differs, "the actual columns repeat the ideal motion");
     }
 }
