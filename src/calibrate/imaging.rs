@@ -278,17 +278,7 @@ impl BaseNoise {
 /// frames: the median over the frames whose estimate is the sensor's white noise, with the
 /// larger of the median's spread and one estimate's own standard error; or why there is none.
 pub fn spatial_sigma(stats: &FootageStats, m: usize) -> Result<Fitted, String> {
-    let est: Vec<&crate::imagestats::WeakTextureNoise> = stats
-        .spatial_noise
-        .iter()
-        .filter_map(|s| {
-            if m == 0 {
-                s.ink.as_ref()
-            } else {
-                s.paper.as_ref()
-            }
-        })
-        .collect();
+    let est: Vec<&crate::imagestats::WeakTextureNoise> = stats.weak_texture_noise(m).collect();
     if est.is_empty() {
         return Err("no frame holds a region large enough for the weak-texture estimate".into());
     }
@@ -330,18 +320,7 @@ fn codec_explained(
         0.0,
     )
     .ok_or("no region")?;
-    let mut weak: Vec<f64> = stats
-        .spatial_noise
-        .iter()
-        .filter_map(|s| {
-            if m == 0 {
-                s.ink.as_ref()
-            } else {
-                s.paper.as_ref()
-            }
-        })
-        .map(|e| e.sigma_dn)
-        .collect();
+    let mut weak: Vec<f64> = stats.weak_texture_noise(m).map(|e| e.sigma_dn).collect();
     if weak.is_empty() {
         return Err("no weak-texture estimate to compare with the codec's".into());
     }

@@ -164,6 +164,22 @@ pub struct FootageStats {
     pub timing: Option<TimingFit>,
 }
 
+impl FootageStats {
+    /// The weak-texture noise estimates of material `m` (0 ink, 1 paper), frame by frame.
+    pub fn weak_texture_noise(
+        &self,
+        m: usize,
+    ) -> impl Iterator<Item = &crate::imagestats::WeakTextureNoise> {
+        self.spatial_noise.iter().filter_map(move |s| {
+            if m == 0 {
+                s.ink.as_ref()
+            } else {
+                s.paper.as_ref()
+            }
+        })
+    }
+}
+
 /// What the user asks for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrateOptions {

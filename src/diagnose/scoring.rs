@@ -196,6 +196,21 @@ impl Rate {
     }
 }
 
+/// A rate as the reports print it: "97 % (31/32; 95 % CI 84–99 %)", or "– (no case)".
+pub fn pct(r: &Rate) -> String {
+    match (r.value(), r.wilson95()) {
+        (Some(v), Some((lo, hi))) => format!(
+            "{:.0} % ({}/{}; 95 % CI {:.0}–{:.0} %)",
+            100.0 * v,
+            r.k,
+            r.n,
+            100.0 * lo,
+            100.0 * hi
+        ),
+        _ => "– (no case)".into(),
+    }
+}
+
 /// The self-check's figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scores {

@@ -1026,15 +1026,7 @@ fn footage_stats(stats: &FootageStats) -> Option<([f64; 3], [f64; 2], [SigmaStat
             .count()
             > lv.len();
         let weak: Vec<f64> = stats
-            .spatial_noise
-            .iter()
-            .filter_map(|s| {
-                if m == 0 {
-                    s.ink.as_ref()
-                } else {
-                    s.paper.as_ref()
-                }
-            })
+            .weak_texture_noise(m)
             .filter(|e| e.not_identifiable().is_none())
             .map(|e| e.sigma_dn)
             .collect();

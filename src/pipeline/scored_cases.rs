@@ -7,7 +7,7 @@
 //! (verdict `error`, no candidate), as the self-check scores a diagnosis that fails. Nothing here
 //! judges anything itself.
 
-use crate::diagnose::scoring::{score, CaseOutcome, Expectation, Rate, Scores};
+use crate::diagnose::scoring::{pct, score, CaseOutcome, Expectation, Rate, Scores};
 use crate::scenario::effects::Effect;
 use serde::Deserialize;
 use serde_json::Value;
@@ -243,20 +243,6 @@ pub fn outcome_from_json(case: &ExternalCase, d: &Value) -> Result<CaseOutcome, 
         params_in_ci95,
         eval_seeds: d["run"]["seeds"].as_array().map_or(0, Vec::len),
     })
-}
-
-fn pct(r: &Rate) -> String {
-    match (r.value(), r.wilson95()) {
-        (Some(v), Some((lo, hi))) => format!(
-            "{:.0} % ({}/{}; 95 % CI {:.0}–{:.0} %)",
-            100.0 * v,
-            r.k,
-            r.n,
-            100.0 * lo,
-            100.0 * hi
-        ),
-        _ => "– (no case)".into(),
-    }
 }
 
 /// `unexplained` among the out-of-vocabulary cases of `group`.

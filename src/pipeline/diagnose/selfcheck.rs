@@ -24,7 +24,7 @@
 //! `GENEVA_KEEP_FRAMES` to keep them for inspection.
 
 use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
-use crate::diagnose::scoring::{score, CaseOutcome, Expectation, PairMember, Rate};
+use crate::diagnose::scoring::{pct, score, CaseOutcome, Expectation, PairMember, Rate};
 use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
@@ -952,20 +952,6 @@ impl Study for SelfCheck {
         self.cases
             .get(unit)
             .map_or_else(|| format!("case {unit}"), |c| c.name.clone())
-    }
-}
-
-fn pct(r: &Rate) -> String {
-    match (r.value(), r.wilson95()) {
-        (Some(v), Some((lo, hi))) => format!(
-            "{:.0} % ({}/{}; 95 % CI {:.0}–{:.0} %)",
-            100.0 * v,
-            r.k,
-            r.n,
-            100.0 * lo,
-            100.0 * hi
-        ),
-        _ => "– (no case)".into(),
     }
 }
 
