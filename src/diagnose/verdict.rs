@@ -469,7 +469,7 @@ mod tests {
 
     #[test]
     fn an_explanation_must_differ_from_the_nominal() {
-        // The stop-52 lens: k1 = 0.006 ± 0.0103 against 0.
+        // A lens fitted at k1 = 0.006 ± 0.0103 against a nominal 0: no effect.
         assert_eq!(tells_from_nominal(&[fv(0.00595, 0.0103, 0.0)]), Some(false));
         // A weak compression 1.9 σ below quality 98 is an effect.
         assert_eq!(tells_from_nominal(&[fv(88.0, 5.2, 98.0)]), Some(true));
