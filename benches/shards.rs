@@ -34,6 +34,7 @@ impl Evaluator for Instant0 {
             frames_detected: 300,
             engaged_alpha_noise_rad_s2: 0.1 * j,
             mean_frame_interval_s: 1.0 / fps,
+            kalman_lambda_per_s6: f64::NAN,
         })
     }
 }

@@ -102,6 +102,9 @@ pub struct RunOutput {
     pub full_frames: usize,
     pub elapsed_s: f64,
     pub files: Vec<PathBuf>,
+    /// The headline (fused) signal's differentiator as it ran: a Kalman smoother's automatic λ
+    /// resolved on the measured series.
+    pub differentiator: crate::estimate::Differentiator,
 }
 
 impl RunOutput {
@@ -320,6 +323,14 @@ fn judge(
         .iter()
         .filter(|d| matches!(d.path, FramePath::FullFrame | FramePath::RoiThenFullFrame))
         .count();
+    let differentiator = est
+        .signals
+        .iter()
+        .find(|s| s.signal == crate::estimate::Signal::Fused)
+        .map_or_else(
+            || scenario.estimator.differentiator.clone(),
+            |s| s.differentiator.clone(),
+        );
     Ok(RunOutput {
         budget,
         signals,
@@ -331,6 +342,7 @@ fn judge(
         full_frames,
         elapsed_s: 0.0,
         files,
+        differentiator,
     })
 }
 

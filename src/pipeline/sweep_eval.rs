@@ -39,6 +39,12 @@ impl Evaluator for PipelineEvaluator {
                 .get(crate::estimate::Signal::Fused.name())
                 .map_or(f64::NAN, |r| r.engaged_detection_alpha_std_rad_s2),
             mean_frame_interval_s: mean_interval,
+            kalman_lambda_per_s6: match out.differentiator {
+                crate::estimate::Differentiator::KalmanRts {
+                    lambda_per_s6: Some(l),
+                } => l,
+                _ => f64::NAN,
+            },
         })
     }
 }

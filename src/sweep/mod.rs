@@ -60,6 +60,9 @@ pub struct PointMetrics {
     pub engaged_alpha_noise_rad_s2: f64,
     /// Mean frame interval, s.
     pub mean_frame_interval_s: f64,
+    /// The Kalman smoother's λ as the run resolved it on its measured series, 1/s⁶ (NaN for
+    /// other differentiators): what the impact SNR of an automatic-λ point is computed with.
+    pub kalman_lambda_per_s6: f64,
 }
 
 /// Evaluates one scenario with one seed (the scenario's `seed` is already set to it).

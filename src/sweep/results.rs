@@ -7,7 +7,7 @@ use super::PointMetrics;
 use std::path::Path;
 
 /// Metric column names, in [`PointMetrics::to_cells`] order.
-pub const METRICS: [&str; 9] = [
+pub const METRICS: [&str; 10] = [
     "theta_rms_rad",
     "omega_rms_rad_s",
     "alpha_rms_rad_s2",
@@ -17,6 +17,7 @@ pub const METRICS: [&str; 9] = [
     "frames_detected",
     "engaged_alpha_noise_rad_s2",
     "mean_frame_interval_s",
+    "kalman_lambda_per_s6",
 ];
 
 /// How a run ended.
@@ -63,7 +64,7 @@ pub struct ResultRow {
 
 impl PointMetrics {
     /// Values in [`METRICS`] order (counts as f64).
-    pub fn values(&self) -> [f64; 9] {
+    pub fn values(&self) -> [f64; 10] {
         [
             self.theta_rms_rad,
             self.omega_rms_rad_s,
@@ -74,6 +75,7 @@ impl PointMetrics {
             self.frames_detected as f64,
             self.engaged_alpha_noise_rad_s2,
             self.mean_frame_interval_s,
+            self.kalman_lambda_per_s6,
         ]
     }
 
@@ -88,6 +90,7 @@ impl PointMetrics {
             frames_detected: v[6] as usize,
             engaged_alpha_noise_rad_s2: v[7],
             mean_frame_interval_s: v[8],
+            kalman_lambda_per_s6: v[9],
         }
     }
 }

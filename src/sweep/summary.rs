@@ -9,6 +9,7 @@ use super::results::{ResultRow, Status, METRICS};
 use super::spec::{SweepSpec, COST_FPS, COST_PIXELS};
 use crate::budget::detectability::{detectability, Detectability};
 use crate::budget::MeanCi;
+use crate::estimate::Differentiator;
 use crate::scenario::{Scenario, ScenarioError};
 use std::path::Path;
 
@@ -169,7 +170,7 @@ pub fn summarise(
                 s.cost = cost(spec, point, sc);
                 if !ok.is_empty() {
                     match detectability(
-                        &sc.estimator.differentiator,
+                        &as_run(&sc.estimator.differentiator, &ok),
                         s.mean("mean_frame_interval_s"),
                         spec.impact.delta_omega_rad_s,
                         spec.impact.duration_s,
@@ -186,6 +187,31 @@ pub fn summarise(
             s
         })
         .collect()
+}
+
+/// The differentiator as the point's runs ran it: a Kalman smoother with automatic λ takes the
+/// median of the λ its runs resolved on their measured series (the impact response depends on
+/// λ, and a λ chosen on a noiseless impact series would make the SNR wildly optimistic); any
+/// other differentiator is its own.
+fn as_run(diff: &Differentiator, ok: &[&ResultRow]) -> Differentiator {
+    if !matches!(
+        diff,
+        Differentiator::KalmanRts {
+            lambda_per_s6: None
+        }
+    ) {
+        return diff.clone();
+    }
+    let lambdas: Vec<f64> = ok
+        .iter()
+        .filter_map(|r| r.metrics.map(|m| m.kalman_lambda_per_s6))
+        .collect();
+    match crate::numeric::robust::median_finite(lambdas) {
+        Some(l) => Differentiator::KalmanRts {
+            lambda_per_s6: Some(l),
+        },
+        None => diff.clone(),
+    }
 }
 
 /// The point's SNR interval, target verdict and decision, all on the 95 % bounds.
