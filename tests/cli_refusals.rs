@@ -334,3 +334,46 @@ fn slurm_values_that_would_inject_commands_or_directives_are_refused() {
         assert_eq!(line.split_whitespace().count(), 2, "{line}");
     }
 }
+
+/// `diagnose --fit-seeds 1000000000` (also `--refits`, `--bootstrap`) aborted on an allocation
+/// of 8 GB; the work estimate counted only the nominal's seeds. Now a count beyond any
+/// diagnosis is refused naming its limit, and one within it that multiplies the work past the
+/// limits is refused without `--yes`, before anything runs or is written.
+#[test]
+fn diagnosis_options_that_multiply_work_are_counted_and_refused_before_any_work() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    std::fs::write(r.join("tracks.csv"), "frame,t_s\n").unwrap();
+    let base = [
+        "diagnose",
+        "--scenario",
+        "fast",
+        "--tracks",
+        "tracks.csv",
+        "--out",
+        "d",
+    ];
+    for option in ["--fit-seeds", "--refits", "--bootstrap", "--seeds"] {
+        let mut args = base.to_vec();
+        args.extend([option, "1000000000"]);
+        let o = geneva(r, &args);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{option}: {e}");
+        assert!(
+            e.contains(option) && e.contains("at most 100000"),
+            "{option}: {e}"
+        );
+    }
+    for option in ["--fit-seeds", "--refits", "--bootstrap"] {
+        let mut args = base.to_vec();
+        args.extend([option, "100000"]);
+        let o = geneva(r, &args);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{option}: {e}");
+        assert!(
+            e.contains("--yes") && e.contains("at least") && e.contains("simulations"),
+            "{option}: {e}"
+        );
+    }
+    assert!(!r.join("d").exists(), "nothing written");
+}

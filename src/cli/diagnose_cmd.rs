@@ -25,11 +25,11 @@ pub struct DiagnoseArgs {
     #[arg(long, value_delimiter = ',')]
     effects: Option<Vec<String>>,
     /// Simulated seeds per configuration (the nominal's spread, every candidate's judgement).
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, value_parser = parse_count)]
     seeds: usize,
     /// Evaluation seeds to raise `--seeds` to when no cell is significant on `--seeds` but some
     /// would be with unlimited seeds (0: never).
-    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS)]
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS, value_parser = parse_count)]
     escalate_seeds: usize,
     /// Simulated seeds per objective evaluation in the candidate fits (at least 2): more cost
     /// time in proportion and make the fitted values less dependent on the fit's own noise
@@ -41,7 +41,7 @@ pub struct DiagnoseArgs {
     /// all its fits, with the seed noise their spread shows (each refit costs about one fit;
     /// more make the ± surer: one refit's difference had one degree of freedom and understated
     /// a drive speed's seed noise about twofold).
-    #[arg(long, default_value_t = DiagnoseOptions::default().refits, conflicts_with = "no_refit")]
+    #[arg(long, default_value_t = DiagnoseOptions::default().refits, conflicts_with = "no_refit", value_parser = parse_count)]
     refits: usize,
     /// `--refits 0`: the best candidate's values and ± are its first fit's (faster; its ± then
     /// do not hold the fit seeds' own noise, which can be several times larger).
@@ -103,13 +103,19 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
             bail!("--max-minutes {m}: must be a positive number of minutes");
         }
     }
-    // A lower bound: the nominal simulated once per seed, before any candidate is fitted.
-    let work =
-        geneva_vision::pipeline::workload::Workload::of(&nominal, true).times(a.seeds as f64);
+    let refits = if a.no_refit { 0 } else { a.refits };
+    let simulations =
+        least_simulations(a.seeds, a.escalate_seeds, a.fit_seeds, refits, a.bootstrap);
+    let work = geneva_vision::pipeline::workload::Workload::of(&nominal, true).times(simulations);
     super::work::confirm(
         &format!(
-            "the diagnosis's nominal simulations alone ({} seeds of {})",
-            a.seeds, nominal.name
+            "the diagnosis: at least {simulations} simulations of {} (the nominal on up to {} \
+             seeds, then one candidate's fit of {} seeds × {EVALUATIONS_PER_FIT} evaluations, \
+             {refits} refits and {} bootstrap footages alike; every further candidate adds a fit)",
+            nominal.name,
+            a.seeds.max(a.escalate_seeds),
+            a.fit_seeds,
+            a.bootstrap
         ),
         &work,
         a.yes,
@@ -118,7 +124,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         seeds: a.seeds,
         escalate_seeds: a.escalate_seeds,
         fit_seeds: a.fit_seeds,
-        refits: if a.no_refit { 0 } else { a.refits },
+        refits,
         bootstrap: a.bootstrap,
         effects,
         max_minutes: a.max_minutes,
@@ -207,9 +213,43 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
     Ok(())
 }
 
+/// The fewest objective evaluations a candidate's fit takes (a bracket and a few golden-section
+/// or Brent steps; most fits take 10–40).
+const EVALUATIONS_PER_FIT: f64 = 8.0;
+
+/// A lower bound on a diagnosis's simulations: the nominal on its seeds (raised to the
+/// escalation's), and the best candidate's fit, its refits and its bootstrap footages, each
+/// `fit_seeds` seeds × [`EVALUATIONS_PER_FIT`].
+fn least_simulations(
+    seeds: usize,
+    escalate_seeds: usize,
+    fit_seeds: usize,
+    refits: usize,
+    bootstrap: usize,
+) -> f64 {
+    let fits = 1.0 + refits as f64 + bootstrap as f64;
+    seeds.max(escalate_seeds) as f64 + fit_seeds as f64 * EVALUATIONS_PER_FIT * fits
+}
+
+/// The most of any seed, refit or footage count an option takes: beyond it a diagnosis would
+/// run for years, and its bookkeeping alone would not fit in memory.
+const MAX_COUNT: usize = 100_000;
+
+/// `--seeds`, `--escalate-seeds`, `--refits`: a whole number up to [`MAX_COUNT`].
+pub(super) fn parse_count(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n <= MAX_COUNT => Ok(n),
+        Ok(n) => Err(format!(
+            "{n}: at most {MAX_COUNT} (a diagnosis of that many simulations would run for years)"
+        )),
+        Err(_) => Err(format!("`{text}` is not a whole number")),
+    }
+}
+
 /// `--fit-seeds`: a whole number of at least 2 (a fit's z-scores need the seeds' spread).
 pub(super) fn parse_fit_seeds(text: &str) -> Result<usize, String> {
     match text.trim().parse::<usize>() {
+        Ok(n) if n > MAX_COUNT => parse_count(text),
         Ok(n) if n >= 2 => Ok(n),
         Ok(n) => Err(format!(
             "{n} fit seeds: at least 2 are needed (a fit compares the footage with the seeds' spread)"
@@ -226,14 +266,17 @@ pub(super) fn parse_bootstrap(text: &str) -> Result<usize, String> {
              (3 or more to pin it; 0 turns the bootstrap off)"
                 .to_string(),
         ),
-        Ok(n) => Ok(n),
+        Ok(n) if n <= MAX_COUNT => Ok(n),
+        Ok(_) => parse_count(text),
         Err(_) => Err(format!("`{text}` is not a whole number of footages")),
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{parse_bootstrap, parse_fit_seeds};
+    use super::{
+        least_simulations, parse_bootstrap, parse_count, parse_fit_seeds, EVALUATIONS_PER_FIT,
+    };
 
     #[test]
     fn one_bootstrap_footage_is_refused() {
@@ -248,5 +291,24 @@ mod tests {
         assert_eq!(parse_fit_seeds("3"), Ok(3));
         assert!(parse_fit_seeds("1").unwrap_err().contains("at least 2"));
         assert!(parse_fit_seeds("x").is_err());
+    }
+
+    #[test]
+    fn counts_that_would_run_for_years_are_refused_naming_the_limit() {
+        for parse in [parse_fit_seeds, parse_bootstrap, parse_count] {
+            assert_eq!(parse("100000"), Ok(100_000));
+            let why = parse("1000000000").unwrap_err();
+            assert!(why.contains("at most 100000"), "{why}");
+        }
+    }
+
+    #[test]
+    fn the_work_estimate_grows_with_every_option_that_multiplies_work() {
+        let base = least_simulations(6, 12, 3, 2, 0);
+        assert_eq!(base, 12.0 + 3.0 * EVALUATIONS_PER_FIT * 3.0);
+        assert!(least_simulations(6, 12, 30, 2, 0) > 8.0 * base);
+        assert!(least_simulations(6, 12, 3, 20, 0) > 6.0 * base);
+        assert!(least_simulations(6, 12, 3, 2, 30) > 9.0 * base);
+        assert!(least_simulations(6000, 0, 3, 2, 0) > 60.0 * base);
     }
 }

@@ -60,11 +60,11 @@ pub struct SelfCheckArgs {
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
     /// Simulated seeds per configuration of each diagnosis.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = super::diagnose_cmd::parse_count)]
     seeds: usize,
     /// Evaluation seeds to raise `--seeds` to when no cell is significant on `--seeds` but some
     /// would be with unlimited seeds (0: never).
-    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS)]
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::ESCALATE_SEEDS, value_parser = super::diagnose_cmd::parse_count)]
     escalate_seeds: usize,
     /// Simulated seeds per objective evaluation in each case's candidate fits (at least 2;
     /// `geneva diagnose` uses 3): 2 keeps the suite affordable, at the price of fitted values
@@ -74,7 +74,7 @@ pub struct SelfCheckArgs {
     /// Refits of each case's best candidate on fresh fit seeds, pooled with its first fit
     /// (`geneva diagnose --refits`; 0: its first fit alone, with ± that do not hold the fit
     /// seeds' noise).
-    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::REFITS)]
+    #[arg(long, default_value_t = geneva_vision::pipeline::diagnose::REFITS, value_parser = super::diagnose_cmd::parse_count)]
     refits: usize,
     /// Footages simulated at each case's best candidate's stated values, fitted to measure
     /// the footage's own noise (`geneva diagnose --bootstrap`; 0: off).

@@ -43,7 +43,7 @@ pub struct ScriptArgs {
     #[arg(long, requires = "diagnose", value_parser = super::diagnose_cmd::parse_fit_seeds)]
     pub fit_seeds: Option<usize>,
     /// Refits of the best candidate at merge time (`geneva diagnose --refits`).
-    #[arg(long, requires = "diagnose", conflicts_with = "no_refit")]
+    #[arg(long, requires = "diagnose", conflicts_with = "no_refit", value_parser = super::diagnose_cmd::parse_count)]
     pub refits: Option<usize>,
     /// Skip the merge's refits of the best candidate (`geneva diagnose --no-refit`).
     #[arg(long, requires = "diagnose")]
