@@ -377,3 +377,66 @@ fn diagnosis_options_that_multiply_work_are_counted_and_refused_before_any_work(
     }
     assert!(!r.join("d").exists(), "nothing written");
 }
+
+/// A diagnosis's errors name what is wrong in the footage: timestamps that start before 0 s
+/// (were "the nominal scenario's mechanism: duration_s must be > 0, got −2.73"), and a marker
+/// that is found in every frame but hardly moves (was "found in only 60 of 60 frames; a
+/// diagnosis needs at least 30").
+#[test]
+fn a_diagnosis_names_negative_frame_times_and_a_marker_that_does_not_move() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let o = geneva(r, &["run", "fast", "--out", "run"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(r.join("run/tracks.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    let write = |name: &str, edit: &dyn Fn(usize, &mut Vec<String>)| {
+        let mut out = format!("{header}\n");
+        for (k, row) in rows.iter().enumerate() {
+            let mut row = row.clone();
+            edit(k, &mut row);
+            out.push_str(&row.join(","));
+            out.push('\n');
+        }
+        std::fs::write(r.join(name), out).unwrap();
+    };
+    write("early.csv", &|_, row| {
+        let t: f64 = row[1].parse().unwrap();
+        row[1] = format!("{}", t - 5.0);
+    });
+    let still = rows[0].clone();
+    write("still.csv", &|_, row| {
+        row[3..].clone_from_slice(&still[3..])
+    });
+    let diagnose = |tracks: &str| {
+        let o = geneva(
+            r,
+            &[
+                "diagnose",
+                "--scenario",
+                "fast",
+                "--tracks",
+                tracks,
+                "--out",
+                "d",
+            ],
+        );
+        assert!(!o.status.success(), "{tracks}: ran");
+        stderr(&o)
+    };
+    let e = diagnose("early.csv");
+    assert!(
+        e.contains("frame 0") && e.contains("-5 s") && e.contains("must not be negative"),
+        "{e}"
+    );
+    let e = diagnose("still.csv");
+    assert!(
+        e.contains("found in 60 of 60 frames") && e.contains("cannot be estimated"),
+        "{e}"
+    );
+    assert!(!e.contains("needs at least"), "{e}");
+}

@@ -73,8 +73,8 @@ pub enum DiagnoseError {
         frames: usize,
     },
     #[error(
-        "the marker is found in only {detected} of {frames} frames; a diagnosis needs at least \
-         {needed}"
+        "the footage has {detected} frames with the marker (of {frames}); a diagnosis needs at \
+         least {needed}: longer footage, or the marker in view more often"
     )]
     TooFewDetections {
         detected: usize,
@@ -83,6 +83,21 @@ pub enum DiagnoseError {
     },
     #[error("measuring the real data")]
     Measure(#[source] Box<crate::pipeline::analyze::AnalyzeError>),
+    #[error(
+        "the marker is found in {detected} of {frames} frames, but its motion cannot be \
+         estimated from them"
+    )]
+    RealEstimate {
+        detected: usize,
+        frames: usize,
+        source: crate::estimate::EstimateError,
+    },
+    #[error(
+        "frame {frame} of the footage is stamped at {t_s} s: a diagnosis simulates the rig from \
+         t = 0, so the footage's times must not be negative (subtract the first frame's time \
+         from every timestamp)"
+    )]
+    NegativeFrameTime { frame: usize, t_s: f64 },
     #[error("the real frame times")]
     FrameTimes(#[source] crate::timing::TimingError),
     #[error("fitting the frame timing of the footage")]

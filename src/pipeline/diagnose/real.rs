@@ -97,10 +97,23 @@ pub fn measure_real(
         Ok(out) => out,
         // Too few detections for an estimate: say how many, in the diagnosis' terms (the
         // tracks file named by the error lies in a folder that is not kept).
-        Err(crate::pipeline::analyze::AnalyzeError::Estimate { frames, tracks, .. }) => {
+        Err(crate::pipeline::analyze::AnalyzeError::Estimate {
+            frames,
+            tracks,
+            source,
+        }) => {
             let detected = crate::io::tracks_csv::read_tracks(&tracks, None)
                 .map(|rows| rows.iter().filter(|r| r.corners_px.is_some()).count())
                 .unwrap_or(0);
+            // Enough detections that cannot be estimated (a marker that hardly moves): the
+            // estimate's own reason, not a count that is no shortfall.
+            if detected >= MIN_DETECTED_FRAMES {
+                return Err(DiagnoseError::RealEstimate {
+                    detected,
+                    frames,
+                    source,
+                });
+            }
             return Err(too_few(d, detected, frames));
         }
         Err(e) => return Err(DiagnoseError::Measure(Box::new(e))),
@@ -108,6 +121,14 @@ pub fn measure_real(
     let detected = out.tracks.iter().filter(|r| r.corners_px.is_some()).count();
     if detected < MIN_DETECTED_FRAMES {
         return Err(too_few(d, detected, out.tracks.len()));
+    }
+    if let Some((frame, t_s)) = out
+        .tracks
+        .iter()
+        .find(|r| r.t_s < 0.0)
+        .map(|r| (r.frame, r.t_s))
+    {
+        return Err(DiagnoseError::NegativeFrameTime { frame, t_s });
     }
     let has_reference =
         nominal.detector.reference_marker_id.is_some() && nominal.scene.reference_marker.enabled;
