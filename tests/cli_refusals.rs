@@ -440,3 +440,43 @@ fn a_diagnosis_names_negative_frame_times_and_a_marker_that_does_not_move() {
     );
     assert!(!e.contains("needs at least"), "{e}");
 }
+
+/// `analyze` on footage whose marker is never found talked of estimators and "0 detected
+/// frames"; it names the id and dictionary it looked for, as `calibrate` and `diagnose` do.
+#[test]
+fn analyze_names_the_marker_it_never_found() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let o = geneva(
+        r,
+        &["render", "fast", "--frames", "0..12", "--out", "frames"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(
+        r.join("id7.toml"),
+        "extend = \"fast\"\n[scene.marker]\nid = 7\n[detector]\nmarker_id = 7\n",
+    )
+    .unwrap();
+    let o = geneva(
+        r,
+        &[
+            "analyze",
+            "--frames",
+            "frames",
+            "--timestamps",
+            "frames/timestamps.csv",
+            "--scenario",
+            "id7.toml",
+            "--out",
+            "a",
+        ],
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(
+        e.contains("marker id 7") && e.contains("4x4_50") && e.contains("never found"),
+        "{e}"
+    );
+    assert!(!e.contains("estimator"), "{e}");
+    assert!(!r.join("a").exists(), "nothing written");
+}

@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use geneva_vision::estimate::{EstimatorConfig, Signal};
-use geneva_vision::pipeline::analyze::{analyze, AnalyzeError, AnalyzeOptions};
+use geneva_vision::pipeline::analyze::{analyze, AnalyzeError, AnalyzeOptions, Source};
 use geneva_vision::pipeline::defaults_study::defaults_reason;
 use geneva_vision::scenario;
 use std::path::PathBuf;
@@ -49,6 +49,24 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         bar.set_position(done as u64);
     });
     bar.finish_and_clear();
+    if let Err(AnalyzeError::Estimate { frames, tracks, .. }) = &analysed {
+        // No detection at all is no estimator's failure: name what was looked for.
+        let detected = geneva_vision::io::tracks_csv::read_tracks(tracks, None)
+            .map(|rows| rows.iter().filter(|r| r.corners_px.is_some()).count());
+        if matches!(detected, Ok(0)) && !matches!(source, Source::Tracks(_)) {
+            let d = &options.detector;
+            let whose = match &a.scenario {
+                Some(spec) => format!("{spec}'s detector.marker_id and detector.dictionary"),
+                None => "--scenario: without one the default detector looks for these".into(),
+            };
+            bail!(
+                "marker id {} of dictionary {} was never found in the {frames} frames: check the \
+                 marker id and dictionary ({whose}); nothing was written",
+                d.marker_id,
+                d.dictionary
+            );
+        }
+    }
     let out = match analysed {
         Ok(out) => out,
         // The detections are the expensive part and are complete: they are kept (the folder
