@@ -480,3 +480,47 @@ fn analyze_names_the_marker_it_never_found() {
     assert!(!e.contains("estimator"), "{e}");
     assert!(!r.join("a").exists(), "nothing written");
 }
+
+/// `scenario check` passed rigs whose runs then failed with "0 detected frames": paper as dark
+/// as the ink, a marker tilted 80°/80° (under a pixel per cell), a camera shake of 10,000 px.
+/// It warns of each, naming the fields, and of none on the built-in rigs.
+#[test]
+fn scenario_check_warns_of_a_marker_no_detector_can_find() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let cases = [
+        ("[scene]\npaper_radiance = 0.0\n", "scene.paper_radiance, scene.ink_radiance"),
+        (
+            "[camera.perspective_tilt]\nenabled = true\ntilt_x_deg = 80.0\ntilt_y_deg = 80.0\n",
+            "camera.perspective_tilt",
+        ),
+        (
+            "[effects.camera_vibration]\nenabled = true\n[effects.camera_vibration.random]\nx_rms_px = 10000.0\n",
+            "effects.camera_vibration",
+        ),
+    ];
+    for (section, field) in cases {
+        std::fs::write(r.join("s.toml"), format!("extend = \"fast\"\n{section}")).unwrap();
+        let o = geneva(r, &["scenario", "check", "s.toml"]);
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            out.contains(&format!("warning: {field}")),
+            "{section}: {out}"
+        );
+    }
+    for builtin in ["fast", "seed-internal-4k", "seed-external-4k"] {
+        let o = geneva(r, &["scenario", "check", builtin]);
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        for field in [
+            "scene.paper_radiance, scene.ink_radiance",
+            "camera.perspective_tilt",
+            "effects.camera_vibration",
+        ] {
+            assert!(
+                !out.contains(&format!("warning: {field}")),
+                "{builtin}: {out}"
+            );
+        }
+    }
+}

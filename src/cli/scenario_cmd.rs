@@ -55,6 +55,9 @@ pub fn run(cmd: ScenarioCmd) -> Result<()> {
                         "rig: {} frames, the marker inside the image in every one",
                         rig.frame_times.len()
                     );
+                    for w in geneva_vision::pipeline::run::detection_warnings(&rig) {
+                        println!("warning: {w}");
+                    }
                 }
             }
             // Valid, but clipping its own noise: say so, with the statement that keeps the levels.

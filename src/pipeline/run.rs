@@ -215,6 +215,86 @@ pub fn measurable(rig: &Rig) -> Result<(), RunError> {
     Ok(())
 }
 
+/// Cells of the marker's narrowest projection below this many pixels across cannot be read.
+const MIN_CELL_PX: f64 = 1.0;
+
+/// What makes a valid rig's marker undetectable in its frames, one sentence each naming the
+/// fields (`geneva scenario check` prints them; the runs of such a rig detect nothing): paper and
+/// ink closer in DN than the detector's adaptive threshold, a marker so foreshortened that its
+/// cells are under a pixel across, a camera shake whose 3 σ moves the marker out of the image.
+pub fn detection_warnings(rig: &Rig) -> Vec<String> {
+    let s = &rig.scenario;
+    let mut out = Vec::new();
+    let tone = crate::scenario::clipping::Tone::of(&s.effects.lighting);
+    let (ink_dn, paper_dn) = (
+        tone.dn(s.scene.ink_radiance),
+        tone.dn(s.scene.paper_radiance),
+    );
+    let threshold = s.detector.adaptive_thresh_constant_dn;
+    if paper_dn - ink_dn < threshold {
+        out.push(format!(
+            "scene.paper_radiance, scene.ink_radiance: the paper ({paper_dn:.1} DN) and the ink \
+             ({ink_dn:.1} DN) differ by {:.1} DN, less than the detector's adaptive threshold \
+             (detector.adaptive_thresh_constant_dn = {threshold}): no frame's marker can be found",
+            paper_dn - ink_dn
+        ));
+    }
+    let m = &s.scene.marker;
+    let cells = (m.dictionary.marker_size_bits() + 2 * m.border_bits) as f64;
+    let scene = rig.animated();
+    let times = rig.frame_times.as_slice();
+    let stride = (times.len() / 200).max(1);
+    let narrowest_px = times
+        .iter()
+        .step_by(stride)
+        .map(|&t| narrowest_width_px(&scene.marker_corners_px(rig.render_time_s(t))))
+        .fold(f64::INFINITY, f64::min);
+    if narrowest_px / cells < MIN_CELL_PX {
+        out.push(format!(
+            "camera.perspective_tilt, scene.marker.size_mm: at its narrowest the marker spans \
+             {narrowest_px:.1} px, {:.2} px per cell of its {cells} cells across: the detector \
+             cannot read it (at least {MIN_CELL_PX} px a cell)",
+            narrowest_px / cells
+        ));
+    }
+    let v = &s.effects.camera_vibration;
+    if v.enabled {
+        let amplitude = |list: &[crate::render::effects::camera_vibration::Sinusoid]| {
+            list.iter().map(|c| c.amplitude.abs()).sum::<f64>()
+        };
+        let reach = |rms: f64, list| 3.0 * rms + amplitude(list);
+        let (rx, ry) = (
+            reach(v.random.x_rms_px, &v.x_px),
+            reach(v.random.y_rms_px, &v.y_px),
+        );
+        let (w, h) = (s.camera.width_px as f64, s.camera.height_px as f64);
+        if rx > 0.5 * w || ry > 0.5 * h {
+            out.push(format!(
+                "effects.camera_vibration: the shake reaches {rx:.0} px in x and {ry:.0} px in y \
+                 (3 σ of its random part plus its sinusoids) in a {w}×{h} image: the marker \
+                 leaves the image in many frames"
+            ));
+        }
+    }
+    out
+}
+
+/// The smaller of a quadrilateral's two widths: the distance across it between each pair of
+/// opposite sides (its area over their mean length).
+fn narrowest_width_px(c: &[[f64; 2]; 4]) -> f64 {
+    let len = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+    let area = 0.5
+        * (0..4)
+            .map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % 4]);
+                a[0] * b[1] - b[0] * a[1]
+            })
+            .sum::<f64>()
+            .abs();
+    let across = |i: usize| area / (0.5 * (len(c[i], c[i + 1]) + len(c[i + 2], c[(i + 3) % 4])));
+    across(0).min(across(1))
+}
+
 /// The scene's exact corners at every frame's render time (the instant the picture shows), as
 /// detections: no rendering, no pixel grid, no detector.
 pub fn exact_detections(rig: &Rig, with_reference: bool) -> Vec<FrameDetection> {

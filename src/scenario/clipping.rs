@@ -27,14 +27,14 @@ pub struct Warning {
 
 /// The tone curve as DN(signal) = black + span·s^(1/γ) for s in [0, 1].
 #[derive(Debug, Clone, Copy)]
-struct Tone {
+pub(crate) struct Tone {
     black: f64,
     white: f64,
     gamma: f64,
 }
 
 impl Tone {
-    fn of(l: &LightingConfig) -> Tone {
+    pub(crate) fn of(l: &LightingConfig) -> Tone {
         if l.enabled {
             Tone {
                 black: l.black_level_dn,
@@ -50,7 +50,7 @@ impl Tone {
         }
     }
 
-    fn dn(&self, s: f64) -> f64 {
+    pub(crate) fn dn(&self, s: f64) -> f64 {
         self.black + (self.white - self.black) * s.clamp(0.0, 1.0).powf(1.0 / self.gamma)
     }
 
