@@ -151,9 +151,32 @@ impl VideoWriter {
     }
 }
 
+/// A writer dropped before `finish` (a frame that could not be written: a full disk, a render
+/// error) leaves no staged frames behind.
+impl Drop for VideoWriter {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.staging);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `render --video` on a full disk left `F.frames.tmp/` behind: a writer given up before
+    /// `finish` removes its staged frames.
+    #[test]
+    fn a_writer_given_up_leaves_no_staged_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.mp4");
+        let mut w = VideoWriter::create(&path, 4, 4, &[0.0, 0.04, 0.08]).unwrap();
+        w.write_frame(&[0u8; 16]).unwrap();
+        let staging = path.with_extension("frames.tmp");
+        assert!(staging.join("000000.png").is_file());
+        drop(w);
+        assert!(!staging.exists());
+        assert!(!path.exists());
+    }
 
     /// Regression: with the disk full, ffmpeg wrote over a good video in place and left an
     /// unplayable one. A failed encode (here: 3×3 px, which H.264 in 4:2:0 refuses; or no ffmpeg)
