@@ -1,10 +1,25 @@
 //! `DetectorConfig` defaults are OpenCV 4.6's `DetectorParameters` defaults, and every field
 //! reaches the OpenCV object.
-#![cfg(all(feature = "opencv-detector", not(opencv_aruco_objdetect)))]
+//!
+//! OpenCV 4.7 moved ArUco into `objdetect` with other parameter types, so these tests compile
+//! only against the 4.6 API; against 4.7+ one ignored test stands in their place, so that
+//! `cargo test` (and `cargo xtask test`'s last line) counts them as skipped rather than passing
+//! nothing unseen.
+#![cfg(feature = "opencv-detector")]
 
+#[cfg(opencv_aruco_objdetect)]
+#[test]
+#[ignore = "SKIPPED: the DetectorParameters parity tests are written against OpenCV 4.6's aruco API; this build links OpenCV >= 4.7"]
+fn detector_parameter_parity_needs_opencv_4_6() {
+    unreachable!("ignored: stands for the 4.6-only tests of this file")
+}
+
+#[cfg(not(opencv_aruco_objdetect))]
 use geneva_vision::detect::{opencv_parameters, CornerRefinement, DetectorConfig};
+#[cfg(not(opencv_aruco_objdetect))]
 use opencv::aruco::DetectorParametersTraitConst;
 
+#[cfg(not(opencv_aruco_objdetect))]
 /// Every OpenCV field as f64, in declaration order.
 fn fields(p: &impl DetectorParametersTraitConst) -> Vec<(&'static str, f64)> {
     vec![
@@ -100,6 +115,7 @@ fn fields(p: &impl DetectorParametersTraitConst) -> Vec<(&'static str, f64)> {
     ]
 }
 
+#[cfg(not(opencv_aruco_objdetect))]
 #[test]
 fn defaults_match_opencv() {
     let ours = opencv_parameters(&DetectorConfig::default()).unwrap();
@@ -107,6 +123,7 @@ fn defaults_match_opencv() {
     assert_eq!(fields(&ours), fields(&theirs));
 }
 
+#[cfg(not(opencv_aruco_objdetect))]
 #[test]
 fn every_field_reaches_opencv() {
     let cfg = DetectorConfig {
@@ -192,6 +209,7 @@ fn every_field_reaches_opencv() {
     }
 }
 
+#[cfg(not(opencv_aruco_objdetect))]
 #[test]
 fn each_switch_reaches_its_own_opencv_field() {
     // The three switches are all 1 above; set one at a time so that swapped ones fail.

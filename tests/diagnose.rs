@@ -159,9 +159,21 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
                 assert_eq!(o.verdict, "explained", "{o:?}");
                 assert!(o.top_k(1), "{o:?}");
                 assert!(o.best_shrink.unwrap() > 0.7, "{o:?}");
-                assert!(o.param_rel_errors.iter().all(|e| *e < 0.5), "{o:?}");
+                // Every parameter of the withheld noise, fitted near its truth (the pixel
+                // noise's fit states no ± for them, so the check is against the truth itself).
+                let (effect, truth) = &case.truths[0];
+                let fitted = &ranked_entry(work, &o.name, effect.name())["params"];
+                let specs = effect.params();
+                assert_eq!(specs.len(), truth.len());
+                for (spec, t) in specs.iter().zip(truth) {
+                    let v = fitted[spec.name].as_f64().unwrap_or(f64::NAN);
+                    eprintln!("{}: fitted {v}, truth {t}", spec.name);
+                    assert!(((v - t) / t).abs() < 0.2, "{}: {v} vs {t}", spec.name);
+                }
             }
-            Expectation::OutOfVocabulary => assert_ne!(o.verdict, "explained", "{o:?}"),
+            // Mains flicker changes every frame's level, which no candidate's parameters can
+            // follow: the diagnosis must say so, not merely avoid "explained".
+            Expectation::OutOfVocabulary => assert_eq!(o.verdict, "unexplained", "{o:?}"),
             Expectation::WithheldPair { .. } => panic!("the quick plan has no pair: {o:?}"),
         }
         let json: serde_json::Value = serde_json::from_str(
@@ -385,9 +397,9 @@ fn an_axis_runouts_phase_read_off_the_track_is_refined_by_simulation() {
 
 /// A read-noise-dominated pixel noise whose shot part still shows (paper below the white clip,
 /// so its noise is not cut): the coordinate searches of full well and read noise each hold the
-/// other, and the footage fixes only their total well; the fit searches along that valley
-/// and either resolves the full well (the truth within 2 ±) or states neither. Before, a
-/// search held at its start kept the read noise there with a tight ±.
+/// other, and the footage fixes only their total well; the fit searches along that valley,
+/// keeps the noise the footage shows and, the two not resolved apart here, states neither ±.
+/// Before, a search held at its start kept the read noise there with a tight ±.
 #[test]
 fn a_read_noise_dominated_pixel_noise_is_searched_along_its_valley() {
     let tmp = tempfile::tempdir().unwrap();
@@ -416,9 +428,26 @@ fn a_read_noise_dominated_pixel_noise_is_searched_along_its_valley() {
         noise["params"]["full_well_e"].as_f64().unwrap(),
         noise["params_std"]["full_well_e"].as_f64(),
     );
-    match sd {
-        Some(sd) => assert!((fw - truth.full_well_e).abs() <= 2.0 * sd, "{method}"),
-        None => assert!(method.contains("not resolved apart"), "{method}"),
+    // On this footage (4 evaluation and 2 fit seeds) the shot part is too small to resolve the
+    // two apart: the fit says so and states no ± rather than one held at its start.
+    assert_eq!(sd, None, "{method}");
+    assert!(method.contains("not resolved apart"), "{method}");
+    // What the footage fixes, the fit keeps: the pair gives the truth's noise variance
+    // (s/FW + RN²/FW², normalised signal s) within 10 % over the levels the footage shows
+    // (ink to paper, inside 0.2–0.7 of full scale). Off the valley by the full well's range
+    // searched (400–6500 e⁻) would miss it by 5 % at most; the start's read noise (15 e⁻) at
+    // the true full well, by a factor 5.
+    let rn = noise["params"]["read_noise_e"].as_f64().unwrap();
+    let variance = |fw: f64, rn: f64, s: f64| s / fw + (rn / fw).powi(2);
+    for s in [0.2, 0.45, 0.7] {
+        let (fitted, true_v) = (
+            variance(fw, rn, s),
+            variance(truth.full_well_e, truth.read_noise_e, s),
+        );
+        assert!(
+            (fitted / true_v - 1.0).abs() < 0.1,
+            "at {s}: {fitted:.3e} vs {true_v:.3e}; {method}"
+        );
     }
 }
 

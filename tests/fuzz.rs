@@ -149,12 +149,12 @@ fn the_checks_catch_what_they_name() {
     ));
 }
 
-/// Prints input `GENEVA_FUZZ_SHOW` (`target:index`) of the campaign's seed, to study a report.
+/// Prints input `GENEVA_FUZZ_SHOW` (`target:index`) of the campaign's seed, to study a report: a
+/// tool, run by `cargo xtask fuzz --show target:index`, not a check.
 #[test]
+#[ignore = "a tool, not a check: `cargo xtask fuzz --show target:index` runs it"]
 fn show_input() {
-    let Some(spec) = std::env::var("GENEVA_FUZZ_SHOW").ok() else {
-        return;
-    };
+    let spec = std::env::var("GENEVA_FUZZ_SHOW").expect("GENEVA_FUZZ_SHOW=target:index");
     let (name, index) = spec.split_once(':').expect("target:index");
     let target = Target::ALL
         .into_iter()
@@ -183,15 +183,13 @@ fn inputs_are_reproducible() {
     assert_eq!(a, b);
 }
 
-/// Parses `bytes` as `target` under the allocation meter: must refuse, quickly and in little
-/// memory, with a message containing `needle`.
+/// Parses `bytes` as `target` under the allocation meter: must refuse, allocating under 64 MiB
+/// (the work a refusal does: no buffer sized by the claim), with a message containing `needle`.
 fn refuses_small(target: Target, bytes: &[u8], needle: &str) {
     let path = target.pseudo_path(&repo());
     reset();
-    let start = std::time::Instant::now();
     let result = fuzz::parse(target, bytes, &path);
     let peak = peak_bytes();
-    let took = start.elapsed();
     let e = match result {
         Ok(()) => panic!(
             "{}: accepted {:?}",
@@ -202,7 +200,6 @@ fn refuses_small(target: Target, bytes: &[u8], needle: &str) {
     };
     assert!(e.contains(needle), "{e}");
     assert!(peak < 64 << 20, "{}: {peak} bytes for {e}", target.name());
-    assert!(took.as_secs_f64() < 5.0, "{took:?}");
 }
 
 /// Headers and fields claiming absurd sizes are refused without allocating for them.

@@ -99,10 +99,13 @@ rotation_centre = "geometric"
 }
 
 /// With the seed's own estimator (truncated bisector centre, numpy.gradient twice) the run
-/// completes and reports; the budget has every phase and the seed's bound numbers.
+/// completes and reports on 4.5 s (a whole Geneva cycle); the budget has every phase (their
+/// frames adding up to the whole) and
+/// the seed's half-pixel bound numbers, recomputed here from the run's own frame times:
+/// δθ = √2·0.5 px / r, δθ/h and δθ/h² with h the shortest frame interval, and their doubles.
 #[test]
 fn seed_settings_run_completes_and_reports() {
-    let s = scenario_from("extend = \"fast\"\nname = \"fast-seed\"\n[estimator]\nrotation_centre = \"seed\"\nmarker_centre = \"corner_mean\"\ndifferentiator = { kind = \"seed\" }\n");
+    let s = scenario_from("extend = \"fast\"\nname = \"fast-seed\"\nduration_s = 4.5\n[estimator]\nrotation_centre = \"seed\"\nmarker_centre = \"corner_mean\"\ndifferentiator = { kind = \"seed\" }\n");
     let dir = tempfile::tempdir().unwrap();
     let out = run(&s, dir.path(), &RunOptions::default(), &|_, _| {}).unwrap();
     for f in [
@@ -113,30 +116,72 @@ fn seed_settings_run_completes_and_reports() {
     ] {
         assert!(dir.path().join(f).is_file(), "{f} written");
     }
+    let b = &out.budget;
+    assert_eq!(b.frames.total, out.detections.len());
+    // Every phase of the Geneva cycle, each with frames, adding up to the whole.
+    let phases: Vec<&str> = b.phases.keys().map(String::as_str).collect();
+    assert_eq!(phases, ["drive", "dwell", "entry", "exit"]);
+    assert!(b.phases.values().all(|p| p.theta.n > 0), "{phases:?}");
+    let in_phases: usize = b.phases.values().map(|p| p.theta.n).sum();
+    assert_eq!(in_phases, b.theta.n);
+    // The seed's bound, recomputed from the frame times of this run.
+    let t = &out.truth.t_s;
+    let h_min = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    assert!(!b.bounds.is_empty());
+    for (signal, bound) in &b.bounds {
+        let hp = &bound.half_pixel;
+        let close = |a: f64, e: f64| (a - e).abs() <= 1e-12 * e.abs();
+        assert_eq!(hp.position_error_px, 0.5, "{signal}");
+        assert!(
+            close(hp.h_min_s, h_min),
+            "{signal}: {} vs {h_min}",
+            hp.h_min_s
+        );
+        let dtheta = std::f64::consts::SQRT_2 * 0.5 / hp.radius_px;
+        assert!(close(hp.theta_rad, dtheta), "{signal}: {hp:?}");
+        assert!(
+            close(hp.seed_omega_rad_s, dtheta / h_min),
+            "{signal}: {hp:?}"
+        );
+        assert!(
+            close(hp.seed_alpha_rad_s2, dtheta / (h_min * h_min)),
+            "{signal}"
+        );
+        assert!(
+            close(hp.seed_omega_doubled_rad_s, 2.0 * dtheta / h_min),
+            "{signal}"
+        );
+        assert!(
+            close(hp.seed_alpha_doubled_rad_s2, 2.0 * dtheta / (h_min * h_min)),
+            "{signal}"
+        );
+        let counted = &bound.theta_exceedance;
+        assert!(
+            counted.frames > 0 && counted.exceeded <= counted.frames,
+            "{signal}"
+        );
+    }
+    // The file says what the struct does.
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("budget.json")).unwrap())
             .unwrap();
-    for key in [
-        "theta",
-        "omega",
-        "alpha",
-        "phases",
-        "frames",
-        "bounds",
-        "seeds",
-        "signals",
-        "mechanism",
-        "errors_against",
-        "raw",
-        "aliasing",
-        "resolvable",
-    ] {
-        assert!(json.get(key).is_some(), "budget.json has {key}");
+    for phase in ["dwell", "entry", "drive", "exit"] {
+        let p = &b.phases[phase];
+        for (q, rms) in [
+            ("theta", p.theta.rms),
+            ("omega", p.omega.rms),
+            ("alpha", p.alpha.rms),
+        ] {
+            let written = json["phases"][phase][q]["rms"].as_f64().unwrap();
+            assert!((written - rms).abs() <= 1e-12 * rms.abs(), "{phase} {q}");
+        }
     }
-    assert!(json["phases"]["drive"]["alpha"]["rms"].is_number());
     assert_eq!(
-        json["frames"]["total"].as_u64().unwrap() as usize,
-        out.detections.len()
+        json["frames"]["total"].as_u64(),
+        Some(b.frames.total as u64)
     );
 }
 

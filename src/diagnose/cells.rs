@@ -904,7 +904,7 @@ mod tests {
     }
 
     #[test]
-    fn every_channel_is_named_once_with_sane_tolerances() {
+    fn every_channel_is_named_once_with_positive_tolerances_and_bands_only_on_tracks() {
         for (i, c) in CHANNELS.iter().enumerate() {
             assert!(CHANNELS[..i].iter().all(|o| o.name != c.name), "{}", c.name);
             assert!(c.tol_abs > 0.0 && c.tol_rel >= 0.0, "{}", c.name);

@@ -179,9 +179,41 @@ pub const MAX_SIDE_PX: usize = 1 << 15;
 /// Largest frame accepted from a container, px (16K × 8K).
 pub const MAX_FRAME_PIXELS: usize = 1 << 27;
 
-/// Runs ffprobe on `path` (decodes every frame to list timestamps).
+/// Runs ffprobe on `path` (decodes every frame to list timestamps). A command reads one video
+/// several times (alignment, statistics, the re-render check), and the probe decodes it whole
+/// each time, as long as ffmpeg's own decode: so the answer is kept for the process, keyed by
+/// the file's identity (path, length, modification time), and a file changed since is probed
+/// again. Failures are not kept.
 pub fn probe(path: &Path) -> Result<VideoInfo, VideoError> {
-    probe_with(path, "ffprobe")
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    type Key = (PathBuf, u64, Option<std::time::SystemTime>);
+    static PROBED: OnceLock<Mutex<HashMap<Key, VideoInfo>>> = OnceLock::new();
+    let key = std::fs::metadata(path)
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| {
+            let name = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+            (name, m.len(), m.modified().ok())
+        });
+    let cache = PROBED.get_or_init(Mutex::default);
+    if let Some(info) = key.as_ref().and_then(|k| {
+        cache
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .get(k)
+            .cloned()
+    }) {
+        return Ok(info);
+    }
+    let info = probe_with(path, "ffprobe")?;
+    if let Some(k) = key {
+        cache
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .insert(k, info.clone());
+    }
+    Ok(info)
 }
 
 /// [`probe`] with an explicit ffprobe executable (tests use a missing one).
@@ -555,6 +587,35 @@ mod tests {
         }
         assert_eq!(n, 5);
         assert!(v.next_frame().unwrap().is_none());
+    }
+
+    /// The probe is kept for the process, but a file replaced since (another length or time)
+    /// is probed again: never the old file's frames for the new one.
+    #[test]
+    fn a_video_replaced_after_its_probe_is_probed_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.mkv");
+        let ps = p.to_str().unwrap();
+        let make = |frames: &str, size: &str| {
+            ffmpeg(&[
+                "-f",
+                "lavfi",
+                "-i",
+                &format!("testsrc=size={size}:rate=10"),
+                "-frames:v",
+                frames,
+                "-c:v",
+                "ffv1",
+                ps,
+            ])
+        };
+        make("4", "64x48");
+        let first = probe(&p).unwrap();
+        assert_eq!(probe(&p).unwrap(), first);
+        assert_eq!((first.width_px, first.timestamps_s.len()), (64, 4));
+        make("7", "80x60");
+        let second = probe(&p).unwrap();
+        assert_eq!((second.width_px, second.timestamps_s.len()), (80, 7));
     }
 
     #[test]

@@ -9,9 +9,9 @@
 //! - `cargo xtask bench`   — run the benchmarks and print their figures, then again the ones
 //!   that state their target (extra arguments go to `cargo bench`: `cargo xtask bench --bench
 //!   diagnose` runs one).
-//! - `cargo xtask fuzz [--inputs N] [--seed S]` — every parser of user input on N generated
-//!   inputs (default 1,000,000 each; `tests/fuzz.rs`), printing count, wall time and peak
-//!   allocation per parser.
+//! - `cargo xtask fuzz [--inputs N] [--seed S] [--show target:index]` — every parser of user
+//!   input on N generated inputs (default 1,000,000 each; `tests/fuzz.rs`), printing count, wall
+//!   time and peak allocation per parser; `--show` prints one input of the campaign instead.
 //! - `cargo xtask reports` — regenerate the reports `geneva reports` makes, deterministically.
 //! - `cargo xtask diagnosis [NAME…|all]` — the diagnosis self-check suites committed under
 //!   `reports/`, each by name (the table [`SUITES`]; no name lists them with their commands).
@@ -28,6 +28,7 @@ use std::process::{exit, Command};
 
 mod slurm;
 mod system;
+mod tally;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -46,8 +47,15 @@ fn main() {
             .and_then(|_| pbr_suite(rest)),
         "demo" => system::ensure_packages().and_then(|_| demo(rest)),
         "test" => system::ensure_packages().and_then(|_| test(rest)),
-        "slurm-test" => system::ensure_packages()
-            .and_then(|_| slurm::integration_test(&slurm::geneva_binary()?)),
+        "slurm-test" => system::ensure_packages().and_then(|_| {
+            match slurm::integration_test(&slurm::geneva_binary()?)? {
+                slurm::Outcome::Ran => Ok(()),
+                slurm::Outcome::Skipped(why) => {
+                    eprintln!("xtask: SKIPPED the real-Slurm integration test: {why}");
+                    Ok(())
+                }
+            }
+        }),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "fuzz" => fuzz(rest),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
@@ -103,6 +111,19 @@ fn demo(extra: &[String]) -> Result<(), String> {
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
+    let started = std::time::Instant::now();
+    let mut tally = tally::Tally::default();
+    let result = test_counted(extra, &mut tally);
+    eprintln!("{}", tally.summary(started));
+    result?;
+    if tally.failed > 0 {
+        return Err(format!("{} tests failed", tally.failed));
+    }
+    Ok(())
+}
+
+/// Everything `cargo xtask test` runs, counted into `tally`.
+fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String> {
     // Formatting and lints first: they fail in seconds where the tests take minutes.
     let mut fmt = cargo();
     fmt.args(["fmt", "--all", "--check"]);
@@ -124,7 +145,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         command.env("PROPTEST_RNG_SEED", "20261123");
     }
     command.args(extra);
-    run(command)?;
+    tally::run_counted(command, tally)?;
     // The pure core without OpenCV, as Cargo.toml promises (the clippy pass above has built every
     // target without it; the library holds the core's tests).
     let mut core = cargo();
@@ -132,15 +153,34 @@ fn test(extra: &[String]) -> Result<(), String> {
     if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
         core.env("PROPTEST_RNG_SEED", "20261123");
     }
-    run(core)?;
-    pbr_ci_case()?;
-    // The real-Slurm test of `geneva slurm script` (skipped, saying why, unless root on Debian).
-    if std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_some() {
-        eprintln!("xtask: skipping the Slurm integration test: GENEVA_SKIP_SLURM_TEST is set");
-        return Ok(());
+    tally::run_counted(core, tally)?;
+    pbr_ci_case(tally)?;
+    // The real-Slurm test of `geneva slurm script`: as root on Debian it must run, unless the
+    // user opts out (then it counts as skipped); `GENEVA_REQUIRE_SLURM_TEST` (set by CI) makes
+    // any skip an error.
+    let required = std::env::var_os("GENEVA_REQUIRE_SLURM_TEST").is_some();
+    let what = "the real-Slurm integration test (xtask/src/slurm.rs)";
+    let skip = if std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_some() {
+        Some("GENEVA_SKIP_SLURM_TEST is set".to_string())
+    } else {
+        // `cargo test` has just built the binary its integration tests run: use that one.
+        match slurm::integration_test(&slurm::test_binary()?)? {
+            slurm::Outcome::Ran => {
+                tally.passed += 1;
+                None
+            }
+            slurm::Outcome::Skipped(why) => Some(why),
+        }
+    };
+    if let Some(why) = skip {
+        if required {
+            return Err(format!(
+                "{what} did not run ({why}) and GENEVA_REQUIRE_SLURM_TEST is set"
+            ));
+        }
+        tally.skip(what, &why);
     }
-    // `cargo test` has just built the binary its integration tests run: use that one.
-    slurm::integration_test(&slurm::test_binary()?)
+    Ok(())
 }
 
 /// The Python that runs `tools/pbr/`: `PBR_PYTHON`, else Debian's (where `python3-opencv` and
@@ -158,14 +198,17 @@ fn pbr_python() -> String {
 /// The path-traced footage's small case (`tests/pbr_footage.rs`, about a minute): run when
 /// Blender is installed, SKIPPED with the reason otherwise. CI does not install Blender
 /// (`cargo xtask deps --pbr` does).
-fn pbr_ci_case() -> Result<(), String> {
+fn pbr_ci_case(tally: &mut tally::Tally) -> Result<(), String> {
     if !system::has_program("blender") {
+        // Counted once, by libtest, as the ignored test it is.
         eprintln!(
             "xtask: SKIPPED the path-traced footage case (tests/pbr_footage.rs): Blender is not \
              installed (`cargo xtask deps --pbr` installs it with Python's OpenCV and NumPy)"
         );
         return Ok(());
     }
+    // The ignored test runs now: it is counted by this run, not as skipped.
+    tally.ignored = tally.ignored.saturating_sub(1);
     let mut command = cargo();
     command.args([
         "test",
@@ -176,7 +219,7 @@ fn pbr_ci_case() -> Result<(), String> {
         "--nocapture",
     ]);
     command.env("PBR_PYTHON", pbr_python());
-    run(command)
+    tally::run_counted(command, tally)
 }
 
 /// `cargo xtask pbr-suite ARGS…`: builds the release binary, then runs the suite of
@@ -239,28 +282,38 @@ fn bench(extra: &[String]) -> Result<(), String> {
 fn fuzz(extra: &[String]) -> Result<(), String> {
     let mut inputs = "1000000".to_string();
     let mut seed = None;
+    let mut show = None;
     let mut args = extra.iter();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--inputs" => inputs = args.next().ok_or("--inputs needs a number")?.clone(),
             "--seed" => seed = Some(args.next().ok_or("--seed needs a number")?.clone()),
-            other => return Err(format!("unknown argument `{other}` (--inputs N, --seed S)")),
+            "--show" => show = Some(args.next().ok_or("--show needs target:index")?.clone()),
+            other => {
+                return Err(format!(
+                    "unknown argument `{other}` (--inputs N, --seed S, --show target:index)"
+                ))
+            }
         }
     }
     inputs
         .parse::<u64>()
         .map_err(|_| format!("--inputs {inputs}: not a count"))?;
     let mut command = cargo();
-    command.args([
-        "test",
-        "--test",
-        "fuzz",
-        "--",
-        "--nocapture",
-        "--test-threads",
-        "1",
-        "every_parser_survives_generated_inputs",
-    ]);
+    command.args(["test", "--test", "fuzz", "--", "--nocapture"]);
+    match &show {
+        Some(spec) => {
+            command.args(["--ignored", "--exact", "show_input"]);
+            command.env("GENEVA_FUZZ_SHOW", spec);
+        }
+        None => {
+            command.args([
+                "--test-threads",
+                "1",
+                "every_parser_survives_generated_inputs",
+            ]);
+        }
+    }
     command.env("GENEVA_FUZZ_INPUTS", &inputs);
     if let Some(seed) = seed {
         command.env("GENEVA_FUZZ_SEED", seed);

@@ -1,0 +1,135 @@
+//! The counts `cargo xtask test` ends with: tests passed and failed (summed over libtest's
+//! `test result:` lines), and every test that did not run — libtest's ignored tests and the
+//! checks xtask itself skips (the real-Slurm test, the path-traced case) — each named with why.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+/// Counts over every `cargo test` run of one `cargo xtask test`.
+#[derive(Debug, Default, PartialEq)]
+pub struct Tally {
+    pub passed: u64,
+    pub failed: u64,
+    /// Tests libtest ignored (`#[ignore]`): not run, so counted as skipped.
+    pub ignored: u64,
+    /// Checks that did not run, each with the reason.
+    pub skipped: Vec<String>,
+}
+
+impl Tally {
+    /// Adds one libtest summary line (`test result: ok. 5 passed; 0 failed; 1 ignored; …`);
+    /// other lines are left alone. Returns whether the line was one.
+    pub fn add_line(&mut self, line: &str) -> bool {
+        let Some(rest) = line.trim().strip_prefix("test result: ") else {
+            return false;
+        };
+        for part in rest.split([';', '.']) {
+            let mut words = part.split_whitespace();
+            let (Some(n), Some(what)) = (words.next(), words.next()) else {
+                continue;
+            };
+            let Ok(n) = n.parse::<u64>() else { continue };
+            match what {
+                "passed" => self.passed += n,
+                "failed" => self.failed += n,
+                "ignored" => self.ignored += n,
+                _ => {}
+            }
+        }
+        true
+    }
+
+    /// A check that did not run, printed as it happens and counted.
+    pub fn skip(&mut self, what: &str, why: &str) {
+        eprintln!("xtask: SKIPPED {what}: {why}");
+        self.skipped.push(format!("{what} ({why})"));
+    }
+
+    /// The last line: counts, the skipped checks, the wall time.
+    pub fn summary(&self, started: Instant) -> String {
+        let s = started.elapsed().as_secs();
+        let mut line = format!(
+            "xtask test: {} passed, {} failed, {} skipped in {} min {:02} s",
+            self.passed,
+            self.failed,
+            self.ignored + self.skipped.len() as u64,
+            s / 60,
+            s % 60
+        );
+        if self.ignored > 0 {
+            line.push_str(&format!(
+                "\n  {} ignored by libtest (#[ignore], named above)",
+                self.ignored
+            ));
+        }
+        for s in &self.skipped {
+            line.push_str(&format!("\n  skipped: {s}"));
+        }
+        line
+    }
+}
+
+/// Runs a `cargo test` command, passing its output through as it comes and adding its summary
+/// lines to `tally`.
+pub fn run_counted(mut command: Command, tally: &mut Tally) -> Result<(), String> {
+    eprintln!("xtask: running {command:?}");
+    let mut child = command
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("could not start {command:?}: {e}"))?;
+    if let Some(out) = child.stdout.take() {
+        for line in BufReader::new(out).lines() {
+            let line = line.map_err(|e| format!("reading {command:?}'s output: {e}"))?;
+            println!("{line}");
+            tally.add_line(&line);
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| format!("waiting for {command:?}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{command:?} failed with {status}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn libtest_summary_lines_are_summed_and_others_left_alone() {
+        let mut t = Tally::default();
+        assert!(t.add_line(
+            "test result: ok. 12 passed; 0 failed; 1 ignored; 0 measured; 3 filtered out; finished in 0.52s"
+        ));
+        assert!(t.add_line(
+            "test result: FAILED. 4 passed; 2 failed; 0 ignored; 0 measured; 0 filtered out; finished in 9.01s"
+        ));
+        assert!(!t.add_line("test foo::bar ... ok"));
+        assert!(!t.add_line("running 12 tests"));
+        assert_eq!((t.passed, t.failed, t.ignored), (16, 2, 1));
+    }
+
+    #[test]
+    fn the_summary_counts_ignored_and_skipped_checks_as_skipped() {
+        let mut t = Tally {
+            passed: 7,
+            failed: 1,
+            ignored: 1,
+            skipped: Vec::new(),
+        };
+        t.skip("the Slurm test", "not root");
+        let line = t.summary(Instant::now());
+        assert!(
+            line.starts_with("xtask test: 7 passed, 1 failed, 2 skipped in 0 min 00 s"),
+            "{line}"
+        );
+        assert!(
+            line.contains("skipped: the Slurm test (not root)"),
+            "{line}"
+        );
+    }
+}
