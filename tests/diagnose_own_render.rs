@@ -7,32 +7,21 @@
 //! The footage is rendered with the nominal's own seed and the diagnosis simulates the nominal
 //! on other seeds, so this checks the whole chain's false alarms on footage that the nominal
 //! describes exactly. CI runs the first `GENEVA_OWN_RENDER_CASES` cases (default 4, about 12 s
-//! each on a 2-core machine; 20 of 20 said `no_gap` when this test was written). With the
-//! diagnosis's false-alarm rate of about 1 % (the committed null suites), n cases all pass with
-//! probability ≈ 0.99ⁿ, so a failure here is a finding, not bad luck, up to a few dozen cases.
+//! each on a 2-core machine; `cargo xtask statistics` runs 20; 20 of 20 said `no_gap` when this
+//! test was written). With the diagnosis's false-alarm rate of about 1 % (the committed null
+//! suites), n cases all pass with probability ≈ 0.99ⁿ, so a failure here is a finding, not bad
+//! luck, up to a few dozen cases.
 
 #![cfg(feature = "opencv-detector")]
 
+use common::geneva_ok as geneva;
 use geneva_vision::pipeline::calibrate_roundtrip::case_toml;
 use std::path::Path;
-use std::process::Command;
+
+mod common;
 
 /// The seed of the round-trip report's cases (`reports/calibration/`).
 const SEED: u64 = 20261123;
-
-fn geneva(dir: &Path, args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_geneva"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the geneva binary runs");
-    assert!(
-        out.status.success(),
-        "geneva {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// The first valid nominal of case `index` (redrawn while the scenario is invalid or the marker
 /// leaves the frame, as the round trip does).

@@ -9,27 +9,13 @@
 
 #![cfg(feature = "opencv-detector")]
 
+use common::geneva_ok as geneva;
 use std::path::Path;
-use std::process::Command;
+
+mod common;
 
 /// The nominal: `fast` on 4 s (a diagnosis needs at least 30 frames with the marker).
 const NOMINAL: &str = "extend = \"fast\"\nduration_s = 4.0\n";
-
-/// Runs `geneva ARGS` in `dir`; its stdout on success, a failure naming the command otherwise.
-fn geneva(dir: &Path, args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_geneva"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the geneva binary runs");
-    assert!(
-        out.status.success(),
-        "geneva {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
 
 /// Writes the nominal and the footage's scenario (the nominal resolved, with `with` switched on
 /// and another seed) into `dir`.

@@ -8,7 +8,9 @@
 //! fps/1080p 80× more (edge pixels flickering at the threshold), and 120 fps less than 30 fps.
 #![cfg(feature = "opencv-detector")]
 
+use geneva_vision::budget::report::ENGAGED_PHASES;
 use geneva_vision::estimate::Differentiator;
+use geneva_vision::pipeline::run::{run, RunOptions};
 use geneva_vision::pipeline::sweep_eval::PipelineEvaluator;
 use geneva_vision::scenario::{self, Scenario};
 use geneva_vision::sweep::Evaluator;
@@ -38,7 +40,8 @@ fn point(distance_m: f64, fps: f64, width_px: i64, height_px: i64) -> Scenario {
     scenario::with_overrides(&base, &overrides, &base_path()).unwrap()
 }
 
-fn noise(distance_m: f64, fps: f64, width_px: i64, height_px: i64) -> f64 {
+/// The sweep's noise at one point, and the number of engaged frames it is a σ over.
+fn noise(distance_m: f64, fps: f64, width_px: i64, height_px: i64) -> (f64, usize) {
     let sc = point(distance_m, fps, width_px, height_px);
     let m = PipelineEvaluator.evaluate(&sc, sc.seed).unwrap();
     assert_eq!(m.frames_detected, m.frames_total, "every frame detected");
@@ -47,36 +50,69 @@ fn noise(distance_m: f64, fps: f64, width_px: i64, height_px: i64) -> f64 {
         n.is_finite() && n > 0.0,
         "{distance_m} m, {fps} fps, {width_px}: {n}"
     );
-    n
+    let options = RunOptions {
+        plots: false,
+        write_files: false,
+        ..RunOptions::default()
+    };
+    let out = run(&sc, Path::new("."), &options, &|_, _| {}).unwrap();
+    let engaged = ENGAGED_PHASES
+        .iter()
+        .map(|p| out.budget.phases[*p].alpha.n)
+        .sum();
+    (n, engaged)
+}
+
+/// The band a ratio of two noise σ may take around its expected value: three standard errors
+/// of the ratio's logarithm. A σ estimated from n_eff independent samples has a relative standard
+/// error of 1/√(2 n_eff) (normal samples; corner quantisation errors are bounded, lighter-tailed
+/// than normal, so this errs wide). The seed's double `numpy.gradient` makes α̂_k of θ̂_{k−2..k+2}:
+/// samples five apart share nothing, so n_eff = n/5 (conservative: nearer samples are only
+/// partly correlated). The two σ are of different footage, so their log errors add in
+/// quadrature (a correlation between them would only narrow the truth's spread).
+fn band(expected: f64, n_a: usize, n_b: usize) -> (f64, f64) {
+    let rel_se = |n: usize| (2.0 * n as f64 / 5.0).sqrt().recip();
+    let se_log = rel_se(n_a).hypot(rel_se(n_b));
+    (
+        expected * (-3.0 * se_log).exp(),
+        expected * (3.0 * se_log).exp(),
+    )
 }
 
 #[test]
 fn impact_noise_follows_the_pixel_scale_and_the_noise_gain() {
-    let near_1080p = noise(0.3, 120.0, 1920, 1080);
-    let far_1080p = noise(0.4, 120.0, 1920, 1080);
-    let far_4k = noise(0.4, 120.0, 3840, 2160);
-    let far_1080p_30 = noise(0.4, 30.0, 1920, 1080);
+    let (near_1080p, n_near) = noise(0.3, 120.0, 1920, 1080);
+    let (far_1080p, n_far) = noise(0.4, 120.0, 1920, 1080);
+    let (far_4k, n_4k) = noise(0.4, 120.0, 3840, 2160);
+    let (far_1080p_30, n_30) = noise(0.4, 30.0, 1920, 1080);
     eprintln!(
-        "σ_α engaged: 0.3 m 1080p {near_1080p:.4}, 0.4 m 1080p {far_1080p:.4}, 0.4 m 4K \
-         {far_4k:.4} (all 120 fps), 0.4 m 1080p 30 fps {far_1080p_30:.4} rad/s²"
+        "σ_α engaged: 0.3 m 1080p {near_1080p:.4} ({n_near} frames), 0.4 m 1080p {far_1080p:.4} \
+         ({n_far}), 0.4 m 4K {far_4k:.4} ({n_4k}) (all 120 fps), 0.4 m 1080p 30 fps \
+         {far_1080p_30:.4} ({n_30}) rad/s²"
     );
-    // Twice the pixels across the same field of view: about half the quantisation step.
-    let ratio_4k = far_4k / far_1080p;
-    assert!(
-        (0.3..=0.75).contains(&ratio_4k),
-        "4K / 1080p noise {ratio_4k:.3}, expected about 0.5"
-    );
-    // 0.3 m has 4/3 the pixels per mm of 0.4 m.
+    let check = |what: &str, ratio: f64, expected: f64, n_a: usize, n_b: usize| {
+        let (lo, hi) = band(expected, n_a, n_b);
+        assert!(
+            (lo..=hi).contains(&ratio),
+            "{what}: {ratio:.3}, expected {expected:.3} within ({lo:.3}, {hi:.3})"
+        );
+    };
+    // Twice the pixels across the same field of view: half the quantisation step, so half the
+    // angle noise at the same radius in mm.
+    check("4K / 1080p", far_4k / far_1080p, 0.5, n_4k, n_far);
+    // 0.3 m has 4/3 the pixels per mm of 0.4 m: the same pixel error is 3/4 the angle.
+    check("0.3 m / 0.4 m", near_1080p / far_1080p, 0.75, n_near, n_far);
     assert!(
         near_1080p < far_1080p,
         "0.3 m {near_1080p:.4} not below 0.4 m {far_1080p:.4}"
     );
-    // The seed differentiator's noise gain (analytic) from 30 to 120 fps, within a factor 2.
+    // The seed differentiator's noise gain (analytic) from 30 to 120 fps.
     let gain = |fps: f64| Differentiator::Seed.noise_gain(1.0 / fps).alpha_per_rad;
-    let expected = gain(120.0) / gain(30.0);
-    let ratio_fps = far_1080p / far_1080p_30;
-    assert!(
-        (expected / 2.0..=expected * 2.0).contains(&ratio_fps),
-        "120 / 30 fps noise {ratio_fps:.2}, noise gain ratio {expected:.1}"
+    check(
+        "120 / 30 fps",
+        far_1080p / far_1080p_30,
+        gain(120.0) / gain(30.0),
+        n_far,
+        n_30,
     );
 }

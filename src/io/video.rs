@@ -225,8 +225,12 @@ pub fn probe_with(path: &Path, ffprobe: &str) -> Result<VideoInfo, VideoError> {
     if meta.is_dir() {
         return Err(VideoError::NotAFile { path: path.into() });
     }
+    // Listing each frame decodes the whole stream, which ffprobe does on one thread unless told
+    // otherwise: `-threads 0` lets the decoder use every core (decoding is bit-exact whatever
+    // the thread count, and only the listing is read).
     let out = Command::new(ffprobe)
-        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
+        .args(["-v", "error", "-threads", "0", "-select_streams", "v:0"])
+        .arg("-show_entries")
         .arg(
             "stream=width,height,pix_fmt,nb_frames,duration:stream_tags=rotate:stream_side_data=rotation\
              :format=duration:frame=pts_time,best_effort_timestamp_time,width,height,pix_fmt",

@@ -15,6 +15,18 @@ pub fn geneva(dir: &Path, args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// Runs `geneva ARGS…` in `dir`, which must succeed; its stdout.
+pub fn geneva_ok(dir: &Path, args: &[&str]) -> String {
+    let out = geneva(dir, args);
+    assert!(
+        out.status.success(),
+        "geneva {}: {}",
+        args.join(" "),
+        stderr(&out)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }

@@ -12,6 +12,9 @@
 //! - `cargo xtask fuzz [--inputs N] [--seed S] [--show target:index]` — every parser of user
 //!   input on N generated inputs (default 1,000,000 each; `tests/fuzz.rs`), printing count, wall
 //!   time and peak allocation per parser; `--show` prints one input of the campaign instead.
+//! - `cargo xtask statistics` — the statistical tests CI runs reduced, whole: the false alarms
+//!   of `tests/diagnose_own_render.rs` on 20 nominals and the interval coverage of
+//!   `tests/diagnose_coverage.rs` on 40 footages, each with its binomial bound.
 //! - `cargo xtask reports` — regenerate the reports `geneva reports` makes, deterministically.
 //! - `cargo xtask diagnosis [NAME…|all]` — the diagnosis self-check suites committed under
 //!   `reports/`, each by name (the table [`SUITES`]; no name lists them with their commands).
@@ -58,11 +61,12 @@ fn main() {
         }),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "fuzz" => fuzz(rest),
+        "statistics" => system::ensure_packages().and_then(|_| statistics()),
         "reports" => system::ensure_packages().and_then(|_| reports(rest)),
         "diagnosis" => system::ensure_packages().and_then(|_| diagnosis(rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  pbr-suite  path-traced footage (tools/pbr) through calibrate and diagnose into reports/diagnosis-pbr/ (hours; resumable; --quick: three cases)\n  deps     check and install the system packages (--pbr: also Blender and Python's OpenCV for tools/pbr)"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  statistics  the statistical tests whole: 20 own-render nulls, 40 interval-coverage footages\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  pbr-suite  path-traced footage (tools/pbr) through calibrate and diagnose into reports/diagnosis-pbr/ (hours; resumable; --quick: three cases)\n  deps     check and install the system packages (--pbr: also Blender and Python's OpenCV for tools/pbr)"
             );
             Ok(())
         }
@@ -82,6 +86,11 @@ fn run(mut command: Command) -> Result<(), String> {
     let status = command
         .status()
         .map_err(|e| format!("could not start {command:?}: {e}"))?;
+    succeeded(&command, status)
+}
+
+/// Ok for a command that exited with success, else an error naming it and its status.
+fn succeeded(command: &Command, status: std::process::ExitStatus) -> Result<(), String> {
     if status.success() {
         Ok(())
     } else {
@@ -274,6 +283,24 @@ fn bench(extra: &[String]) -> Result<(), String> {
     } else {
         Err(format!("{command:?} failed with {status}"))
     }
+}
+
+/// The statistical tests whole (CI runs a stated few cases of each, with the bound that follows
+/// from the count).
+fn statistics() -> Result<(), String> {
+    let mut command = cargo();
+    command.args([
+        "test",
+        "--test",
+        "diagnose_own_render",
+        "--test",
+        "diagnose_coverage",
+        "--",
+        "--nocapture",
+    ]);
+    command.env("GENEVA_OWN_RENDER_CASES", "20");
+    command.env("GENEVA_COVERAGE_CASES", "40");
+    run(command)
 }
 
 /// The parser fuzzing campaign of `tests/fuzz.rs`, long: `--inputs N` per parser (default one

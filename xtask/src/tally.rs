@@ -88,11 +88,7 @@ pub fn run_counted(mut command: Command, tally: &mut Tally) -> Result<(), String
     let status = child
         .wait()
         .map_err(|e| format!("waiting for {command:?}: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{command:?} failed with {status}"))
-    }
+    crate::succeeded(&command, status)
 }
 
 #[cfg(test)]
