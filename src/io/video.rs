@@ -225,12 +225,11 @@ pub fn probe_with(path: &Path, ffprobe: &str) -> Result<VideoInfo, VideoError> {
     if meta.is_dir() {
         return Err(VideoError::NotAFile { path: path.into() });
     }
-    // Listing each frame decodes the whole stream, which ffprobe does on one thread unless told
-    // otherwise: `-threads 0` lets the decoder use every core (decoding is bit-exact whatever
-    // the thread count, and only the listing is read).
+    // One decoding thread, as ffprobe's default: with frame threads (`-threads 0`, twice as
+    // fast) a stream cut short lists one frame fewer than ffmpeg then decodes from it, and the
+    // two must agree (`tests/analyze_integrity.rs`, the truncated video).
     let out = Command::new(ffprobe)
-        .args(["-v", "error", "-threads", "0", "-select_streams", "v:0"])
-        .arg("-show_entries")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
         .arg(
             "stream=width,height,pix_fmt,nb_frames,duration:stream_tags=rotate:stream_side_data=rotation\
              :format=duration:frame=pts_time,best_effort_timestamp_time,width,height,pix_fmt",
