@@ -189,6 +189,7 @@ fn small_self_check(which: impl Fn(&Expectation) -> bool) {
             _ => &[
                 "not_distinct_from_nominal",
                 "undetermined_at_search_end",
+                "not_predicted_held_out",
                 "too_small_to_attribute",
                 "not_closed",
                 "no_candidate",

@@ -1,5 +1,5 @@
 //! `geneva diagnose-selfcheck --out DIR [--base SCENARIO] [--quick] [--seeds-per-case K] [--effects a,b]
-//! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--pairs N]
+//! [--levels strong|weak|form|both|LIST] [--nulls N] [--flicker N] [--excluded N] [--pairs N] [--novel N]
 //! [--renderer own|independent]
 //! [--shard I/N] [--restart]`: the diagnosis self-check (withheld effects, null and
 //! out-of-vocabulary cases), resumable and shardable like a sweep.
@@ -52,6 +52,12 @@ pub struct SelfCheckArgs {
     /// them without the single-effect cases.
     #[arg(long)]
     pairs: Option<usize>,
+    /// Novel-effect cases (default 0): effects outside the vocabulary drawn onto the footage
+    /// (a marker creeping on the wheel, a mount that steps, autofocus breathing, a glare, a
+    /// cable across the marker's path, autofocus hunting, duplicated frames, rolling-shutter
+    /// banding: `render::novel::KINDS`, taken in order).
+    #[arg(long)]
+    novel: Option<usize>,
     /// Footage length, s.
     #[arg(long)]
     duration_s: Option<f64>,
@@ -137,6 +143,7 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     plan.flicker_cases = a.flicker.unwrap_or(plan.flicker_cases);
     plan.excluded_cases = a.excluded.unwrap_or(plan.excluded_cases);
     plan.pair_cases = a.pairs.unwrap_or(plan.pair_cases);
+    plan.novel_cases = a.novel.unwrap_or(plan.novel_cases);
     if a.renderer == "independent" {
         plan.renderer = Renderer::Independent;
     }

@@ -8,6 +8,7 @@ pub mod bands;
 pub mod cells;
 pub mod fit_noise;
 pub mod gap;
+pub mod holdout;
 pub mod moments;
 pub mod plan;
 pub mod record;

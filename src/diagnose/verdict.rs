@@ -13,7 +13,9 @@
 //! An explanation must also differ from the nominal ([`tells_from_nominal`]): a candidate whose
 //! fitted values all lie within [`DISTINCT_Z`] standard uncertainties of the values at which it
 //! would leave the nominal as it is closes the gap by the luck of the seeds it was judged on,
-//! not by the effect, and the verdict does not rest on it.
+//! not by the effect, and the verdict does not rest on it. And it must predict what its fit did
+//! not use ([`super::holdout`]): a candidate that matched the cells' magnitudes but not the
+//! footage's waveform is a flexible stand-in for something outside the vocabulary.
 
 use crate::scenario::effects::same_search_point;
 use serde::Serialize;
@@ -253,18 +255,22 @@ pub fn choose(
 
 /// The verdict from the nominal comparison's significant cells and the best outcome (single or
 /// pair), with whether its fitted values tell it from the nominal ([`tells_from_nominal`]; only
-/// `Some(false)` counts against it).
+/// `Some(false)` counts against it) and whether it failed the held-out check
+/// ([`super::holdout::WaveformCheck::fails`]).
 pub fn verdict(
     significant_nominal: usize,
     d0: f64,
     best: Option<&Outcome>,
     distinct: Option<bool>,
+    held_out_fails: bool,
 ) -> Verdict {
     if significant_nominal == 0 {
         return Verdict::NoGap;
     }
     match best {
-        Some(o) if explains(d0, o) && distinct != Some(false) => Verdict::Explained,
+        Some(o) if explains(d0, o) && distinct != Some(false) && !held_out_fails => {
+            Verdict::Explained
+        }
         _ => Verdict::Unexplained,
     }
 }
@@ -283,6 +289,9 @@ pub enum VerdictReason {
     /// `unexplained`: the candidate that closed the gap measured no value
     /// ([`undetermined_at_search_end`]): its switch closed it.
     Undetermined,
+    /// `unexplained`: the candidate that closed the gap did not predict what its fit did not use
+    /// ([`super::holdout`]).
+    NotPredictedHeldOut,
     /// `unexplained`: the best closed the gap and left no cell, but the gap is smaller than its
     /// parameters' penalty ([`too_small_to_attribute`]).
     TooSmallToAttribute,
@@ -299,6 +308,7 @@ impl VerdictReason {
             VerdictReason::Explained => "explained",
             VerdictReason::NotDistinctFromNominal => "not_distinct_from_nominal",
             VerdictReason::Undetermined => "undetermined_at_search_end",
+            VerdictReason::NotPredictedHeldOut => "not_predicted_held_out",
             VerdictReason::TooSmallToAttribute => "too_small_to_attribute",
             VerdictReason::NotClosed => "not_closed",
             VerdictReason::NoCandidate => "no_candidate",
@@ -313,6 +323,8 @@ pub enum SetAside {
     NotDistinct,
     /// Its fit measured no value ([`undetermined_at_search_end`]).
     Undetermined,
+    /// It closed the gap but did not predict what its fit did not use ([`super::holdout`]).
+    NotPredicted,
 }
 
 /// The reason for verdict `v` on a gap of total `d0`, given the outcome of the candidate it rests
@@ -329,6 +341,9 @@ pub fn reason(
         (_, Some(_)) if set_aside == Some(SetAside::Undetermined) => VerdictReason::Undetermined,
         (_, Some(_)) if set_aside == Some(SetAside::NotDistinct) => {
             VerdictReason::NotDistinctFromNominal
+        }
+        (_, Some(_)) if set_aside == Some(SetAside::NotPredicted) => {
+            VerdictReason::NotPredictedHeldOut
         }
         (_, Some(o)) if too_small_to_attribute(d0, o) => VerdictReason::TooSmallToAttribute,
         (_, Some(_)) => VerdictReason::NotClosed,
@@ -350,32 +365,38 @@ mod tests {
 
     #[test]
     fn verdicts() {
-        assert_eq!(verdict(0, 0.0, None, None), Verdict::NoGap);
+        assert_eq!(verdict(0, 0.0, None, None, false), Verdict::NoGap);
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), None),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), None, false),
             Verdict::Explained
         );
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true)),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true), false),
             Verdict::Explained
         );
         // Closes 95 %, but its values do not tell it from the nominal.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(false)),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(false), false),
             Verdict::Unexplained
         );
         // Closes 95 % but leaves a significant cell.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 1)), None),
+            verdict(3, 100.0, Some(&o(5.0, 1, 1)), None, false),
             Verdict::Unexplained
         );
         // No cell left but closes only half.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(50.0, 1, 0)), None),
+            verdict(3, 100.0, Some(&o(50.0, 1, 0)), None, false),
             Verdict::Unexplained
         );
-        assert_eq!(verdict(3, 100.0, None, None), Verdict::Unexplained);
-        assert_eq!(verdict(0, 0.0, None, Some(false)), Verdict::NoGap);
+        assert_eq!(verdict(3, 100.0, None, None, false), Verdict::Unexplained);
+        assert_eq!(verdict(0, 0.0, None, Some(false), false), Verdict::NoGap);
+        // Closes 95 %, but does not predict what its fit did not use.
+        assert_eq!(
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true), true),
+            Verdict::Unexplained
+        );
+        assert_eq!(verdict(0, 0.0, None, None, true), Verdict::NoGap);
     }
 
     /// Each reason is the one its verdict and best outcome call for, checked against the
@@ -399,18 +420,25 @@ mod tests {
                 Some(SetAside::Undetermined),
                 VerdictReason::Undetermined,
             ),
+            (
+                3,
+                Some(o(5.0, 1, 0)),
+                Some(SetAside::NotPredicted),
+                VerdictReason::NotPredictedHeldOut,
+            ),
             (3, Some(o(5.0, 1, 1)), None, VerdictReason::NotClosed),
             (3, Some(o(50.0, 1, 0)), None, VerdictReason::NotClosed),
             (3, None, None, VerdictReason::NoCandidate),
         ];
         for (significant, best, set_aside, want) in cases {
-            let distinct = set_aside.map(|_| false);
-            let v = verdict(significant, d0, best.as_ref(), distinct);
+            let predicted = set_aside != Some(SetAside::NotPredicted);
+            let distinct = set_aside.filter(|_| predicted).map(|_| false);
+            let v = verdict(significant, d0, best.as_ref(), distinct, !predicted);
             assert_eq!(reason(v, d0, best.as_ref(), set_aside), want, "{want:?}");
         }
         // null-24 of `reports/diagnosis-nulls/`: D₀ 4.8, closed all of it with one parameter, no cell left.
         let small = o(0.0, 1, 0);
-        let v = verdict(1, 4.8, Some(&small), None);
+        let v = verdict(1, 4.8, Some(&small), None, false);
         assert_eq!(v, Verdict::Unexplained);
         assert_eq!(
             reason(v, 4.8, Some(&small), None),
@@ -421,6 +449,7 @@ mod tests {
             VerdictReason::Explained,
             VerdictReason::NotDistinctFromNominal,
             VerdictReason::Undetermined,
+            VerdictReason::NotPredictedHeldOut,
             VerdictReason::TooSmallToAttribute,
             VerdictReason::NotClosed,
             VerdictReason::NoCandidate,

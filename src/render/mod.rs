@@ -9,6 +9,7 @@ pub mod effects;
 pub mod frame;
 pub mod image;
 pub mod independent;
+pub mod novel;
 pub mod raster;
 pub mod real_frame;
 pub mod shapes;

@@ -550,6 +550,14 @@ impl Effect {
         self.kind() == EffectKind::Image
     }
 
+    /// Whether the effect, fitted, predicts the signed slow angle residual frame by frame, or its
+    /// seeds' scatter holds it: what the held-out check of an explanation compares
+    /// ([`crate::diagnose::holdout`]). The vibrations do not: their fits state an amplitude and a
+    /// frequency, not the phase a slow sinusoid's waveform needs.
+    pub fn predicts_slow_angle(self) -> bool {
+        !matches!(self, Effect::DiscVibration | Effect::CameraVibration)
+    }
+
     /// Whether the effect, switched on, bends the angle the estimator measures on exact corners
     /// away from σ·θ2 + c in a way the plain motion alignment misreads as crank phase or speed:
     /// the camera's geometry (a tilt, a lens off its centre), the wheel centre's wobble, or the

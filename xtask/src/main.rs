@@ -376,6 +376,7 @@ struct Plan {
     flicker: usize,
     excluded: usize,
     pairs: usize,
+    novel: usize,
     only_seeds: &'static [usize],
 }
 
@@ -407,6 +408,7 @@ const fn singles(levels: &'static str, seeds: usize) -> Plan {
         flicker: 0,
         excluded: 0,
         pairs: 0,
+        novel: 0,
         only_seeds: &[],
     }
 }
@@ -439,6 +441,13 @@ const NULLS: Plan = Plan {
 const OUT_OF_VOCABULARY: Plan = Plan {
     flicker: 4,
     excluded: 12,
+    ..singles("strong", 0)
+};
+
+/// Effects outside the vocabulary drawn onto the footage (`render::novel::KINDS`), each kind
+/// once.
+const NOVEL: Plan = Plan {
+    novel: 8,
     ..singles("strong", 0)
 };
 
@@ -516,6 +525,12 @@ const SUITES: &[Suite] = &[
         plan: OUT_OF_VOCABULARY,
     },
     Suite {
+        name: "novel",
+        folder: "reports/diagnosis-novel",
+        shows: "8 kinds of effect no candidate models, drawn onto the project's renderer's footage",
+        plan: NOVEL,
+    },
+    Suite {
         name: "out-of-vocabulary-independent",
         folder: "reports/diagnosis-out-of-vocabulary-independent",
         shows: "the same 16 causes, independent renderer",
@@ -534,6 +549,7 @@ impl Suite {
             ("--flicker", p.flicker.to_string()),
             ("--excluded", p.excluded.to_string()),
             ("--pairs", p.pairs.to_string()),
+            ("--novel", p.novel.to_string()),
             ("--duration-s", "6".to_string()),
         ]
         .into_iter()

@@ -23,6 +23,7 @@
 pub mod camera_warp;
 pub mod fit;
 pub mod footing;
+pub mod held_out;
 pub mod image;
 pub mod nominal;
 pub mod pose_tilt;
@@ -168,6 +169,11 @@ pub enum DiagnoseError {
         #[source]
         source: Box<crate::pipeline::render_job::RenderJobError>,
     },
+    #[error(
+        "self-check case {case}: the novel effect {kind} cannot be placed on this rig (it needs \
+         a frame, and a cable a drive phase in view)"
+    )]
+    CaseNovel { case: String, kind: &'static str },
     #[error("self-check case {case}: writing its footage")]
     CaseFile {
         case: String,
@@ -628,6 +634,9 @@ pub struct Diagnosis {
     pub nyquist_hz: f64,
     /// Time shift between the real frames' timestamps and the aligned motion, s.
     pub real_time_shift_s: f64,
+    /// The held-out check of the candidate the verdict rests on, when it explained the gap
+    /// otherwise ([`held_out`]).
+    pub held_out: Option<held_out::HeldOut>,
     pub elapsed_s: f64,
 }
 
@@ -1181,11 +1190,33 @@ pub fn diagnose_with(
     let distinct = choice.distinct;
     // `ranking` is best first: a candidate chosen over those set aside moves to the front.
     let best = best.map(|b| to_front(&mut ranking, &mut not_distinct, b));
+    // An explanation is judged on what its fit did not use before the verdict rests on it.
+    let held_out = match best {
+        Some(b)
+            if nominal_gap.n_significant() > 0
+                && verdict::explains(d0, &ranking[b].evaluated.outcome)
+                && distinct != Some(false) =>
+        {
+            progress(
+                &format!(
+                    "checking {} on what its fit did not use",
+                    candidate_name(&ranking[b].evaluated)
+                ),
+                0,
+                1,
+            );
+            let (held_out, simulations) = held_out::check(&fitter, &ranking[b], &seeds)?;
+            candidate_simulations += simulations;
+            Some(held_out)
+        }
+        _ => None,
+    };
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
         d0,
         best.map(|b| &ranking[b].evaluated.outcome),
         distinct,
+        held_out.as_ref().is_some_and(held_out::HeldOut::fails),
     );
     // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
     let simulations = fitter.simulations() + candidate_simulations;
@@ -1213,6 +1244,7 @@ pub fn diagnose_with(
         has_images: real.record.has_images,
         nyquist_hz: footing.nyquist_hz,
         real_time_shift_s: footing.real_time_shift_s,
+        held_out,
         elapsed_s: started.elapsed().as_secs_f64(),
     };
     progress("writing the report", 0, 1);

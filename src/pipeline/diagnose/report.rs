@@ -4,6 +4,7 @@
 //! folder only once everything is written.
 
 use super::fit::{Evaluated, Fitter};
+use super::held_out::HeldOut;
 use super::real::RealMeasurement;
 use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{
@@ -14,6 +15,7 @@ use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{CellGap, GapMap};
+use crate::diagnose::holdout;
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
 use crate::diagnose::verdict::{SetAside, VerdictReason};
@@ -229,6 +231,8 @@ const NOT_DISTINCT_REASON: &str = "every fitted value lies within one standard u
      the nominal, so what it closed on fresh seeds was closed by those seeds, not by the effect";
 
 /// Why a candidate that closed the gap measured no value ([`super::Undetermined`]).
+const NOT_PREDICTED_REASON: &str = "it did not predict the footage's slow angle waveform, which \
+                                    its fit did not use";
 const UNDETERMINED_REASON: &str = "its fit measured no value: each lies at an end of its search \
      range with no finite uncertainty, so switching the effect on, not a value the footage \
      measured, closed the gap";
@@ -266,6 +270,7 @@ fn not_distinct_reason(n: &NotDistinct) -> &'static str {
     match n.set_aside() {
         SetAside::NotDistinct => NOT_DISTINCT_REASON,
         SetAside::Undetermined => UNDETERMINED_REASON,
+        SetAside::NotPredicted => NOT_PREDICTED_REASON,
     }
 }
 
@@ -328,7 +333,13 @@ pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     let set_aside = d
         .best
         .and_then(|b| d.not_distinct.iter().find(|n| n.ranked == b))
-        .map(NotDistinct::set_aside);
+        .map(NotDistinct::set_aside)
+        .or_else(|| {
+            d.held_out
+                .as_ref()
+                .is_some_and(HeldOut::fails)
+                .then_some(SetAside::NotPredicted)
+        });
     let reason = crate::diagnose::verdict::reason(
         d.verdict,
         d.nominal_gap.total,
@@ -338,11 +349,63 @@ pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     (reason, best)
 }
 
-/// Whether the verdict's candidate is one that did not tell itself from the nominal (then no
-/// candidate explains the gap).
+/// Whether the verdict's candidate is one that did not tell itself from the nominal or did not
+/// predict what its fit did not use (then no candidate explains the gap).
 fn best_not_distinct(d: &Diagnosis) -> bool {
     d.best
         .is_some_and(|b| d.not_distinct.iter().any(|n| n.ranked == b))
+        || d.held_out.as_ref().is_some_and(HeldOut::fails)
+}
+
+/// `diagnosis.json`'s `held_out`: the check of the candidate the verdict rests on.
+fn held_out_json(h: Option<&HeldOut>) -> Value {
+    match h {
+        None => Value::Null,
+        Some(HeldOut::NotJudged(why)) => json!({"judged": false, "why": why}),
+        Some(HeldOut::Judged(c)) => json!({
+            "judged": true,
+            "what": "slow angle residual, frame by frame",
+            "frames": c.frames,
+            "nominal_rms_rad": c.nominal_rms_rad,
+            "candidate_rms_rad": c.candidate_rms_rad,
+            "scatter_rms_rad": c.scatter_rms_rad,
+            "left": c.left,
+            "left_max": holdout::LEFT_MAX,
+            "gap_over_scatter_min": holdout::GAP_OVER_SCATTER,
+            "fails": c.fails(),
+        }),
+    }
+}
+
+/// `diagnosis.md`'s sentence on the held-out check; empty when none ran.
+fn held_out_text(h: Option<&HeldOut>) -> String {
+    match h {
+        None => String::new(),
+        Some(HeldOut::NotJudged(why)) => {
+            format!(" Not checked on what its fit did not use: {why}.")
+        }
+        Some(HeldOut::Judged(c)) => match c.left {
+            None => format!(
+                " Its fit did not use the slow angle residual frame by frame; the footage's \
+                 departs from the nominal's by {} rad RMS, within {:.0}× the seeds' scatter ({} \
+                 rad), so there was no waveform to predict.",
+                fmt(c.nominal_rms_rad),
+                holdout::GAP_OVER_SCATTER,
+                fmt(c.scatter_rms_rad)
+            ),
+            Some(left) => format!(
+                " Held out of its fit, the slow angle residual frame by frame: the footage's \
+                 departs from the nominal's by {} rad RMS and from this candidate's prediction \
+                 by {} rad RMS (seeds' scatter {} rad), so it leaves {:.0} % of that waveform \
+                 beyond the scatter ({:.0} % is the most an explanation may leave).",
+                fmt(c.nominal_rms_rad),
+                fmt(c.candidate_rms_rad),
+                fmt(c.scatter_rms_rad),
+                100.0 * left,
+                100.0 * holdout::LEFT_MAX
+            ),
+        },
+    }
 }
 
 fn ranked_json(r: &Ranked, nyquist_hz: f64) -> Value {
@@ -877,6 +940,7 @@ pub fn to_json(d: &Diagnosis) -> Value {
         },
         "ranking": d.ranking.iter().map(|r| ranked_json(r, d.nyquist_hz)).collect::<Vec<_>>(),
         "remainder": remainder,
+        "held_out": held_out_json(d.held_out.as_ref()),
         "screened_out": d.screened_out.iter().map(|(e, s)| json!({"effect": e.name(), "gap_share": s})).collect::<Vec<_>>(),
         "bounded_out": d.bounded_out.iter().map(|(e, s)| json!({"effect": e.name(), "gap_share": s})).collect::<Vec<_>>(),
         "not_tried": d.not_tried.iter().map(|e| e.name()).collect::<Vec<_>>(),
@@ -1022,8 +1086,23 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
             if r.evaluated.effects.len() > 1 {
                 t.push_str(&pair_found_text(d.second_look.as_ref()));
             }
+            t.push_str(&held_out_text(d.held_out.as_ref()));
             t
         }
+        (VerdictReason::NotPredictedHeldOut, Some(r)) => format!(
+            "**Unexplained: the best candidate does not predict what it did not fit.** `{}` \
+             ({}) closes {:.0} % of the gap: its fit matched the cells' magnitudes.{} \
+             Something outside the vocabulary (or an effect in a form its candidate does not \
+             take) made the gap; the candidate is a stand-in for it. The gap: {}.",
+            candidate_name(&r.evaluated),
+            params_text(r),
+            100.0 * r.shrink,
+            held_out_text(d.held_out.as_ref()),
+            cells_text(
+                &d.nominal_gap.significant().cloned().collect::<Vec<_>>(),
+                d.nyquist_hz
+            )
+        ),
         (VerdictReason::Undetermined | VerdictReason::NotDistinctFromNominal, Some(r)) => {
             let values = d
                 .not_distinct

@@ -12,8 +12,11 @@
 //! - **two causes at once**: two effects of a fixed list of pairs a real rig has together
 //!   ([`withheld_pairs`]), both at the strong level, both off in the nominal;
 //! - **out of vocabulary**: mains-light flicker (the frame's gain modulated at the beat of 100 Hz
-//!   light with the frame rate: no effect of the vocabulary draws it), and a withheld effect that
-//!   `--effects` excludes from the candidates.
+//!   light with the frame rate: no effect of the vocabulary draws it), a withheld effect that
+//!   `--effects` excludes from the candidates, and novel effects no candidate models
+//!   ([`crate::render::novel`]: a marker creeping on the wheel, a mount that steps, autofocus
+//!   breathing and hunting, a glare, a cable in front of the marker, duplicated frames,
+//!   rolling-shutter banding).
 //!
 //! Every case perturbs the data's nuisance by a seeded draw ([`perturb_nuisance`]), so the
 //! alignment is exercised in every case, and its rendering within what two renderers of one rig
@@ -28,6 +31,7 @@ use crate::diagnose::scoring::{pct, score, CaseOutcome, Expectation, PairMember,
 use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::render_job::{render_job, RenderJob, Renderer};
+use crate::render::novel::Novel;
 use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
 use crate::shard::{Manifest, Study, UnitDirs};
@@ -58,6 +62,11 @@ pub enum PostProcess {
     /// The footage's timestamps replaced by k / fps (a recorder that stamps a constant rate).
     ConstantRateStamps {
         fps_hz: f64,
+    },
+    /// An effect outside the vocabulary, one of [`crate::render::novel::KINDS`], at the strength
+    /// [`novel_effect`] sets on the case's rig.
+    Novel {
+        kind: &'static str,
     },
 }
 
@@ -333,6 +342,8 @@ pub struct SuitePlan {
     pub excluded_cases: usize,
     /// Two-effect cases, taking [`withheld_pairs`] in order (and round again past its end).
     pub pair_cases: usize,
+    /// Novel-effect cases, taking [`crate::render::novel::KINDS`] in order (and round again).
+    pub novel_cases: usize,
     /// Which renderer draws every case's footage: the project's own, or the independent one
     /// (`render::independent`), whose anti-aliasing, compositing, blur kernel and noise differ
     /// from the nominal's simulations like another renderer's would.
@@ -452,6 +463,24 @@ pub fn cases(base: &Scenario, plan: &SuitePlan, logs: &[PhoneLog]) -> Vec<Case> 
                 amplitude_frac: 0.06,
                 beat_hz: 2.5 + 0.5 * k as f64,
             },
+            effects: None,
+            truths: Vec::new(),
+            renderer: plan.renderer,
+        });
+    }
+    for k in 0..plan.novel_cases {
+        let seed = next_seed();
+        let kind = crate::render::novel::KINDS[k % crate::render::novel::KINDS.len()];
+        let mut data = base.clone();
+        data.seed = seed;
+        perturb_nuisance(&mut data, seed);
+        perturb_rendering(&mut data, seed);
+        out.push(Case {
+            name: format!("novel-{kind}-{}", k / crate::render::novel::KINDS.len()),
+            expectation: Expectation::OutOfVocabulary,
+            data,
+            nominal: base.clone(),
+            post: PostProcess::Novel { kind },
             effects: None,
             truths: Vec::new(),
             renderer: plan.renderer,
@@ -617,6 +646,7 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
         .collect();
     match case.post {
         PostProcess::None => {}
+        PostProcess::Novel { kind } => draw_novel(case, kind, dir, &times)?,
         PostProcess::ConstantRateStamps { fps_hz } => {
             let mut out = String::from("frame,t_s\n");
             for k in 0..times.len() {
@@ -649,6 +679,162 @@ pub fn render_case(case: &Case, dir: &Path) -> Result<(), DiagnoseError> {
         }
     }
     Ok(())
+}
+
+/// The novel effect `kind` at its self-check strength on `rig`, placed where it meets the
+/// marker: the glare on the marker's first dwell, the cable across its path halfway through the
+/// first drive.
+pub fn novel_effect(kind: &str, rig: &crate::pipeline::rig::Rig) -> Option<Novel> {
+    let times = rig.frame_times.as_slice();
+    let (t0, t_end) = (*times.first()?, *times.last()?);
+    let centre = |t: f64| {
+        let (x0, y0, x1, y1) = rig.marker_bbox_px(t);
+        ([0.5 * (x0 + x1), 0.5 * (y0 + y1)], x1 - x0)
+    };
+    let (first_px, paper_px) = centre(t0);
+    Some(match kind {
+        "creep" => Novel::Creep { rate_deg_s: 3.0 },
+        "mount_step" => Novel::MountStep {
+            at_s: t0 + 0.4 * (t_end - t0),
+            shift_px: [5.0, 3.0],
+        },
+        "zoom_breathing" => Novel::ZoomBreathing {
+            amplitude_frac: 0.015,
+            frequency_hz: 0.35,
+        },
+        "glare" => Novel::Glare {
+            centre_px: first_px,
+            sigma_px: 0.5 * paper_px,
+            peak_dn: 220.0,
+        },
+        "cable" => {
+            let drive: Vec<f64> = times
+                .iter()
+                .copied()
+                .filter(|&t| rig.mechanism.actual(t).phase == crate::mechanism::Phase::Drive)
+                .collect();
+            let t = *drive.get(drive.len() / 2)?;
+            let (at, _) = centre(t);
+            let (ahead, _) = centre(t + 0.01);
+            // Across the marker's path: perpendicular to its motion there.
+            let along_deg = (ahead[1] - at[1]).atan2(ahead[0] - at[0]).to_degrees();
+            Novel::Cable {
+                through_px: at,
+                angle_deg: along_deg + 90.0,
+                width_px: 0.25 * paper_px,
+                level_dn: 25.0,
+            }
+        }
+        "focus_hunt" => Novel::FocusHunt {
+            sigma_px: 2.5,
+            period_s: 2.5,
+        },
+        "duplicated_frames" => Novel::DuplicatedFrames { every: 8 },
+        "flicker_banding" => Novel::FlickerBanding {
+            amplitude_frac: 0.08,
+            wavelength_px: rig.settings.height_px as f64 / 3.0,
+            drift_hz: 1.3,
+        },
+        _ => return None,
+    })
+}
+
+/// Draws the novel effect `kind` onto the frames of `case` in `dir` (rendered, stamped `times`).
+fn draw_novel(
+    case: &Case,
+    kind: &'static str,
+    dir: &Path,
+    times: &[f64],
+) -> Result<(), DiagnoseError> {
+    let rig =
+        crate::pipeline::rig::Rig::new(&case.data).map_err(|e| DiagnoseError::CaseRender {
+            case: case.name.clone(),
+            source: Box::new(e.into()),
+        })?;
+    let Some(novel) = novel_effect(kind, &rig) else {
+        return Err(DiagnoseError::CaseNovel {
+            case: case.name.clone(),
+            kind,
+        });
+    };
+    let png = |path: &Path, w: usize, h: usize, data: &[u8]| {
+        crate::io::png_out::write_gray_png(path, w as u32, h as u32, data).map_err(|source| {
+            DiagnoseError::CasePng {
+                case: case.name.clone(),
+                source,
+            }
+        })
+    };
+    if let Novel::Creep { rate_deg_s } = novel {
+        let slip = creep_slip(&rig, rate_deg_s.to_radians());
+        let scene = rig.scene.clone().animate(|t| {
+            let mut pose = rig.pose(t);
+            pose.theta2_rad += slip(t);
+            pose
+        });
+        for (k, &t) in times.iter().enumerate() {
+            let request = crate::render::FrameRequest {
+                index: k as u64,
+                t_s: rig.render_time_s(t),
+                window: rig.frame_rect(),
+            };
+            let img = match case.renderer {
+                Renderer::Own => crate::render::render_frame(&scene, &rig.settings, &request),
+                Renderer::Independent => crate::render::independent::render_frame_independent(
+                    &scene,
+                    &rig.settings,
+                    request.index,
+                    request.t_s,
+                )
+                .map_err(|source| DiagnoseError::CaseRender {
+                    case: case.name.clone(),
+                    source: Box::new(crate::pipeline::render_job::RenderJobError::Independent {
+                        frame: k,
+                        source,
+                    }),
+                })?,
+            };
+            let path = dir.join(crate::pipeline::render_job::frame_file_name(k));
+            png(&path, img.window.width, img.window.height, &img.data)?;
+        }
+        return Ok(());
+    }
+    let mut previous: Vec<u8> = Vec::new();
+    for (k, &t) in times.iter().enumerate() {
+        let path = dir.join(crate::pipeline::render_job::frame_file_name(k));
+        let mut img = crate::io::images::read_gray(&path)?;
+        let frame = crate::render::novel::Frame {
+            data: &mut img.data,
+            width: img.width,
+            height: img.height,
+        };
+        crate::render::novel::draw(&novel, frame, t, k, &previous);
+        png(&path, img.width, img.height, &img.data)?;
+        previous = img.data;
+    }
+    Ok(())
+}
+
+/// The marker's slip on the wheel at time t, rad: `rate_rad_s` × the time the wheel has dwelt
+/// since the start (summed on a 1 ms grid of the actual motion, interpolated between).
+fn creep_slip(rig: &crate::pipeline::rig::Rig, rate_rad_s: f64) -> impl Fn(f64) -> f64 + Sync + '_ {
+    const STEP_S: f64 = 1e-3;
+    let end_s = rig.frame_times.as_slice().last().copied().unwrap_or(0.0) + 1.0;
+    let n = (end_s / STEP_S).ceil() as usize + 1;
+    let mut slip = Vec::with_capacity(n);
+    let mut acc = 0.0;
+    for i in 0..n {
+        slip.push(acc);
+        if rig.mechanism.actual(i as f64 * STEP_S).phase == crate::mechanism::Phase::Dwell {
+            acc += rate_rad_s * STEP_S;
+        }
+    }
+    move |t: f64| {
+        let x = (t / STEP_S).clamp(0.0, (n - 1) as f64);
+        let i = (x.floor() as usize).min(n - 2);
+        let f = x - i as f64;
+        slip[i] * (1.0 - f) + slip[i + 1] * f
+    }
 }
 
 /// What one case gave.
@@ -1256,6 +1442,7 @@ impl SuitePlan {
             flicker_cases: 2,
             excluded_cases: 3,
             pair_cases: 0,
+            novel_cases: 0,
             renderer: Renderer::Own,
         }
     }
@@ -1270,6 +1457,7 @@ impl SuitePlan {
             flicker_cases: 1,
             excluded_cases: 0,
             pair_cases: 0,
+            novel_cases: 0,
             renderer: Renderer::Own,
         }
     }
@@ -1305,7 +1493,7 @@ impl SuitePlan {
             };
         format!(
             "Plan: {singles}, {} null case(s), {} flicker \
-             case(s), {} excluded-candidate case(s), {} two-effect case(s){}; footage {}×{} px, {} fps, {} s, drawn by {}; \
+             case(s), {} excluded-candidate case(s), {} two-effect case(s){}{}; footage {}×{} px, {} fps, {} s, drawn by {}; \
              diagnosis with {} evaluation seeds (raised to {} when a cell misses significance only \
              for lack of seeds) and {} fit seeds, {}{}{}.",
                         self.null_cases,
@@ -1322,6 +1510,21 @@ impl SuitePlan {
                         .cycle()
                         .take(self.pair_cases)
                         .map(|(a, b)| format!("{} + {}", a.name(), b.name()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            },
+            if self.novel_cases == 0 {
+                String::new()
+            } else {
+                format!(
+                    ", {} novel-effect case(s) ({})",
+                    self.novel_cases,
+                    crate::render::novel::KINDS
+                        .iter()
+                        .cycle()
+                        .take(self.novel_cases.min(crate::render::novel::KINDS.len()))
+                        .copied()
                         .collect::<Vec<_>>()
                         .join(", ")
                 )
@@ -1365,6 +1568,87 @@ impl SuitePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each novel kind, rendered on 4.5 s of the rig at 12 fps (one drive, a dwell on each side), against
+    /// the same case drawn without it: what it must change, and only that.
+    #[test]
+    fn every_novel_kind_draws_what_it_names() {
+        let mut base = suite_base(4.5).unwrap();
+        // 12 fps: enough frames for every kind's pattern, a third of the rendering.
+        base.frame_timing.fps = 12.0;
+        let plan = SuitePlan {
+            novel_cases: crate::render::novel::KINDS.len(),
+            ..SuitePlan::quick(Effect::PixelNoise)
+        };
+        let novel: Vec<Case> = cases(&base, &plan, &[])
+            .into_iter()
+            .filter(|c| c.name.starts_with("novel-"))
+            .collect();
+        assert_eq!(novel.len(), crate::render::novel::KINDS.len());
+        let tmp = tempfile::tempdir().unwrap();
+        let frame = |dir: &Path, k: usize| {
+            crate::io::images::read_gray(&dir.join(crate::pipeline::render_job::frame_file_name(k)))
+                .unwrap()
+                .data
+        };
+        let differs = |a: &[u8], b: &[u8]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+        for case in &novel {
+            assert_eq!(case.expectation, Expectation::OutOfVocabulary);
+            let PostProcess::Novel { kind } = case.post else {
+                panic!("{case:?}")
+            };
+            let (with, without) = (
+                tmp.path().join(kind),
+                tmp.path().join(format!("{kind}-plain")),
+            );
+            render_case(case, &with).unwrap();
+            let plain = Case {
+                post: PostProcess::None,
+                ..case.clone()
+            };
+            render_case(&plain, &without).unwrap();
+            let n = crate::pipeline::rig::Rig::new(&case.data)
+                .unwrap()
+                .frame_times
+                .len();
+            let changed: Vec<usize> = (0..n)
+                .map(|k| differs(&frame(&with, k), &frame(&without, k)))
+                .collect();
+            let frames_changed = changed.iter().filter(|&&c| c > 0).count();
+            match kind {
+                // The slip grows through every dwell.
+                "creep" => assert!(frames_changed > n / 3, "{kind}: {changed:?}"),
+                // Untouched before the step, shifted after it.
+                "mount_step" => {
+                    let step = (0.4 * n as f64) as usize;
+                    assert!(changed[..step - 1].iter().all(|&c| c == 0), "{changed:?}");
+                    assert!(changed[step + 1..].iter().all(|&c| c > 0), "{changed:?}");
+                }
+                // Every eighth frame repeats its predecessor, and only those change.
+                "duplicated_frames" => {
+                    for (k, &c) in changed.iter().enumerate() {
+                        assert_eq!(
+                            c == 0,
+                            k % 8 != 0 || k == 0 || frame(&without, k) == frame(&without, k - 1),
+                            "frame {k}"
+                        );
+                        if k > 0 && k % 8 == 0 {
+                            assert_eq!(frame(&with, k), frame(&with, k - 1), "frame {k}");
+                        }
+                    }
+                }
+                // A static overlay changes every frame.
+                "glare" | "cable" | "flicker_banding" => {
+                    assert_eq!(frames_changed, n, "{kind}: {changed:?}")
+                }
+                // Sinusoidal: all but the frames at its zeros.
+                "zoom_breathing" | "focus_hunt" => {
+                    assert!(frames_changed > n / 3, "{kind}: {changed:?}")
+                }
+                other => panic!("untested kind {other}"),
+            }
+        }
+    }
 
     /// The written summary keeps a pair and its group apart in the case table, and states the
     /// parameters' figures near the limit beside the strong ones.
@@ -1449,6 +1733,7 @@ mod tests {
         };
         let with = SuitePlan {
             pair_cases: withheld_pairs().len() + 1,
+            novel_cases: 0,
             ..without.clone()
         };
         let before = cases(&base, &without, &[]);
@@ -1701,6 +1986,7 @@ mod tests {
             flicker_cases: 0,
             excluded_cases: 0,
             pair_cases: 0,
+            novel_cases: 0,
             renderer: Renderer::Own,
         };
         let all = cases(&base, &plan, &[]);
