@@ -255,22 +255,19 @@ pub fn choose(
 
 /// The verdict from the nominal comparison's significant cells and the best outcome (single or
 /// pair), with whether its fitted values tell it from the nominal ([`tells_from_nominal`]; only
-/// `Some(false)` counts against it) and whether it failed the held-out check
-/// ([`super::holdout::WaveformCheck::fails`]).
+/// `Some(false)` counts against it; a candidate that failed the held-out check,
+/// [`super::holdout`], is set aside the same way).
 pub fn verdict(
     significant_nominal: usize,
     d0: f64,
     best: Option<&Outcome>,
     distinct: Option<bool>,
-    held_out_fails: bool,
 ) -> Verdict {
     if significant_nominal == 0 {
         return Verdict::NoGap;
     }
     match best {
-        Some(o) if explains(d0, o) && distinct != Some(false) && !held_out_fails => {
-            Verdict::Explained
-        }
+        Some(o) if explains(d0, o) && distinct != Some(false) => Verdict::Explained,
         _ => Verdict::Unexplained,
     }
 }
@@ -365,38 +362,32 @@ mod tests {
 
     #[test]
     fn verdicts() {
-        assert_eq!(verdict(0, 0.0, None, None, false), Verdict::NoGap);
+        assert_eq!(verdict(0, 0.0, None, None), Verdict::NoGap);
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), None, false),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), None),
             Verdict::Explained
         );
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true), false),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true)),
             Verdict::Explained
         );
         // Closes 95 %, but its values do not tell it from the nominal.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(false), false),
+            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(false)),
             Verdict::Unexplained
         );
         // Closes 95 % but leaves a significant cell.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 1)), None, false),
+            verdict(3, 100.0, Some(&o(5.0, 1, 1)), None),
             Verdict::Unexplained
         );
         // No cell left but closes only half.
         assert_eq!(
-            verdict(3, 100.0, Some(&o(50.0, 1, 0)), None, false),
+            verdict(3, 100.0, Some(&o(50.0, 1, 0)), None),
             Verdict::Unexplained
         );
-        assert_eq!(verdict(3, 100.0, None, None, false), Verdict::Unexplained);
-        assert_eq!(verdict(0, 0.0, None, Some(false), false), Verdict::NoGap);
-        // Closes 95 %, but does not predict what its fit did not use.
-        assert_eq!(
-            verdict(3, 100.0, Some(&o(5.0, 1, 0)), Some(true), true),
-            Verdict::Unexplained
-        );
-        assert_eq!(verdict(0, 0.0, None, None, true), Verdict::NoGap);
+        assert_eq!(verdict(3, 100.0, None, None), Verdict::Unexplained);
+        assert_eq!(verdict(0, 0.0, None, Some(false)), Verdict::NoGap);
     }
 
     /// Each reason is the one its verdict and best outcome call for, checked against the
@@ -431,14 +422,13 @@ mod tests {
             (3, None, None, VerdictReason::NoCandidate),
         ];
         for (significant, best, set_aside, want) in cases {
-            let predicted = set_aside != Some(SetAside::NotPredicted);
-            let distinct = set_aside.filter(|_| predicted).map(|_| false);
-            let v = verdict(significant, d0, best.as_ref(), distinct, !predicted);
+            let distinct = set_aside.map(|_| false);
+            let v = verdict(significant, d0, best.as_ref(), distinct);
             assert_eq!(reason(v, d0, best.as_ref(), set_aside), want, "{want:?}");
         }
         // null-24 of `reports/diagnosis-nulls/`: D₀ 4.8, closed all of it with one parameter, no cell left.
         let small = o(0.0, 1, 0);
-        let v = verdict(1, 4.8, Some(&small), None, false);
+        let v = verdict(1, 4.8, Some(&small), None);
         assert_eq!(v, Verdict::Unexplained);
         assert_eq!(
             reason(v, 4.8, Some(&small), None),

@@ -1,4 +1,4 @@
-//! The held-out check of the candidate a verdict rests on ([`crate::diagnose::holdout`]): its
+//! The held-out check of a candidate that explains the gap ([`crate::diagnose::holdout`]): its
 //! prediction of the slow angle residual, simulated on the evaluation seeds beside the nominal's,
 //! against the footage's.
 
@@ -7,8 +7,9 @@ use super::simulate::{trial_theta_residuals, FrameSeries};
 use super::{DiagnoseError, Ranked};
 use crate::diagnose::holdout::{slow_waveform_check, Series, WaveformCheck};
 use crate::scenario::effects::Effect;
+use std::cell::OnceCell;
 
-/// What the held-out check found for the candidate a verdict rests on.
+/// What the held-out check found for one candidate.
 #[derive(Debug, Clone, PartialEq)]
 pub enum HeldOut {
     /// Compared ([`WaveformCheck::fails`] says whether the prediction failed).
@@ -29,36 +30,57 @@ pub const PHASE_NOT_FITTED: &str =
 /// Why a footage with too few comparable frames is not judged.
 pub const TOO_FEW_FRAMES: &str = "too few frames with the marker in the real and simulated footage";
 
+/// Checks candidates of one diagnosis; the nominal's residuals are simulated once, at the first
+/// check that needs them.
+pub struct Judge<'f, 'a> {
+    fitter: &'f Fitter<'a>,
+    seeds: &'f [u64],
+    nominal: OnceCell<Vec<FrameSeries>>,
+}
+
+impl<'f, 'a> Judge<'f, 'a> {
+    pub fn new(fitter: &'f Fitter<'a>, seeds: &'f [u64]) -> Self {
+        Judge {
+            fitter,
+            seeds,
+            nominal: OnceCell::new(),
+        }
+    }
+
+    /// The check of `r` (its fitted values as judged), and the simulations it ran.
+    pub fn check(&self, r: &Ranked) -> Result<(HeldOut, usize), DiagnoseError> {
+        let effects: Vec<Effect> = r.evaluated.effects.iter().map(|f| f.effect).collect();
+        if !effects.iter().all(|e| e.predicts_slow_angle()) {
+            return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
+        }
+        let applied: Vec<(Effect, Vec<f64>)> = r
+            .evaluated
+            .effects
+            .iter()
+            .map(|f| (f.effect, f.values.clone()))
+            .collect();
+        let f = self.fitter;
+        let candidate = trial_theta_residuals(&f.ctx, &f.trial_with(&applied)?, self.seeds)?;
+        let mut simulations = self.seeds.len();
+        if self.nominal.get().is_none() {
+            let nominal = trial_theta_residuals(&f.ctx, &f.base, self.seeds)?;
+            simulations += self.seeds.len();
+            let _ = self.nominal.set(nominal);
+        }
+        let nominal = self.nominal.get().map(Vec::as_slice).unwrap_or_default();
+        let found = slow_waveform_check(
+            (f.real_t_s, f.real_theta_residual),
+            &view(nominal),
+            &view(&candidate),
+            f.ctx.nyquist_hz,
+        );
+        let held_out = found.map_or(HeldOut::NotJudged(TOO_FEW_FRAMES), HeldOut::Judged);
+        Ok((held_out, simulations))
+    }
+}
+
 fn view(v: &[FrameSeries]) -> Vec<Series<'_>> {
     v.iter()
         .map(|(t, x)| (t.as_slice(), x.as_slice()))
         .collect()
-}
-
-/// The check of `r` (fitted values as judged) on `seeds`, and the simulations it ran.
-pub fn check(
-    fitter: &Fitter<'_>,
-    r: &Ranked,
-    seeds: &[u64],
-) -> Result<(HeldOut, usize), DiagnoseError> {
-    let effects: Vec<Effect> = r.evaluated.effects.iter().map(|f| f.effect).collect();
-    if !effects.iter().all(|e| e.predicts_slow_angle()) {
-        return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
-    }
-    let applied: Vec<(Effect, Vec<f64>)> = r
-        .evaluated
-        .effects
-        .iter()
-        .map(|f| (f.effect, f.values.clone()))
-        .collect();
-    let candidate = trial_theta_residuals(&fitter.ctx, &fitter.trial_with(&applied)?, seeds)?;
-    let nominal = trial_theta_residuals(&fitter.ctx, &fitter.base, seeds)?;
-    let found = slow_waveform_check(
-        (fitter.real_t_s, fitter.real_theta_residual),
-        &view(&nominal),
-        &view(&candidate),
-        fitter.ctx.nyquist_hz,
-    );
-    let held_out = found.map_or(HeldOut::NotJudged(TOO_FEW_FRAMES), HeldOut::Judged);
-    Ok((held_out, 2 * seeds.len()))
 }

@@ -494,15 +494,20 @@ pub struct NotDistinct {
     /// The values of the effects whose fit measured none
     /// ([`verdict::undetermined_at_search_end`]).
     pub undetermined: Vec<Undetermined>,
+    /// Its held-out check, when it failed it ([`held_out`]).
+    pub held_out: Option<held_out::HeldOut>,
 }
 
 impl NotDistinct {
-    /// Why it was set aside: a fit that measured no value, else values restating the nominal.
+    /// Why it was set aside: a fit that measured no value, values restating the nominal, else a
+    /// prediction of what its fit did not use that failed.
     pub fn set_aside(&self) -> verdict::SetAside {
-        if self.undetermined.is_empty() {
-            verdict::SetAside::NotDistinct
-        } else {
+        if !self.undetermined.is_empty() {
             verdict::SetAside::Undetermined
+        } else if self.held_out.is_some() {
+            verdict::SetAside::NotPredicted
+        } else {
+            verdict::SetAside::NotDistinct
         }
     }
 }
@@ -527,6 +532,7 @@ fn from_nominal(fitter: &Fitter, ranked: usize, r: &Ranked) -> (NotDistinct, Opt
         ranked,
         values: Vec::new(),
         undetermined: Vec::new(),
+        held_out: None,
     };
     let mut distinct = Some(true);
     for f in &r.evaluated.effects {
@@ -1141,6 +1147,10 @@ pub fn diagnose_with(
         r.bootstrap = Some(bootstrap);
     };
     let mut not_distinct = Vec::new();
+    let held_out = held_out::Judge::new(&fitter, &seeds);
+    let mut held_out_simulations = 0usize;
+    let mut held_out_error: Option<DiagnoseError> = None;
+    let mut checked: Vec<(usize, held_out::HeldOut)> = Vec::new();
     let choice = {
         let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
         let mut judged = 0usize;
@@ -1161,15 +1171,54 @@ pub fn diagnose_with(
                 }
                 judged += 1;
                 settle(&mut ranking[i]);
-                let (judged, tells) = from_nominal(&fitter, i, &ranking[i]);
+                let (mut judged, tells) = from_nominal(&fitter, i, &ranking[i]);
                 if tells == Some(false) {
                     not_distinct.push(judged);
+                    return tells;
                 }
-                tells
+                // Values that tell it from the nominal: now what its fit did not use.
+                if !(nominal_gap.n_significant() > 0 && explains(i)) {
+                    return tells;
+                }
+                progress(
+                    &format!(
+                        "checking {} on what its fit did not use",
+                        candidate_name(&ranking[i].evaluated)
+                    ),
+                    0,
+                    1,
+                );
+                match held_out.check(&ranking[i]) {
+                    Ok((check, simulations)) => {
+                        held_out_simulations += simulations;
+                        let fails = check.fails();
+                        checked.push((i, check.clone()));
+                        if fails {
+                            judged.held_out = Some(check);
+                            not_distinct.push(judged);
+                            return Some(false);
+                        }
+                        tells
+                    }
+                    Err(e) => {
+                        held_out_error = Some(e);
+                        tells
+                    }
+                }
             },
             MAX_DISTINCT_TRIES,
         )
     };
+    if let Some(e) = held_out_error {
+        return Err(e);
+    }
+    candidate_simulations += held_out_simulations;
+    // The held-out check of the candidate the verdict rests on (the last one tried when none
+    // passed).
+    let held_out = choice
+        .best
+        .and_then(|b| checked.iter().find(|(i, _)| *i == b))
+        .map(|(_, h)| h.clone());
     // Every candidate judged and set aside is recorded; one that was not chosen because it did
     // not explain the gap is not among them.
     not_distinct.retain(|n| choice.not_distinct.contains(&n.ranked));
@@ -1190,33 +1239,11 @@ pub fn diagnose_with(
     let distinct = choice.distinct;
     // `ranking` is best first: a candidate chosen over those set aside moves to the front.
     let best = best.map(|b| to_front(&mut ranking, &mut not_distinct, b));
-    // An explanation is judged on what its fit did not use before the verdict rests on it.
-    let held_out = match best {
-        Some(b)
-            if nominal_gap.n_significant() > 0
-                && verdict::explains(d0, &ranking[b].evaluated.outcome)
-                && distinct != Some(false) =>
-        {
-            progress(
-                &format!(
-                    "checking {} on what its fit did not use",
-                    candidate_name(&ranking[b].evaluated)
-                ),
-                0,
-                1,
-            );
-            let (held_out, simulations) = held_out::check(&fitter, &ranking[b], &seeds)?;
-            candidate_simulations += simulations;
-            Some(held_out)
-        }
-        _ => None,
-    };
     let verdict = verdict::verdict(
         nominal_gap.n_significant(),
         d0,
         best.map(|b| &ranking[b].evaluated.outcome),
         distinct,
-        held_out.as_ref().is_some_and(held_out::HeldOut::fails),
     );
     // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
     let simulations = fitter.simulations() + candidate_simulations;
@@ -1590,6 +1617,7 @@ pub(crate) mod tests {
             ranked,
             values: Vec::new(),
             undetermined: Vec::new(),
+            held_out: None,
         };
         let mut ranking = vec!["lens", "tilt", "blur", "noise"];
         let mut set_aside = vec![nd(0), nd(1)];

@@ -241,6 +241,13 @@ const UNDETERMINED_REASON: &str = "its fit measured no value: each lies at an en
 /// 0 (0.6 σ)`; a value its fit did not determine as `mu_kinetic = 0.3000, at the end of its
 /// search range 0.0030–0.3000, no ±`.
 fn not_distinct_values_text(n: &NotDistinct) -> String {
+    if let Some(HeldOut::Judged(c)) = &n.held_out {
+        return format!(
+            "its prediction leaves {:.0} % of the footage's slow angle waveform beyond the seeds' \
+             scatter",
+            100.0 * c.left.unwrap_or(f64::NAN)
+        );
+    }
     n.values
         .iter()
         .map(|(_, name, v)| {
@@ -292,6 +299,7 @@ fn not_distinct_json(n: &NotDistinct, ranking: &[Ranked]) -> Value {
             "search": [u.search.0, u.search.1],
         })).collect::<Vec<_>>(),
         "reason": not_distinct_reason(n),
+        "held_out": held_out_json(n.held_out.as_ref()),
     })
 }
 
@@ -302,7 +310,11 @@ fn not_distinct_text(not_distinct: &[NotDistinct], ranking: &[Ranked]) -> String
         return String::new();
     }
     let mut text = String::new();
-    for reason in [NOT_DISTINCT_REASON, UNDETERMINED_REASON] {
+    for reason in [
+        NOT_DISTINCT_REASON,
+        UNDETERMINED_REASON,
+        NOT_PREDICTED_REASON,
+    ] {
         let listed = not_distinct
             .iter()
             .filter(|n| not_distinct_reason(n) == reason)
@@ -333,13 +345,7 @@ pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     let set_aside = d
         .best
         .and_then(|b| d.not_distinct.iter().find(|n| n.ranked == b))
-        .map(NotDistinct::set_aside)
-        .or_else(|| {
-            d.held_out
-                .as_ref()
-                .is_some_and(HeldOut::fails)
-                .then_some(SetAside::NotPredicted)
-        });
+        .map(NotDistinct::set_aside);
     let reason = crate::diagnose::verdict::reason(
         d.verdict,
         d.nominal_gap.total,
@@ -349,12 +355,12 @@ pub fn verdict_reason(d: &Diagnosis) -> (VerdictReason, Option<&Ranked>) {
     (reason, best)
 }
 
-/// Whether the verdict's candidate is one that did not tell itself from the nominal or did not
-/// predict what its fit did not use (then no candidate explains the gap).
+/// Whether the verdict's candidate is one that was set aside: its values restate the nominal,
+/// its fit measured none or its prediction of what its fit did not use failed (then no
+/// candidate explains the gap).
 fn best_not_distinct(d: &Diagnosis) -> bool {
     d.best
         .is_some_and(|b| d.not_distinct.iter().any(|n| n.ranked == b))
-        || d.held_out.as_ref().is_some_and(HeldOut::fails)
 }
 
 /// `diagnosis.json`'s `held_out`: the check of the candidate the verdict rests on.
@@ -1758,7 +1764,51 @@ mod tests {
                 },
             )],
             undetermined: Vec::new(),
+            held_out: None,
         }
+    }
+
+    /// A crank-speed variation that closed a creeping marker's cells but left 287 % of its slow
+    /// angle waveform is set aside for that, in the words and the JSON, apart from the others.
+    #[test]
+    fn a_candidate_that_failed_its_held_out_check_is_listed_with_what_it_left() {
+        let check = crate::diagnose::holdout::WaveformCheck {
+            frames: 240,
+            nominal_rms_rad: 0.0173,
+            candidate_rms_rad: 0.0293,
+            scatter_rms_rad: 4.4e-4,
+            left: Some(2.87),
+        };
+        let n = NotDistinct {
+            held_out: Some(HeldOut::Judged(check)),
+            ..lens_not_distinct()
+        };
+        assert_eq!(n.set_aside(), SetAside::NotPredicted);
+        assert_eq!(
+            not_distinct_values_text(&n),
+            "its prediction leaves 287 % of the footage's slow angle waveform beyond the seeds' \
+             scatter"
+        );
+        let j = not_distinct_json(&n, &[]);
+        assert_eq!(j["reason"], json!(NOT_PREDICTED_REASON));
+        assert_eq!(j["held_out"]["left"], json!(2.87));
+        assert_eq!(j["held_out"]["fails"], json!(true));
+        let lens = ranked(
+            vec![fitted(Effect::LensDistortion, vec![0.006], vec![0.0103])],
+            Refit::Off,
+        );
+        let text = not_distinct_text(&[lens_not_distinct(), n], &[lens.clone(), lens]);
+        assert_eq!(
+            text.matches("Closed the gap but not taken as its cause")
+                .count(),
+            2
+        );
+        assert!(text.contains(NOT_PREDICTED_REASON), "{text}");
+        assert_eq!(held_out_json(None), Value::Null);
+        assert!(held_out_text(Some(&HeldOut::NotJudged(
+            super::super::held_out::PHASE_NOT_FITTED
+        )))
+        .contains("states no phase"));
     }
 
     #[test]
@@ -1802,6 +1852,7 @@ mod tests {
                 value: 0.3,
                 search: (0.003, 0.3),
             }],
+            held_out: None,
         };
         assert_eq!(
             not_distinct_values_text(&over),
