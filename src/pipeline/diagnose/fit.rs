@@ -48,6 +48,14 @@ pub use noise::{
 /// Simulations a moment match takes at most (secant or Newton steps).
 const MOMENT_SIMULATIONS: usize = 3;
 
+/// The effects of `fitted` at their values, as [`Fitter::trial_with`] applies them.
+pub fn applied(fitted: &[Fitted]) -> Vec<(Effect, Vec<f64>)> {
+    fitted
+        .iter()
+        .map(|f| (f.effect, f.values.clone()))
+        .collect()
+}
+
 /// One effect with fitted parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fitted {
@@ -776,10 +784,7 @@ impl<'a> Fitter<'a> {
         if fits.len() < 2 {
             return Ok(fits);
         }
-        let others: Vec<(Effect, Vec<f64>)> = fits[1..]
-            .iter()
-            .map(|f| (f.effect, f.values.clone()))
-            .collect();
+        let others = applied(&fits[1..]);
         let refit = self.fit(fits[0].effect, &others)?;
         fits[0] = if fits[0].searched_on_sum_z2() && refit.searched_on_sum_z2() {
             self.better_of_backfit(&others, fits[0].clone(), refit)
@@ -2196,11 +2201,7 @@ impl<'a> Fitter<'a> {
 
     /// Judges `fitted` (applied together) on the evaluation seeds.
     pub fn evaluate(&self, fitted: Vec<Fitted>) -> Result<Evaluated, DiagnoseError> {
-        let applied: Vec<(Effect, Vec<f64>)> = fitted
-            .iter()
-            .map(|f| (f.effect, f.values.clone()))
-            .collect();
-        let trial = self.trial_with(&applied)?;
+        let trial = self.trial_with(&applied(&fitted))?;
         let gap = self.gap(&trial, &self.eval_seeds)?;
         let params: usize = fitted.iter().map(|f| f.values.len()).sum();
         let outcome = Outcome {

@@ -2,11 +2,10 @@
 //! prediction of the slow angle residual, simulated on the evaluation seeds beside the nominal's,
 //! against the footage's.
 
-use super::fit::Fitter;
+use super::fit::{applied, Fitter};
 use super::simulate::{trial_theta_residuals, FrameSeries};
 use super::{DiagnoseError, Ranked};
 use crate::diagnose::holdout::{slow_waveform_check, Series, WaveformCheck};
-use crate::scenario::effects::Effect;
 use std::cell::OnceCell;
 
 /// What the held-out check found for one candidate.
@@ -30,12 +29,16 @@ pub const PHASE_NOT_FITTED: &str =
 /// Why a footage with too few comparable frames is not judged.
 pub const TOO_FEW_FRAMES: &str = "too few frames with the marker in the real and simulated footage";
 
-/// Checks candidates of one diagnosis; the nominal's residuals are simulated once, at the first
-/// check that needs them.
+/// Checks the candidates of one diagnosis as the verdict tries them, and keeps what it found:
+/// each check, the simulations run and the first error. The nominal's residuals are simulated
+/// once, at the first check that needs them.
 pub struct Judge<'f, 'a> {
     fitter: &'f Fitter<'a>,
     seeds: &'f [u64],
     nominal: OnceCell<Vec<FrameSeries>>,
+    checked: Vec<(usize, HeldOut)>,
+    simulations: usize,
+    error: Option<DiagnoseError>,
 }
 
 impl<'f, 'a> Judge<'f, 'a> {
@@ -44,23 +47,60 @@ impl<'f, 'a> Judge<'f, 'a> {
             fitter,
             seeds,
             nominal: OnceCell::new(),
+            checked: Vec::new(),
+            simulations: 0,
+            error: None,
         }
     }
 
-    /// The check of `r` (its fitted values as judged), and the simulations it ran.
-    pub fn check(&self, r: &Ranked) -> Result<(HeldOut, usize), DiagnoseError> {
-        let effects: Vec<Effect> = r.evaluated.effects.iter().map(|f| f.effect).collect();
-        if !effects.iter().all(|e| e.predicts_slow_angle()) {
-            return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
+    /// Checks candidate `i` of the ranking, `r`, and returns its check when it failed (`None`:
+    /// passed, not judged, or a simulation failed, which [`Judge::finish`] reports; after an
+    /// error nothing more is simulated).
+    pub fn failed(&mut self, i: usize, r: &Ranked) -> Option<HeldOut> {
+        if self.error.is_some() {
+            return None;
         }
-        let applied: Vec<(Effect, Vec<f64>)> = r
+        match self.check(r) {
+            Ok((check, simulations)) => {
+                self.simulations += simulations;
+                self.checked.push((i, check.clone()));
+                check.fails().then_some(check)
+            }
+            Err(e) => {
+                self.error = Some(e);
+                None
+            }
+        }
+    }
+
+    /// The check of candidate `best` (when it was checked) and the simulations all checks ran,
+    /// or the first error a check met.
+    pub fn finish(self, best: Option<usize>) -> Result<(Option<HeldOut>, usize), DiagnoseError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        let check = best.and_then(|b| {
+            self.checked
+                .into_iter()
+                .find(|(i, _)| *i == b)
+                .map(|(_, h)| h)
+        });
+        Ok((check, self.simulations))
+    }
+
+    /// The check of `r` (its fitted values as judged), and the simulations it ran.
+    fn check(&self, r: &Ranked) -> Result<(HeldOut, usize), DiagnoseError> {
+        if !r
             .evaluated
             .effects
             .iter()
-            .map(|f| (f.effect, f.values.clone()))
-            .collect();
+            .all(|f| f.effect.predicts_slow_angle())
+        {
+            return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
+        }
         let f = self.fitter;
-        let candidate = trial_theta_residuals(&f.ctx, &f.trial_with(&applied)?, self.seeds)?;
+        let trial = f.trial_with(&applied(&r.evaluated.effects))?;
+        let candidate = trial_theta_residuals(&f.ctx, &trial, self.seeds)?;
         let mut simulations = self.seeds.len();
         if self.nominal.get().is_none() {
             let nominal = trial_theta_residuals(&f.ctx, &f.base, self.seeds)?;

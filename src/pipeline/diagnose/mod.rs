@@ -1147,10 +1147,7 @@ pub fn diagnose_with(
         r.bootstrap = Some(bootstrap);
     };
     let mut not_distinct = Vec::new();
-    let held_out = held_out::Judge::new(&fitter, &seeds);
-    let mut held_out_simulations = 0usize;
-    let mut held_out_error: Option<DiagnoseError> = None;
-    let mut checked: Vec<(usize, held_out::HeldOut)> = Vec::new();
+    let mut held_out = held_out::Judge::new(&fitter, &seeds);
     let choice = {
         let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
         let mut judged = 0usize;
@@ -1188,37 +1185,22 @@ pub fn diagnose_with(
                     0,
                     1,
                 );
-                match held_out.check(&ranking[i]) {
-                    Ok((check, simulations)) => {
-                        held_out_simulations += simulations;
-                        let fails = check.fails();
-                        checked.push((i, check.clone()));
-                        if fails {
-                            judged.held_out = Some(check);
-                            not_distinct.push(judged);
-                            return Some(false);
-                        }
-                        tells
+                match held_out.failed(i, &ranking[i]) {
+                    Some(check) => {
+                        judged.held_out = Some(check);
+                        not_distinct.push(judged);
+                        Some(false)
                     }
-                    Err(e) => {
-                        held_out_error = Some(e);
-                        tells
-                    }
+                    None => tells,
                 }
             },
             MAX_DISTINCT_TRIES,
         )
     };
-    if let Some(e) = held_out_error {
-        return Err(e);
-    }
-    candidate_simulations += held_out_simulations;
-    // The held-out check of the candidate the verdict rests on (the last one tried when none
+    // The held-out check of the candidate the verdict rests on (the first one tried when none
     // passed).
-    let held_out = choice
-        .best
-        .and_then(|b| checked.iter().find(|(i, _)| *i == b))
-        .map(|(_, h)| h.clone());
+    let (held_out, simulations) = held_out.finish(choice.best)?;
+    candidate_simulations += simulations;
     // Every candidate judged and set aside is recorded; one that was not chosen because it did
     // not explain the gap is not among them.
     not_distinct.retain(|n| choice.not_distinct.contains(&n.ranked));
@@ -1397,12 +1379,7 @@ fn bootstrap_footage(
     progress: &Progress<'_>,
 ) -> (Bootstrap, usize) {
     let name = candidate_name(&best.evaluated);
-    let truth: Vec<(Effect, Vec<f64>)> = best
-        .evaluated
-        .effects
-        .iter()
-        .map(|f| (f.effect, f.values.clone()))
-        .collect();
+    let truth = fit::applied(&best.evaluated.effects);
     let nominal_sims = fitter.nominal_sims();
     let mut done: Vec<(u64, Vec<fit::Fitted>)> = Vec::with_capacity(plan.footages);
     let mut simulations = 0;

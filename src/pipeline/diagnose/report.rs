@@ -1495,12 +1495,7 @@ fn overlay(
     let nominal = sim(&fitter.base)?;
     let best = match d.best {
         Some(b) => {
-            let applied: Vec<(Effect, Vec<f64>)> = d.ranking[b]
-                .evaluated
-                .effects
-                .iter()
-                .map(|f| (f.effect, f.values.clone()))
-                .collect();
+            let applied = super::fit::applied(&d.ranking[b].evaluated.effects);
             Some((
                 candidate_name(&d.ranking[b].evaluated),
                 sim(&fitter.trial_with(&applied)?)?,
