@@ -34,11 +34,11 @@ fn scenarios(dir: &Path, with: &[&str]) {
 
 /// `geneva diagnose` of `source` (its arguments) against the nominal, every candidate; the JSON.
 fn diagnose(dir: &Path, source: &[&str]) -> serde_json::Value {
-    diagnose_against(dir, "nominal.toml", source)
+    diagnose_against(dir, "nominal.toml", source).0
 }
 
-/// [`diagnose`] against the nominal in `nominal`.
-fn diagnose_against(dir: &Path, nominal: &str, source: &[&str]) -> serde_json::Value {
+/// [`diagnose`] against the nominal in `nominal`: the JSON and what it printed on stderr.
+fn diagnose_against(dir: &Path, nominal: &str, source: &[&str]) -> (serde_json::Value, String) {
     let mut args = vec!["diagnose", "--scenario", nominal];
     args.extend(source);
     args.extend([
@@ -50,9 +50,25 @@ fn diagnose_against(dir: &Path, nominal: &str, source: &[&str]) -> serde_json::V
         "2",
         "--no-refit",
     ]);
-    geneva(dir, &args);
+    let out = common::geneva(dir, &args);
+    let stderr = common::stderr(&out);
+    assert!(out.status.success(), "{stderr}");
     let text = std::fs::read_to_string(dir.join("diagnosis/diagnosis.json")).unwrap();
-    serde_json::from_str(&text).unwrap()
+    (serde_json::from_str(&text).unwrap(), stderr)
+}
+
+/// The simulations run and planned on each progress line of a diagnosis's stderr (no terminal:
+/// one line per stage, "… (N of M simulations planned, …)").
+fn simulations_on_progress_lines(stderr: &str) -> Vec<(usize, usize)> {
+    stderr
+        .lines()
+        .filter_map(|l| {
+            let (_, tail) = l.rsplit_once(" (")?;
+            let (done, rest) = tail.split_once(" of ")?;
+            let (planned, _) = rest.split_once(" simulations planned")?;
+            Some((done.parse().ok()?, planned.parse().ok()?))
+        })
+        .collect()
 }
 
 #[test]
@@ -80,8 +96,20 @@ fn a_drive_speed_variation_in_a_corner_track_is_explained_and_fitted() {
     let truth = -0.15;
     scenarios(d, &[&format!("drive_speed={truth}")]);
     geneva(d, &["run", "footage.toml", "--out", "run"]);
-    let json = diagnose(d, &["--tracks", "run/tracks.csv"]);
+    let (json, stderr) = diagnose_against(d, "nominal.toml", &["--tracks", "run/tracks.csv"]);
     assert_eq!(json["verdict"], "explained", "{json:#}");
+    // Each stage's line says how many simulations have run and how many are planned: never
+    // fewer planned than run, a count that only grows, and at the end the diagnosis's own count.
+    let lines = simulations_on_progress_lines(&stderr);
+    assert!(lines.len() >= 5, "{stderr}");
+    assert!(
+        lines.iter().all(|(done, planned)| done <= planned),
+        "{stderr}"
+    );
+    assert!(lines.windows(2).all(|w| w[0].0 <= w[1].0), "{stderr}");
+    let last = lines.last().unwrap().0;
+    assert_eq!(Some(last as u64), json["run"]["simulations"].as_u64(), "{stderr}");
+    assert!(stderr.contains(" left)"), "{stderr}");
     let best = &json["ranking"][0];
     assert_eq!(
         best["effects"],
@@ -202,7 +230,7 @@ fn a_marker_creeping_on_the_wheel_is_unexplained_however_well_a_candidate_closes
         3.0,
         &d.join("creep.csv"),
     );
-    let json = diagnose_against(d, "nominal8.toml", &["--tracks", "creep.csv"]);
+    let (json, _) = diagnose_against(d, "nominal8.toml", &["--tracks", "creep.csv"]);
     assert_eq!(json["verdict"], "unexplained", "{json:#}");
     assert_eq!(
         json["remainder"]["reason"], "not_predicted_held_out",

@@ -4,9 +4,11 @@
 //! `DIR/shards/I/`); `--merge`, with the same arguments, writes the report a one-machine run
 //! would have written.
 
+use super::eta;
 use anyhow::{bail, Result};
 use clap::Args;
 use geneva_vision::pipeline::diagnose::shards::Mode;
+use geneva_vision::pipeline::diagnose::simulate::SimMeter;
 use geneva_vision::pipeline::diagnose::{
     candidate_name, diagnose_with, DiagnoseOptions, Finished, StageLog,
 };
@@ -104,6 +106,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         }
     }
     let refits = if a.no_refit { 0 } else { a.refits };
+    let meter = std::sync::Arc::new(SimMeter::default());
     let simulations =
         least_simulations(a.seeds, a.escalate_seeds, a.fit_seeds, refits, a.bootstrap);
     let work = geneva_vision::pipeline::workload::Workload::of(&nominal, true).times(simulations);
@@ -128,16 +131,26 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         bootstrap: a.bootstrap,
         effects,
         max_minutes: a.max_minutes,
+        meter: Some(meter.clone()),
         ..DiagnoseOptions::default()
     };
     let bar = indicatif::ProgressBar::new(1);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{msg:32} {bar:30} {pos}/{len} [{elapsed}]")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(
+            "{msg:40} {bar:25} {pos}/{len} simulations [{elapsed}, {prefix}]",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    // Without a terminal (logs, CI) each new stage is one line with the elapsed time.
+    // Without a terminal (logs, CI) each new stage is one line with the elapsed time and the
+    // simulations run and planned.
     let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
     let log = StageLog::new();
+    let started = std::time::Instant::now();
+    let figures = || {
+        let (done, planned) = (meter.done(), meter.planned());
+        let eta = eta::left(started.elapsed().as_secs_f64(), done, planned);
+        (done, planned, eta)
+    };
     let mode = match (a.shard, a.merge) {
         (Some(shard), _) => Mode::Shard {
             shard,
@@ -146,24 +159,33 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         (None, true) => Mode::Merge,
         (None, false) => Mode::Whole,
     };
-    let finished = diagnose_with(
-        &nominal,
-        &source,
-        &a.out,
-        &options,
-        mode,
-        &|stage, done, total| {
+    // The simulations run on other threads: the bar reads their count twice a second.
+    let running = std::sync::atomic::AtomicBool::new(true);
+    let finished = std::thread::scope(|scope| {
+        if !plain {
+            scope.spawn(|| {
+                while running.load(std::sync::atomic::Ordering::Relaxed) {
+                    let (done, planned, eta) = figures();
+                    bar.set_length(planned.max(1) as u64);
+                    bar.set_position(done as u64);
+                    bar.set_prefix(eta);
+                    std::thread::sleep(std::time::Duration::from_millis(500));
+                }
+            });
+        }
+        let finished = diagnose_with(&nominal, &source, &a.out, &options, mode, &|stage, _, _| {
             if plain {
                 if let Some(line) = log.line(stage) {
-                    eprintln!("{line}");
+                    let (done, planned, eta) = figures();
+                    eprintln!("{line} ({done} of {planned} simulations planned, {eta})");
                 }
             } else {
                 bar.set_message(stage.to_string());
-                bar.set_length(total.max(1) as u64);
-                bar.set_position(done as u64);
             }
-        },
-    )?;
+        });
+        running.store(false, std::sync::atomic::Ordering::Relaxed);
+        finished
+    })?;
     bar.finish_and_clear();
     let (d, files) = match finished {
         Finished::Diagnosis(d, files) => (d, files),

@@ -9,6 +9,7 @@ mod budget_cmd;
 mod calibrate_cmd;
 mod diagnose_cmd;
 mod effects_arg;
+mod eta;
 mod kinematics_cmd;
 mod render_cmd;
 mod run_cmd;

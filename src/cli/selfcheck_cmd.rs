@@ -186,8 +186,23 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
     )?;
     eprintln!("diagnose-selfcheck: {} case(s). {text}", all.len());
     let study = SelfCheck::new(all, options, text);
-    let progress =
-        |done: usize, total: usize| eprintln!("diagnose-selfcheck: {done}/{total} cases");
+    // The time left at the mean time of the cases this run has finished (cases found done in
+    // the folder cost nothing now, and the first report counts them).
+    let started = std::time::Instant::now();
+    let resumed = std::sync::Mutex::new(None::<usize>);
+    let progress = |done: usize, total: usize| {
+        let mut resumed = resumed.lock().unwrap_or_else(|p| p.into_inner());
+        let before = *resumed.get_or_insert(done.saturating_sub(1));
+        let eta = super::eta::left(
+            started.elapsed().as_secs_f64(),
+            done - before,
+            total - before,
+        );
+        eprintln!(
+            "diagnose-selfcheck: {done}/{total} cases, {} so far, {eta}",
+            super::eta::duration(started.elapsed().as_secs_f64())
+        );
+    };
     let control = Control {
         progress: &progress,
         stop: &|| false,

@@ -7,7 +7,7 @@ use super::fit::{self, Fitter, RealSide};
 use super::nominal::{self, Aligned};
 use super::pose_tilt::{self, PoseTilt};
 use super::real::RealMeasurement;
-use super::simulate::{RealFrames, SimContext};
+use super::simulate::{RealFrames, SimContext, SimMeter};
 use super::DiagnoseError;
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, AngleResidual, Cells};
 use crate::diagnose::gap::GapOptions;
@@ -15,6 +15,7 @@ use crate::diagnose::runout::RunoutForm;
 use crate::imagestats::MarkerLayout;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
+use std::sync::Arc;
 
 /// The real footage as the fits see it ([`Footing::new`]).
 pub struct Footing {
@@ -36,6 +37,9 @@ pub struct Footing {
     /// Times and primary angle of the detected frames.
     t_det_s: Vec<f64>,
     theta_det_rad: Vec<f64>,
+    /// Counts the simulations run on this footing (shared with another footing of the same
+    /// diagnosis by [`Self::with_meter`]).
+    meter: Arc<SimMeter>,
 }
 
 impl Footing {
@@ -109,7 +113,14 @@ impl Footing {
             pose_tilt,
             t_det_s,
             theta_det_rad,
+            meter: Arc::default(),
         })
+    }
+
+    /// This footing counting its simulations into `meter`.
+    pub fn with_meter(mut self, meter: Arc<SimMeter>) -> Self {
+        self.meter = meter;
+        self
     }
 
     /// What a simulation of this footage needs.
@@ -124,6 +135,7 @@ impl Footing {
                 t_s: &self.t_all_s,
                 missing: &self.real_missing,
             }),
+            meter: &self.meter,
         }
     }
 

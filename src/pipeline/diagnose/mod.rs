@@ -26,6 +26,7 @@ pub mod footing;
 pub mod held_out;
 pub mod image;
 pub mod nominal;
+pub mod outlook;
 pub mod pose_tilt;
 pub mod real;
 pub mod report;
@@ -47,6 +48,7 @@ use nominal::Aligned;
 use shards::{CandidateStudy, Mode};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
@@ -239,6 +241,9 @@ pub struct DiagnoseOptions {
     /// which widens the stated ± where the fit's curvature undercounts it
     /// ([`crate::diagnose::fit_noise::from_footage_fits`]); each costs about one fit. 0: off.
     pub bootstrap: usize,
+    /// Where a progress display reads the simulations run and still planned (none: counted
+    /// and dropped).
+    pub meter: Option<Arc<simulate::SimMeter>>,
 }
 
 impl Default for DiagnoseOptions {
@@ -253,6 +258,7 @@ impl Default for DiagnoseOptions {
             pairs: true,
             refits: REFITS,
             bootstrap: 0,
+            meter: None,
         }
     }
 }
@@ -760,7 +766,9 @@ pub fn diagnose_with(
         &|d, t| progress("measuring the real footage", d, t),
     )?;
     progress("aligning the nominal", 0, 1);
-    let footing = Footing::new(nominal, &real, &layout, options.effects.as_deref())?;
+    let meter = options.meter.clone().unwrap_or_default();
+    let footing = Footing::new(nominal, &real, &layout, options.effects.as_deref())?
+        .with_meter(meter.clone());
     let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
     let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
@@ -772,6 +780,7 @@ pub fn diagnose_with(
     let mut nominal_free = nominal.clone();
     Effect::Backlash.switch_off(&mut nominal_free);
     let footing_free: std::cell::OnceCell<Footing> = std::cell::OnceCell::new();
+    meter.plan_more(seeds.len());
     progress("simulating the nominal", 0, seeds.len());
     let mut fitter = footing.fitter(
         nominal,
@@ -798,6 +807,7 @@ pub fn diagnose_with(
         let more: Vec<u64> = (options.seeds..options.escalate_seeds)
             .map(eval_seed)
             .collect();
+        meter.plan_more(more.len());
         fitter.add_eval_seeds(&more)?;
         seeds.extend(more);
         Some(SeedEscalation {
@@ -831,6 +841,20 @@ pub fn diagnose_with(
         .map(|(e, _)| *e)
         .filter(|&e| nominal_gap.n_significant() > 0 && plan::signature_significant(e, nominal_gap))
         .collect();
+    // What is planned: each candidate to fit, then the refits and bootstrap footages of the
+    // one read first (about a fit each) and its held-out check (the nominal and it on the
+    // evaluation seeds).
+    let mut outlook = outlook::Outlook::new(fit_seeds.len(), seeds.len());
+    let tail_fits = options.refits + options.bootstrap;
+    let held_out_sims = 2 * seeds.len();
+    let plan_tail = |outlook: &outlook::Outlook, fits: usize| {
+        if nominal_gap.n_significant() > 0 {
+            outlook.plan(&meter, fits + tail_fits, held_out_sims);
+        } else {
+            outlook.plan(&meter, 0, 0);
+        }
+    };
+    plan_tail(&outlook, units.len());
     // The runout form's phase is refined once, before any fit, so that every fit, pair and
     // shard takes the same form.
     if units.contains(&Effect::AxisRunout) {
@@ -843,7 +867,8 @@ pub fn diagnose_with(
             0,
             1,
         );
-        let aligned = Footing::new(&nominal_free, &real, &layout, Some(&[Effect::Backlash]))?;
+        let aligned = Footing::new(&nominal_free, &real, &layout, Some(&[Effect::Backlash]))?
+            .with_meter(meter.clone());
         let free = footing_free.get_or_init(|| aligned).fitter(
             &nominal_free,
             &layout,
@@ -939,6 +964,9 @@ pub fn diagnose_with(
             for result in fit_wave(&wave) {
                 let (evaluated, simulations) = result?;
                 candidate_simulations += simulations;
+                if stored.is_none() {
+                    outlook.fitted(simulations);
+                }
                 let r = ranked(nominal_gap, evaluated);
                 progress(
                     &format!(
@@ -953,6 +981,11 @@ pub fn diagnose_with(
                 best_score = best_score.max(r.score);
                 ranking.push(r);
             }
+            let left = queue
+                .clone()
+                .filter(|(_, (e, _))| plan::signature_significant(*e, nominal_gap))
+                .count();
+            plan_tail(&outlook, left);
         }
         sort_ranking(d0, &mut ranking);
         // A second effect when the best single one does not explain the gap, or when it does
@@ -1009,6 +1042,7 @@ pub fn diagnose_with(
                 // "closed" the single's one cell left).
                 let fps_hz = fitter.footage_fps_hz();
                 for (k, wave) in others.chunks(CONCURRENT_FITS).enumerate() {
+                    plan_tail(&outlook, others.len() - k * CONCURRENT_FITS);
                     let names = wave
                         .iter()
                         .map(|e| format!("{} + {}", first.effect.name(), e.name()));
@@ -1039,6 +1073,7 @@ pub fn diagnose_with(
                     });
                     for (evaluated, simulations) in fits {
                         candidate_simulations += simulations;
+                        outlook.fitted(simulations);
                         match evaluated? {
                             // A second look keeps a pair only when it closes a good part of
                             // what the explaining single left.
@@ -1108,6 +1143,7 @@ pub fn diagnose_with(
         .collect();
     let order = verdict::rank(d0, &outcomes);
     let group = verdict::group_of_best(d0, &outcomes, &order);
+    plan_tail(&outlook, 0);
     let capped = || {
         options
             .max_minutes

@@ -18,6 +18,37 @@ use crate::pipeline::rig::Rig;
 use crate::scenario::Scenario;
 use crate::timing::{FrameTimingConfig, Timestamps};
 use std::borrow::Cow;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// How many simulations a diagnosis has run and how many it still plans, read by a progress
+/// display while the work runs on other threads. It only counts: no result depends on it.
+#[derive(Debug, Default)]
+pub struct SimMeter {
+    done: AtomicUsize,
+    planned: AtomicUsize,
+}
+
+impl SimMeter {
+    /// Simulations run so far.
+    pub fn done(&self) -> usize {
+        self.done.load(Ordering::Relaxed)
+    }
+
+    /// Simulations the diagnosis expects to run in all, those done included (never fewer than
+    /// those done): revised as it decides what to fit.
+    pub fn planned(&self) -> usize {
+        self.planned.load(Ordering::Relaxed).max(self.done())
+    }
+
+    /// States that `more` simulations are planned beyond those run so far.
+    pub fn plan_more(&self, more: usize) {
+        self.planned.store(self.done() + more, Ordering::Relaxed);
+    }
+
+    fn count(&self, n: usize) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+    }
+}
 
 /// Where a configuration's footage timestamps come from (the timing channels).
 #[derive(Debug, Clone)]
@@ -72,6 +103,8 @@ pub struct SimContext<'a> {
     /// The real footage's frame times, s, and which of its frames have no detection: a
     /// simulation loses those frames too before it is measured ([`lost_like_real`]).
     pub real_frames: Option<RealFrames<'a>>,
+    /// Counts every simulation run in this context.
+    pub meter: &'a SimMeter,
 }
 
 /// The real footage's frame times and its frames without a detection, in frame order.
@@ -253,6 +286,7 @@ fn trial_record(
     s.seed = seed;
     jitter_placement(&mut s, seed, ctx.aligned.geometry.marker_radius_px);
     let mut record = simulate_record(&s, ctx.layout, ctx.with_images && images)?;
+    ctx.meter.count(1);
     if let Some(fps) = trial.stamped_fps {
         for (k, f) in record.frames.iter_mut().enumerate() {
             f.t_s = k as f64 / fps;
