@@ -108,7 +108,11 @@ fn a_drive_speed_variation_in_a_corner_track_is_explained_and_fitted() {
     );
     assert!(lines.windows(2).all(|w| w[0].0 <= w[1].0), "{stderr}");
     let last = lines.last().unwrap().0;
-    assert_eq!(Some(last as u64), json["run"]["simulations"].as_u64(), "{stderr}");
+    assert_eq!(
+        Some(last as u64),
+        json["run"]["simulations"].as_u64(),
+        "{stderr}"
+    );
     assert!(stderr.contains(" left)"), "{stderr}");
     let best = &json["ranking"][0];
     assert_eq!(

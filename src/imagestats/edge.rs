@@ -476,12 +476,20 @@ pub fn fit_grid_edge(
         max_offset: 0.5 * band_px,
     };
     let residuals = |p: &[f64], out: &mut Vec<f64>| model.residuals(p, out).is_some();
-    // Coarse start: the edge position over a small grid at a middling σ.
+    // Coarse start: the edge position over a small grid at a middling σ, on every
+    // [`COARSE_STRIDE`]-th sample. The grid only picks the basin the fit starts from, which a
+    // share of the samples ranks as all of them do; on all of them it had cost a third of the
+    // fit.
+    let coarse_samples: Vec<Sample> = samples.iter().step_by(COARSE_STRIDE).copied().collect();
+    let coarse = EdgeModel {
+        samples: &coarse_samples,
+        ..model
+    };
     let mut best = (f64::INFINITY, 0.0);
     let mut buf = Vec::new();
     for k in -8..=8 {
         let e0 = k as f64 * 0.25;
-        if model.residuals(&[e0, 0.0, 1.0], &mut buf).is_some() {
+        if coarse.residuals(&[e0, 0.0, 1.0], &mut buf).is_some() {
             let c: f64 = buf.iter().map(|r| r * r).sum();
             if c < best.0 {
                 best = (c, e0);
@@ -584,7 +592,11 @@ fn add_material_weights(
     }
 }
 
+/// Every how many samples the coarse start of an edge fit reads.
+const COARSE_STRIDE: usize = 4;
+
 /// The profile model over the collected samples; parameters (offset, tilt, σ).
+#[derive(Clone, Copy)]
 struct EdgeModel<'a> {
     samples: &'a [Sample],
     intervals: &'a [Interval],
