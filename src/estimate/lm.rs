@@ -1,4 +1,5 @@
-//! Levenberg–Marquardt least squares with a forward-difference Jacobian, on `nalgebra` matrices:
+//! Levenberg–Marquardt least squares with a forward-difference Jacobian (or one the caller
+//! computes, [`minimise_with_jacobian`]), on `nalgebra` matrices:
 //! fits of a few parameters (edge profiles, motion models) up to the pose fit's ~160 (one angle
 //! per pose, ~1200 corner residuals). Also returns the Jacobian's normal matrix at the solution,
 //! so callers get the usual covariance s²·(JᵀJ)⁻¹.
@@ -67,6 +68,23 @@ pub fn minimise(
     steps: &[f64],
     max_iterations: usize,
 ) -> Option<LmFit> {
+    let forward = |x: &[f64], r: &[f64]| jacobian(residuals, x, r, steps);
+    minimise_with_jacobian(residuals, &forward, start, steps, max_iterations)
+}
+
+/// ∂r/∂p at a point `p` whose residuals are `r` ([`minimise_with_jacobian`]).
+pub type JacobianFn<'a> = dyn Fn(&[f64], &[f64]) -> Option<DMatrix<f64>> + 'a;
+
+/// [`minimise`] with the Jacobian given: `jacobian(p, r)` is ∂r/∂p at `p`, whose residuals are
+/// `r` (one row per residual, one column per parameter; `None` where it cannot be formed).
+/// `steps[i]` is only the scale of parameter i below which a step counts as converged.
+pub fn minimise_with_jacobian(
+    residuals: &dyn Fn(&[f64], &mut Vec<f64>) -> bool,
+    jacobian: &JacobianFn<'_>,
+    start: &[f64],
+    steps: &[f64],
+    max_iterations: usize,
+) -> Option<LmFit> {
     let mut x = start.to_vec();
     let mut r = Vec::new();
     if !residuals(&x, &mut r) {
@@ -78,7 +96,7 @@ pub fn minimise(
     }
     let mut lambda = 1e-3;
     let mut iterations = 0;
-    let mut jac = jacobian(residuals, &x, &r, steps)?;
+    let mut jac = jacobian(&x, &r)?;
     // Whether `jac` was computed at the current `x` (then the final one is the same, bit for
     // bit: the Jacobian is a pure function of `x` and its residuals).
     let mut jac_at_x = true;
@@ -120,11 +138,11 @@ pub fn minimise(
         if !improved {
             break;
         }
-        jac = jacobian(residuals, &x, &r, steps)?;
+        jac = jacobian(&x, &r)?;
         jac_at_x = true;
     }
     if !jac_at_x {
-        jac = jacobian(residuals, &x, &r, steps)?;
+        jac = jacobian(&x, &r)?;
     }
     let jtj = jac.tr_mul(&jac);
     Some(LmFit {

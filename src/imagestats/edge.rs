@@ -14,6 +14,7 @@ use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
 use crate::estimate::lm;
 use crate::numeric::dist::{normal_cdf, normal_pdf};
+use nalgebra::{DMatrix, DVector};
 
 /// Sampling and guard settings of an edge fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -140,6 +141,44 @@ pub(crate) fn step_response(x: f64, sigma: f64, a: f64, b: f64) -> f64 {
     };
     let (p, q) = (0.5 * (a + b), 0.5 * (a - b));
     (h(x + p) - h(x + q) - h(x - q) + h(x - p)) / (a * b)
+}
+
+/// [`step_response`] and its derivatives in `x` and in `sigma`, from the same Φ and φ values:
+/// with g(u) = u·Φ(u/s) + s·φ(u/s), g′ = Φ and ∂g/∂s = φ; with H as there, H′(u) = u·Φ(u/σ) +
+/// σ·φ(u/σ) and ∂H/∂σ = σ·Φ(u/σ). The response itself has the bits of [`step_response`].
+pub(crate) fn step_response_d(x: f64, sigma: f64, a: f64, b: f64) -> [f64; 3] {
+    if x > 0.0 {
+        let [r, r_x, r_sigma] = step_response_d(-x, sigma, a, b);
+        return [1.0 - r, r_x, -r_sigma];
+    }
+    if x < -(0.5 * (a + b) + 8.5 * sigma) {
+        return [0.0; 3];
+    }
+    if b < 0.1 {
+        let s = (sigma * sigma + b * b / 12.0).sqrt();
+        let g = |u: f64| {
+            let (cdf, pdf) = (normal_cdf(u / s), normal_pdf(u / s));
+            [u * cdf + s * pdf, cdf, pdf]
+        };
+        let (hi, lo) = (g(x + 0.5 * a), g(x - 0.5 * a));
+        return [
+            (hi[0] - lo[0]) / a,
+            (hi[1] - lo[1]) / a,
+            sigma / s * (hi[2] - lo[2]) / a,
+        ];
+    }
+    let h = |u: f64| {
+        let z = u / sigma;
+        let (cdf, pdf) = (normal_cdf(z), normal_pdf(z));
+        [
+            0.5 * (u * u + sigma * sigma) * cdf + 0.5 * u * sigma * pdf,
+            u * cdf + sigma * pdf,
+            sigma * cdf,
+        ]
+    };
+    let (p, q) = (0.5 * (a + b), 0.5 * (a - b));
+    let (hp, hq, hmq, hmp) = (h(x + p), h(x + q), h(x - q), h(x - p));
+    std::array::from_fn(|i| (hp[i] - hq[i] - hmq[i] + hmp[i]) / (a * b))
 }
 
 /// One material interval across the edge, in px along the normal from the reference line.
@@ -496,12 +535,18 @@ pub fn fit_grid_edge(
             }
         }
     }
-    let fit = lm::minimise(&residuals, &[best.1, 0.0, 1.0], &[1e-4, 1e-4, 1e-4], 60).ok_or_else(
-        || StatsError::NoFit {
-            what: what(),
-            reason: "no admissible start".into(),
-        },
-    )?;
+    let jacobian = |p: &[f64], r: &[f64]| model.jacobian(p, r);
+    let fit = lm::minimise_with_jacobian(
+        &residuals,
+        &jacobian,
+        &[best.1, 0.0, 1.0],
+        &[1e-4, 1e-4, 1e-4],
+        60,
+    )
+    .ok_or_else(|| StatsError::NoFit {
+        what: what(),
+        reason: "no admissible start".into(),
+    })?;
     let mut out = Vec::new();
     let levels = model
         .residuals(&fit.params, &mut out)
@@ -595,6 +640,36 @@ fn add_material_weights(
 /// Every how many samples the coarse start of an edge fit reads.
 const COARSE_STRIDE: usize = 4;
 
+/// [`add_material_weights`] with the weights' derivatives in `x` (into `w_x`) and in `sigma`
+/// (into `w_sigma`).
+#[allow(clippy::too_many_arguments)] // the model's fixed pieces, as `add_material_weights` takes
+fn add_material_weights_d(
+    x: f64,
+    intervals: &[Interval],
+    sigma: f64,
+    box_a: f64,
+    box_b: f64,
+    slot: &[usize; 3],
+    w: &mut [f64],
+    w_x: &mut [f64],
+    w_sigma: &mut [f64],
+) {
+    let response = |boundary: f64, unbounded: f64| {
+        if boundary.is_finite() {
+            step_response_d(x - boundary, sigma, box_a, box_b)
+        } else {
+            [unbounded, 0.0, 0.0]
+        }
+    };
+    for iv in intervals {
+        let (upper, lower) = (response(iv.lo, 1.0), response(iv.hi, 0.0));
+        let m = slot[iv.material];
+        w[m] += upper[0] - lower[0];
+        w_x[m] += upper[1] - lower[1];
+        w_sigma[m] += upper[2] - lower[2];
+    }
+}
+
 /// The profile model over the collected samples; parameters (offset, tilt, σ).
 #[derive(Clone, Copy)]
 struct EdgeModel<'a> {
@@ -668,6 +743,76 @@ impl EdgeModel<'_> {
                 }),
         );
         Some(levels)
+    }
+
+    /// ∂r/∂(e0, e1, σ) of [`Self::residuals`] at `p`, whose residuals are `r`: the levels solve
+    /// a linear least-squares problem at every `p`, so r = W·ℓ − v with ℓ = (WᵀW)⁻¹Wᵀv, and
+    /// ∂r = ∂W·ℓ − W·(WᵀW)⁻¹(Wᵀ·∂W·ℓ + ∂Wᵀ·r) (Golub and Pereyra's derivative of the
+    /// projected residual, over the materials the solve keeps). One pass over the samples, where
+    /// forward differences took three.
+    fn jacobian(&self, p: &[f64], r: &[f64]) -> Option<DMatrix<f64>> {
+        let (e0, e1, sigma) = (p[0], p[1], p[2]);
+        let (n, k) = (self.samples.len(), self.materials.len());
+        if r.len() != n {
+            return None;
+        }
+        let mut slot = [usize::MAX; 3];
+        for (i, &m) in self.materials.iter().enumerate() {
+            slot[m] = i;
+        }
+        // W and its derivatives in e0, e1 and σ, n × k each.
+        let mut w = DMatrix::<f64>::zeros(n, k);
+        let mut dw = [
+            DMatrix::<f64>::zeros(n, k),
+            DMatrix::<f64>::zeros(n, k),
+            DMatrix::<f64>::zeros(n, k),
+        ];
+        let (mut row, mut row_x, mut row_sigma) = (vec![0.0; k], vec![0.0; k], vec![0.0; k]);
+        for (i, s) in self.samples.iter().enumerate() {
+            let x = s.d - (e0 + e1 * s.tau);
+            row.fill(0.0);
+            row_x.fill(0.0);
+            row_sigma.fill(0.0);
+            add_material_weights_d(
+                x,
+                &self.intervals[s.first..s.first + s.count],
+                sigma,
+                self.box_a,
+                self.box_b,
+                &slot,
+                &mut row,
+                &mut row_x,
+                &mut row_sigma,
+            );
+            for m in 0..k {
+                w[(i, m)] = row[m];
+                // x = d − e0 − e1·τ.
+                dw[0][(i, m)] = -row_x[m];
+                dw[1][(i, m)] = -row_x[m] * s.tau;
+                dw[2][(i, m)] = row_sigma[m];
+            }
+        }
+        // The materials the solve keeps, as [`Self::residuals`] chooses them.
+        let active: Vec<usize> = (0..k)
+            .filter(|&m| w.column(m).norm_squared() > 1e-6)
+            .collect();
+        if active.is_empty() {
+            return None;
+        }
+        let w = w.select_columns(&active);
+        let wtw = w.tr_mul(&w);
+        let v = DVector::from_iterator(n, self.samples.iter().map(|s| s.value));
+        let levels = crate::numeric::linalg::solve(&wtw, &w.tr_mul(&v))?;
+        let r = DVector::from_column_slice(r);
+        let mut jac = DMatrix::<f64>::zeros(n, 3);
+        for (j, d) in dw.iter().enumerate() {
+            let d = d.select_columns(&active);
+            let d_levels = &d * &levels;
+            let t = w.tr_mul(&d_levels) + d.tr_mul(&r);
+            let c = crate::numeric::linalg::solve(&wtw, &t)?;
+            jac.set_column(j, &(d_levels - &w * c));
+        }
+        Some(jac)
     }
 }
 
@@ -806,6 +951,114 @@ mod tests {
             }
         }
         assert!((normal_cdf(1.959963984540054) - 0.975).abs() < 1e-7);
+    }
+
+    /// The derivatives of the step response against central differences (step 1e-5: their
+    /// truncation error is ~1e-10 here, far below the 1e-7 allowed), and the response itself
+    /// bit for bit, on both branches (a narrow box, b < 0.1, and a wide one).
+    #[test]
+    fn step_response_derivatives_match_central_differences() {
+        let h = 1e-5;
+        for &(sigma, theta) in &[(0.3, 0.0), (0.5, 0.3), (1.2, 0.785), (2.5, 0.05)] {
+            let (a, b) = (f64::cos(theta).abs(), f64::sin(theta).abs());
+            let (a, b) = (a.max(b), a.min(b));
+            for &x in &[-3.0, -1.0, -0.4, -0.05, 0.2, 0.7, 2.0] {
+                let [r, r_x, r_sigma] = step_response_d(x, sigma, a, b);
+                assert_eq!(r.to_bits(), step_response(x, sigma, a, b).to_bits());
+                let dx = (step_response(x + h, sigma, a, b) - step_response(x - h, sigma, a, b))
+                    / (2.0 * h);
+                let ds = (step_response(x, sigma + h, a, b) - step_response(x, sigma - h, a, b))
+                    / (2.0 * h);
+                assert!(
+                    (r_x - dx).abs() < 1e-7,
+                    "σ {sigma} θ {theta} x {x}: {r_x} vs {dx}"
+                );
+                assert!(
+                    (r_sigma - ds).abs() < 1e-7,
+                    "σ {sigma} θ {theta} x {x}: {r_sigma} vs {ds}"
+                );
+            }
+        }
+    }
+
+    /// The edge model's Jacobian (the derivative of the residual with the levels re-solved at
+    /// every parameter) against central differences of its residuals, column by column, on an
+    /// edge with three materials seen through a tilted pixel box and a narrow one.
+    #[test]
+    fn edge_model_jacobian_matches_central_differences() {
+        for (box_a, box_b) in [(0.9, 0.4), (1.0, 0.02)] {
+            let mut samples = Vec::new();
+            let mut intervals = Vec::new();
+            for i in 0..300 {
+                let d = -6.0 + 12.0 * (i as f64 + 0.5) / 300.0;
+                let tau = ((i * 37) % 300) as f64 / 300.0 - 0.5;
+                let first = intervals.len();
+                for (lo, hi, material) in [
+                    (f64::NEG_INFINITY, 0.0, 0),
+                    (0.0, 2.0, 1),
+                    (2.0, f64::INFINITY, 2),
+                ] {
+                    intervals.push(Interval { lo, hi, material });
+                }
+                samples.push(Sample {
+                    value: 0.0,
+                    d,
+                    tau,
+                    first,
+                    count: 3,
+                });
+            }
+            // Values of a known edge, with a deterministic ripple for residuals.
+            let truth = [0.2, -0.1, 1.1];
+            let levels = [30.0, 200.0, 120.0];
+            let slot = [0, 1, 2];
+            for (i, s) in samples.iter_mut().enumerate() {
+                let mut w = [0.0; 3];
+                let x = s.d - (truth[0] + truth[1] * s.tau);
+                let iv = &intervals[s.first..s.first + s.count];
+                add_material_weights(x, iv, truth[2], box_a, box_b, &slot, &mut w);
+                let ripple = 3.0 * ((i * 7919) % 13) as f64 / 13.0 - 1.5;
+                s.value = w.iter().zip(levels).map(|(w, l)| w * l).sum::<f64>() + ripple;
+            }
+            let model = EdgeModel {
+                samples: &samples,
+                intervals: &intervals,
+                materials: &[0, 1, 2],
+                box_a,
+                box_b,
+                max_sigma: 12.5,
+                max_offset: 5.0,
+            };
+            let p = [0.05, 0.1, 1.3];
+            let mut r = Vec::new();
+            model.residuals(&p, &mut r).unwrap();
+            let jac = model.jacobian(&p, &r).unwrap();
+            let h = 1e-6;
+            for j in 0..3 {
+                let (mut up, mut down) = (p, p);
+                up[j] += h;
+                down[j] -= h;
+                let (mut ru, mut rd) = (Vec::new(), Vec::new());
+                model.residuals(&up, &mut ru).unwrap();
+                model.residuals(&down, &mut rd).unwrap();
+                let numeric: Vec<f64> = ru
+                    .iter()
+                    .zip(&rd)
+                    .map(|(u, d)| (u - d) / (2.0 * h))
+                    .collect();
+                let scale = numeric.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let err = numeric
+                    .iter()
+                    .zip(jac.column(j).iter())
+                    .map(|(n, a)| (n - a) * (n - a))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(
+                    err < 1e-5 * scale,
+                    "box ({box_a}, {box_b}), parameter {j}: |analytic − numeric| {err:e} of {scale:e}"
+                );
+            }
+        }
     }
 
     #[test]
