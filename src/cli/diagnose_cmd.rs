@@ -159,8 +159,15 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
         (None, true) => Mode::Merge,
         (None, false) => Mode::Whole,
     };
-    // The simulations run on other threads: the bar reads their count twice a second.
+    // The simulations run on other threads: the bar reads their count twice a second, until
+    // the diagnosis returns or unwinds (the guard stops it either way).
     let running = std::sync::atomic::AtomicBool::new(true);
+    struct Stop<'a>(&'a std::sync::atomic::AtomicBool);
+    impl Drop for Stop<'_> {
+        fn drop(&mut self) {
+            self.0.store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
     let finished = std::thread::scope(|scope| {
         if !plain {
             scope.spawn(|| {
@@ -173,7 +180,8 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
                 }
             });
         }
-        let finished = diagnose_with(&nominal, &source, &a.out, &options, mode, &|stage, _, _| {
+        let _stop = Stop(&running);
+        diagnose_with(&nominal, &source, &a.out, &options, mode, &|stage, _, _| {
             if plain {
                 if let Some(line) = log.line(stage) {
                     let (done, planned, eta) = figures();
@@ -182,9 +190,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
             } else {
                 bar.set_message(stage.to_string());
             }
-        });
-        running.store(false, std::sync::atomic::Ordering::Relaxed);
-        finished
+        })
     })?;
     bar.finish_and_clear();
     let (d, files) = match finished {
