@@ -195,8 +195,9 @@ pub fn run(a: SelfCheckArgs) -> Result<()> {
         let before = *resumed.get_or_insert(done.saturating_sub(1));
         let eta = super::eta::left(
             started.elapsed().as_secs_f64(),
-            done - before,
-            total - before,
+            // Units finish in parallel: a count reported out of order may lie below the first.
+            done.saturating_sub(before),
+            total.saturating_sub(before),
         );
         eprintln!(
             "diagnose-selfcheck: {done}/{total} cases, {} so far, {eta}",
