@@ -42,7 +42,9 @@ mod noise;
 mod test_footage;
 use memo::{MemoKey, ObjectiveMemo};
 pub use noise::{
-    full_well_on_valley, noise_split_determined, read_noise_on_valley, NOISE_SPLIT_MAX_REL_SD,
+    full_well_on_valley, noise_split_determined, noise_variance_cap, noise_variance_ratio,
+    read_noise_on_valley, read_noise_step_e, NoiseCap, NOISE_SEARCH_MAX_RATIO,
+    NOISE_SPLIT_MAX_REL_SD,
 };
 
 /// Simulations a moment match takes at most (secant or Newton steps).
@@ -1741,6 +1743,9 @@ impl<'a> Fitter<'a> {
                 let mut reported: Vec<Option<f64>> = vec![None; specs.len()];
                 let mut searches_run = 0usize;
                 let mut last_search: Option<(SearchResult, SearchOptions)> = None;
+                let noise_cap = (e == Effect::PixelNoise)
+                    .then(|| self.noise_search_cap())
+                    .flatten();
                 for (k, &i) in searched.iter().enumerate() {
                     // A second round refits a coordinate at the others' new values: pointless when
                     // the one searched last did not move beyond its own uncertainty (a bound or a
@@ -1759,6 +1764,16 @@ impl<'a> Fitter<'a> {
                         // sixth of the range (which could cross into the mirror minimum).
                         let u95 = if i == 0 { p.u95_x_deg } else { p.u95_y_deg };
                         o.step_u = u95.clamp(0.5, 4.0);
+                    }
+                    if e == Effect::PixelNoise {
+                        if let Some(cap) = noise_cap {
+                            (o.lo, o.hi) = cap.bound(i, &values, (o.lo, o.hi));
+                        }
+                        if i == 1 {
+                            let sc = &aligned_of(self).scenario.scene;
+                            let s_ref = 0.5 * (sc.ink_radiance + sc.paper_radiance);
+                            o.step_u = noise::read_noise_step_e(values[0], values[1], s_ref);
+                        }
                     }
                     let base = values.clone();
                     let r = minimise(
@@ -1781,6 +1796,15 @@ impl<'a> Fitter<'a> {
                 method = search_method(e, self.fit_seeds.len());
                 if let Some(why) = &why_searched {
                     method.push_str(why);
+                }
+                if let Some(cap) = noise_cap {
+                    let span_dn = aligned_of(self).scenario.effects.lighting.span_dn();
+                    method.push_str(&format!(
+                        "; searched where the sensor's noise at mid-grey is at most \
+                         {NOISE_SEARCH_MAX_RATIO} times the footage's (σ {:.1} DN before the \
+                         tone curve)",
+                        cap.variance.sqrt() * span_dn
+                    ));
                 }
                 if e == Effect::LensDistortion {
                     method.push_str(&self.lens_second_stage(
