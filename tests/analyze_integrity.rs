@@ -300,7 +300,8 @@ fn edited_tracks(dir: &Path, name: &str, edit: impl Fn(usize, &str) -> Option<St
 
 /// The crank speed scale the diagnosis aligns to the track at `tracks`.
 fn aligned_speed_scale(tracks: &Path, work: &Path) -> f64 {
-    use geneva_vision::pipeline::diagnose::{image, nominal, real};
+    use geneva_vision::diagnose::image;
+    use geneva_vision::pipeline::diagnose::{nominal, real};
     let s = fast();
     let layout = image::marker_layout(&s).unwrap();
     let m = real::measure_real(

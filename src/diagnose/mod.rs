@@ -5,16 +5,22 @@
 
 pub mod align;
 pub mod bands;
+pub mod camera_warp;
 pub mod cells;
 pub mod fit_noise;
 pub mod gap;
 pub mod holdout;
+pub mod image;
+pub mod memo;
 pub mod moments;
+pub mod objectives;
 pub mod plan;
+pub mod pose_tilt;
 pub mod record;
 pub mod runout;
 pub mod scoring;
 pub mod search;
+pub mod sensor_noise;
 pub mod shape;
 pub mod spectrum;
 pub mod verdict;

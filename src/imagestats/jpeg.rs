@@ -16,7 +16,7 @@
 //! cannot give the quality: it depends as much on the content and the noise as on the
 //! quantiser, which is why the quality comes from the coefficients.
 
-use super::{check_view, pixel, view_bounds, StatsError};
+use super::{check_view, pixel, view_bounds, MarkerRegions, StatsError};
 use crate::detect::GrayView;
 use crate::render::PixelRect;
 
@@ -89,6 +89,60 @@ fn region(view: &GrayView<'_>, rect: Option<&PixelRect>) -> (i64, i64, i64, i64)
             (r.y1() - 1).min(vy1),
         ),
     }
+}
+
+/// Blockiness of flat regions, the diagnosis's compression statistic: [`blockiness`]'s ratio
+/// on the same absolute grid, but over the pixels of `regions` only: the mean absolute difference between horizontally or vertically
+/// adjacent pixels that straddle an 8-px block boundary (on the absolute grid), divided by the
+/// same over pairs that do not, counting only pairs inside one flat region (ink, paper or
+/// surround, away from every edge). Edges of the marker never enter, so an uncompressed frame
+/// gives 1 up to noise wherever the marker sits; JPEG's block boundaries raise it. `None` with
+/// fewer than 50 pairs of either kind.
+pub fn flat_region_blockiness(view: &GrayView<'_>, regions: &MarkerRegions) -> Option<f64> {
+    let (ox, oy) = (view.origin_px.0 as i64, view.origin_px.1 as i64);
+    let value = |x: i64, y: i64| -> Option<f64> {
+        let (lx, ly) = (x - ox, y - oy);
+        if lx < 0 || ly < 0 || lx >= view.width as i64 || ly >= view.height as i64 {
+            return None;
+        }
+        view.data
+            .get(ly as usize * view.width + lx as usize)
+            .map(|v| *v as f64)
+    };
+    let (mut on, mut n_on, mut off, mut n_off) = (0.0, 0usize, 0.0, 0usize);
+    for pixels in [&regions.ink, &regions.paper, &regions.surround] {
+        let set: std::collections::HashSet<(i64, i64)> = pixels.iter().copied().collect();
+        for &(x, y) in pixels.iter() {
+            for (dx, dy, coord) in [(1i64, 0i64, x + 1), (0, 1, y + 1)] {
+                if !set.contains(&(x + dx, y + dy)) {
+                    continue;
+                }
+                let (Some(a), Some(b)) = (value(x, y), value(x + dx, y + dy)) else {
+                    continue;
+                };
+                if coord.rem_euclid(8) == 0 {
+                    on += (a - b).abs();
+                    n_on += 1;
+                } else {
+                    off += (a - b).abs();
+                    n_off += 1;
+                }
+            }
+        }
+    }
+    if n_on < 50 || n_off < 50 {
+        return None;
+    }
+    let (m_on, m_off) = (on / n_on as f64, off / n_off as f64);
+    // A frame without noise has no differences at all: no blocks to see.
+    Some(if m_off > 1e-9 {
+        m_on / m_off
+    } else if m_on > 1e-9 {
+        f64::INFINITY
+    } else {
+        1.0
+    })
+    .filter(|v| v.is_finite())
 }
 
 /// Blockiness of `rect ∩ view` (the whole view when `None`) on the absolute 8-px grid.

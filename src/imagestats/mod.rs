@@ -51,7 +51,9 @@ pub use edge::{
     EdgeProfile, GridEdge,
 };
 pub use grid::{Homography, MarkerLayout, Material};
-pub use jpeg::{blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality};
+pub use jpeg::{
+    blockiness, flat_region_blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality,
+};
 pub use levels::{
     censored_normal_fit, marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise,
     Clipping, LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,

@@ -568,3 +568,64 @@ fn bad_regions_are_errors_not_numbers() {
     ));
     let _ = PixelRect::new(0, 0, 1, 1);
 }
+
+/// A 64×64 view whose pixel (x, y) is `f(x, y)`, and its pixels split at x = 32 into two flat
+/// regions (ink left, paper right).
+fn split_patch(f: impl Fn(i64, i64) -> u8) -> (Vec<u8>, MarkerRegions) {
+    let data: Vec<u8> = (0..64i64)
+        .flat_map(|y| (0..64i64).map(move |x| (x, y)))
+        .map(|(x, y)| f(x, y))
+        .collect();
+    let all: Vec<(i64, i64)> = (0..64i64)
+        .flat_map(|y| (0..64i64).map(move |x| (x, y)))
+        .collect();
+    let (ink, paper): (Vec<_>, Vec<_>) = all.into_iter().partition(|&(x, _)| x < 32);
+    let regions = MarkerRegions {
+        ink,
+        paper,
+        surround: Vec::new(),
+    };
+    (data, regions)
+}
+
+/// Deterministic noise of a few DN at (x, y).
+fn hash_noise(x: i64, y: i64) -> i64 {
+    let h = (x as u64)
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add((y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F));
+    ((h >> 59) as i64) - 16
+}
+
+#[test]
+fn flat_region_blockiness_sees_block_steps_and_not_the_edge_between_regions() {
+    let level = |x: i64| if x < 32 { 40 } else { 200 };
+    fn view_of(data: &[u8]) -> GrayView<'_> {
+        GrayView {
+            data,
+            width: 64,
+            height: 64,
+            origin_px: (0, 0),
+        }
+    }
+    // Noise alone, with the step between the regions on a block boundary (x = 32): ≈ 1.
+    let (data, regions) = split_patch(|x, y| (level(x) + hash_noise(x, y) / 4) as u8);
+    let b = flat_region_blockiness(&view_of(&data), &regions).unwrap();
+    assert!((b - 1.0).abs() < 0.25, "{b}");
+    // The same noise with each 8×8 block offset by its own level: the block boundaries stand out.
+    let (data, regions) = split_patch(|x, y| {
+        let block = ((x / 8) * 5 + (y / 8) * 3) % 7 - 3;
+        (level(x) + hash_noise(x, y) / 4 + 3 * block) as u8
+    });
+    let b = flat_region_blockiness(&view_of(&data), &regions).unwrap();
+    assert!(b > 3.0, "{b}");
+    // Without noise nothing differs inside a region: no blocks to see.
+    let (data, regions) = split_patch(|x, _| level(x) as u8);
+    assert_eq!(flat_region_blockiness(&view_of(&data), &regions), Some(1.0));
+    // Too few pairs of either kind: no figure.
+    let few = MarkerRegions {
+        ink: (0..6).map(|x| (x, 0)).collect(),
+        paper: Vec::new(),
+        surround: Vec::new(),
+    };
+    assert_eq!(flat_region_blockiness(&view_of(&data), &few), None);
+}

@@ -562,7 +562,7 @@ impl Effect {
     /// away from σ·θ2 + c in a way the plain motion alignment misreads as crank phase or speed:
     /// the camera's geometry (a tilt, a lens off its centre), the wheel centre's wobble, or the
     /// wheel's dynamics (a clearance's late start, coasting). A diagnosis trial of such an effect
-    /// refits the motion nuisance through it (`pipeline::diagnose::camera_warp`).
+    /// refits the motion nuisance through it (`diagnose::camera_warp`).
     ///
     /// Disc vibration bends the angle too but is not listed: its phase is one of its fitted
     /// parameters, and a nuisance refit would absorb it.

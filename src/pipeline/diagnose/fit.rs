@@ -4,15 +4,14 @@
 //! pipeline in the loop, on the fit seeds), then re-simulate on fresh seeds (the evaluation
 //! seeds, shared with the nominal) and measure how far the gap shrinks.
 
-use super::camera_warp;
 use super::nominal::Aligned;
-use super::pose_tilt::PoseTilt;
 use super::report::fmt_sum_z2;
 use super::simulate::{
     simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
 };
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
+use crate::diagnose::camera_warp;
 use crate::diagnose::cells::{CellKey, Cells, SlowShape};
 use crate::diagnose::gap::{
     compare, compare_for_fit, compare_with_slow_shape, excess, shared_tolerance_chi2, GapMap,
@@ -20,10 +19,10 @@ use crate::diagnose::gap::{
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};
+use crate::diagnose::pose_tilt::PoseTilt;
 use crate::diagnose::runout::RunoutForm;
 use crate::diagnose::search::{
-    coupling_from_off_point, curvature_std_about, minimise, std_with_other_free, SearchOptions,
-    SearchResult,
+    coupling_from_off_point, minimise, std_with_other_free, SearchOptions, SearchResult,
 };
 use crate::diagnose::spectrum;
 use crate::diagnose::verdict::Outcome;
@@ -36,16 +35,15 @@ use std::cell::{OnceCell, RefCell};
 mod backfit_tests;
 #[cfg(test)]
 mod clearance_free_tests;
-mod memo;
 mod noise;
 #[cfg(test)]
 mod test_footage;
-use memo::{MemoKey, ObjectiveMemo};
-pub use noise::{
-    full_well_on_valley, noise_split_determined, noise_variance_cap, noise_variance_ratio,
-    read_noise_on_valley, read_noise_step_e, NoiseCap, NOISE_SEARCH_MAX_RATIO,
-    NOISE_SPLIT_MAX_REL_SD,
+use crate::diagnose::memo::{MemoKey, ObjectiveMemo};
+use crate::diagnose::objectives::{
+    held_curvature_std, objective_at, shared_curvature_std_along, shared_std, shared_std_along,
+    Objectives,
 };
+use crate::diagnose::sensor_noise::{self, NOISE_SEARCH_MAX_RATIO};
 
 /// Simulations a moment match takes at most (secant or Newton steps).
 const MOMENT_SIMULATIONS: usize = 3;
@@ -174,7 +172,7 @@ pub struct RealSide<'a> {
     pub theta_peak_hz: Option<f64>,
     /// The axis-runout form the marker-centre track shows ([`crate::diagnose::runout`]).
     pub runout_form: Option<RunoutForm>,
-    /// The camera tilt the real corners show ([`super::pose_tilt`]).
+    /// The camera tilt the real corners show ([`crate::diagnose::pose_tilt`]).
     pub pose_tilt: Option<PoseTilt>,
 }
 
@@ -213,95 +211,11 @@ pub struct Fitter<'a> {
     /// trial that refits its nuisance matches (computed at the first such trial, shared with
     /// forks made after it).
     base_centre_px: OnceCell<[f64; 2]>,
-    /// Fit objectives already simulated ([`memo`]); empty in a new fork.
+    /// Fit objectives already simulated ([`crate::diagnose::memo`]); empty in a new fork.
     objective_memo: ObjectiveMemo,
     /// The same footage against the nominal without its clearance, when the nominal states one
     /// ([`Self::with_clearance_free`]): the backlash is fitted there, as a withheld clearance is.
     clearance_free: Option<Box<Fitter<'a>>>,
-}
-
-/// One trial's two objectives, from the same simulations. The searches minimise `sum_z2`, Σ z²
-/// over the signature cells; the uncertainty they report is the curvature of `shared_chi2`
-/// ([`shared_tolerance_chi2`]), which counts a channel's tolerance once for all its phases
-/// instead of once per phase (Σ z²'s curvature claimed ±37 e⁻ on a full well fitted 47 % low).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Objectives {
-    sum_z2: f64,
-    shared_chi2: f64,
-}
-
-/// The uncertainty of a search's result `r` over coordinate `i` of `base`: the curvature of the
-/// shared-tolerance χ² at the evaluated points (looked up in `evaluated`), never below the
-/// search's own (the search's own when the shared χ² has no curvature there), in quadrature
-/// with the spread of a minimum anywhere in the bracket the search ended with
-/// ([`SearchResult::bracket_std`]): the curvature is taken at the best point found, and a search
-/// that ran out of evaluations has not found the minimum (a k1 = −0.3 lens fitted at −0.24 ±
-/// 0.0009 on the project's own renderer).
-fn shared_std(
-    evaluated: &[(Vec<f64>, Objectives)],
-    base: &[f64],
-    i: usize,
-    r: &SearchResult,
-    o: &SearchOptions,
-) -> f64 {
-    shared_std_along(
-        evaluated,
-        |x| {
-            let mut v = base.to_vec();
-            v[i] = x;
-            v
-        },
-        r,
-        o,
-    )
-}
-
-/// [`shared_std`] for a search along any curve of the parameters: `at` maps the searched value
-/// to the parameters evaluated there.
-fn shared_std_along(
-    evaluated: &[(Vec<f64>, Objectives)],
-    at: impl Fn(f64) -> Vec<f64>,
-    r: &SearchResult,
-    o: &SearchOptions,
-) -> f64 {
-    held_curvature_std(r.std, shared_curvature_std_along(evaluated, at, r, o))
-        .hypot(r.bracket_std())
-}
-
-/// The curvature part of a searched parameter's ±: the shared-tolerance χ²'s (`shared`), never
-/// below Σ z²'s own (`search`, the one the search decides on); Σ z²'s alone where the shared χ²
-/// has none (`shared` infinite).
-fn held_curvature_std(search: f64, shared: f64) -> f64 {
-    if shared.is_finite() {
-        search.max(shared)
-    } else {
-        search
-    }
-}
-
-/// The curvature part of [`shared_std_along`]: the shared-tolerance χ²'s alone, at the
-/// search's result (infinite where it has none).
-fn shared_curvature_std_along(
-    evaluated: &[(Vec<f64>, Objectives)],
-    at: impl Fn(f64) -> Vec<f64>,
-    r: &SearchResult,
-    o: &SearchOptions,
-) -> f64 {
-    let points: Vec<(f64, f64)> = r
-        .evaluations
-        .iter()
-        .filter_map(|&(x, _)| objective_at(evaluated, &at(x)).map(|f| (x, f.shared_chi2)))
-        .collect();
-    curvature_std_about(&points, r.value, o)
-}
-
-/// The objectives already evaluated at exactly `values` (the objective is deterministic: fixed
-/// seeds).
-fn objective_at(evaluated: &[(Vec<f64>, Objectives)], values: &[f64]) -> Option<Objectives> {
-    evaluated
-        .iter()
-        .find(|(w, _)| w.as_slice() == values)
-        .map(|&(_, f)| f)
 }
 
 /// Relative standard uncertainty of a parameter matched on edges that a renderer other than the
@@ -1041,7 +955,7 @@ impl<'a> Fitter<'a> {
                     // The crank phase and mean speed are nuisance: refit them for this profile.
                     let (td, th) = self.real_theta_det;
                     let a = align_motion(&t.scenario, td, th, aligned_of(self).screen_sign)
-                        .map_err(DiagnoseError::AlignMotion)?;
+                        .map_err(camera_warp::ViewError::AlignMotion)?;
                     t.scenario = apply_motion(&t.scenario, &a);
                 }
                 Effect::AxisRunout => {
@@ -1770,9 +1684,8 @@ impl<'a> Fitter<'a> {
                             (o.lo, o.hi) = cap.bound(i, &values, (o.lo, o.hi));
                         }
                         if i == 1 {
-                            let sc = &aligned_of(self).scenario.scene;
-                            let s_ref = 0.5 * (sc.ink_radiance + sc.paper_radiance);
-                            o.step_u = noise::read_noise_step_e(values[0], values[1], s_ref);
+                            let s_ref = sensor_noise::mid_grey(&aligned_of(self).scenario.scene);
+                            o.step_u = sensor_noise::read_noise_step_e(values[0], values[1], s_ref);
                         }
                     }
                     let base = values.clone();

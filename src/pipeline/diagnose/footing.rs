@@ -5,12 +5,12 @@
 
 use super::fit::{self, Fitter, RealSide};
 use super::nominal::{self, Aligned};
-use super::pose_tilt::{self, PoseTilt};
 use super::real::RealMeasurement;
 use super::simulate::{RealFrames, SimContext, SimMeter};
 use super::DiagnoseError;
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, AngleResidual, Cells};
 use crate::diagnose::gap::GapOptions;
+use crate::diagnose::pose_tilt::{self, PoseTilt};
 use crate::diagnose::runout::RunoutForm;
 use crate::imagestats::MarkerLayout;
 use crate::scenario::effects::Effect;

@@ -20,14 +20,11 @@
 //!
 //! No truth of the real data is used anywhere (there is none).
 
-pub mod camera_warp;
 pub mod fit;
 pub mod footing;
 pub mod held_out;
-pub mod image;
 pub mod nominal;
 pub mod outlook;
-pub mod pose_tilt;
 pub mod real;
 pub mod report;
 pub mod selfcheck;
@@ -36,6 +33,7 @@ pub mod simulate;
 
 use crate::diagnose::cells::Cells;
 use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
+use crate::diagnose::image;
 use crate::diagnose::plan;
 use crate::diagnose::verdict::{self, Outcome, Verdict};
 use crate::io::output_dir::OutputDir;
@@ -121,14 +119,6 @@ pub enum DiagnoseError {
     Internal(&'static str),
     #[error("the nominal scenario's marker layout")]
     NominalLayout(#[source] crate::imagestats::StatsError),
-    #[error("the nominal scenario's camera")]
-    NominalCamera(#[source] crate::camera::CameraError),
-    #[error("the nominal scenario's scene")]
-    NominalScene(#[source] crate::scene::SceneError),
-    #[error("the nominal scenario's mechanism")]
-    NominalMechanism(#[source] crate::mechanism::MechanismError),
-    #[error("aligning the nominal's motion to the measured angle")]
-    AlignMotion(#[source] crate::diagnose::align::AlignError),
     #[error(
         "the marker centre does not move along a measurable arc; a diagnosis needs footage where \
          the wheel turns"
@@ -141,8 +131,8 @@ pub enum DiagnoseError {
     AlignedInvalid {
         problems: Vec<crate::validation::Problem>,
     },
-    #[error("the estimator on the camera's view of the exact motion")]
-    ExactView(#[source] crate::estimate::EstimateError),
+    #[error(transparent)]
+    View(#[from] crate::diagnose::camera_warp::ViewError),
     #[error("simulating the nominal: its rig")]
     SimulateRig(#[source] Box<crate::pipeline::rig::RigError>),
     #[error("simulating the nominal: rendering and detecting its frames")]

@@ -6,6 +6,7 @@
 use super::DiagnoseError;
 use crate::camera::{Camera, FocalConfig};
 use crate::diagnose::align::{align_motion, apply_motion, MotionAlignment};
+use crate::diagnose::camera_warp::{screen_sign, ViewError};
 use crate::diagnose::cells::MotionReference;
 use crate::diagnose::record::Record;
 use crate::diagnose::shape::marker_shape;
@@ -62,26 +63,8 @@ fn circular_median(v: &[f64]) -> f64 {
 }
 
 fn scene_of(s: &Scenario) -> Result<Scene, DiagnoseError> {
-    let camera = Camera::new(&s.camera).map_err(DiagnoseError::NominalCamera)?;
-    Scene::new(&s.scene, camera).map_err(DiagnoseError::NominalScene)
-}
-
-/// +1 when θ2 grows counter-clockwise on screen for this scene.
-pub fn screen_sign(scene: &Scene) -> f64 {
-    let pose = |th: f64| WheelPose {
-        theta2_rad: th,
-        centre_offset_m: [0.0, 0.0],
-    };
-    let c = scene.rotation_centre_px_at(&pose(0.0));
-    let at = |th: f64| {
-        let p = scene.marker_centre_px_at(&pose(th));
-        screen_angle_rad([p.x, p.y], [c.x, c.y])
-    };
-    if wrap(at(1e-3) - at(0.0)) >= 0.0 {
-        1.0
-    } else {
-        -1.0
-    }
+    let camera = Camera::new(&s.camera).map_err(ViewError::NominalCamera)?;
+    Ok(Scene::new(&s.scene, camera).map_err(ViewError::NominalScene)?)
 }
 
 /// The real frame times as the scenario's frame schedule (a log model that keeps them as they
@@ -117,11 +100,12 @@ pub fn align(
     let primary = est.primary_series();
     let (t_det, th_det) = crate::diagnose::cells::detected_angle(&t_all, &primary.theta_rad);
     let mut motion =
-        align_motion(nominal, &t_det, &th_det, sign).map_err(DiagnoseError::AlignMotion)?;
+        align_motion(nominal, &t_det, &th_det, sign).map_err(ViewError::AlignMotion)?;
     let mut s = apply_motion(nominal, &motion);
     // A nominal that states a tilted camera, a distorting lens, a runout or a clearance: its
     // angle warp (or late start) is not a crank speed or phase.
-    let (realigned, refit) = super::camera_warp::realign_motion(&s, &t_det, &th_det, sign)?;
+    let (realigned, refit) =
+        crate::diagnose::camera_warp::realign_motion(&s, &t_det, &th_det, sign)?;
     if let Some(r) = refit {
         motion = MotionAlignment {
             theta1_start_rad: r.motion.theta1_start_rad,
@@ -270,7 +254,7 @@ fn align_geometry(
     let mut dyn_off = s.dynamics.clone();
     dyn_off.enabled = false;
     let mech = Mechanism::new(&s.mechanism, &s.drive_speed, &dyn_off, s.duration_s + 1.0)
-        .map_err(DiagnoseError::NominalMechanism)?;
+        .map_err(ViewError::NominalMechanism)?;
     let theta2: Vec<f64> = shapes
         .iter()
         .map(|(k, _, _)| mech.ideal(record.frames[*k].t_s).theta2_rad)
@@ -408,7 +392,7 @@ impl ReferenceTable {
             &aligned.dynamics,
             t1 + 0.1,
         )
-        .map_err(DiagnoseError::NominalMechanism)?;
+        .map_err(ViewError::NominalMechanism)?;
         let n = ((t1 - t0_s) / step_s).ceil() as usize + 1;
         let samples: Vec<_> = (0..n)
             .map(|k| mech.actual(t0_s + k as f64 * step_s))

@@ -2,9 +2,9 @@
 //! (the nominal scenario's detector and estimator), then one more pass over the frames for the
 //! image statistics around each detected marker. No truth exists here.
 
-use super::image::{frame_image, measures_image};
 use super::DiagnoseError;
 use crate::detect::GrayView;
+use crate::diagnose::image::{frame_image, measures_image};
 use crate::diagnose::record::{FrameRecord, Record};
 use crate::estimate::Estimate;
 use crate::imagestats::MarkerLayout;

@@ -3,13 +3,13 @@
 //! same cells as the real measurement. Seeds are shared by every configuration (common random
 //! numbers), so two configurations differ by their settings, not by a new draw.
 
-use super::image::{frame_image, measures_image};
 use super::nominal::{motion_reference, Aligned};
 use super::DiagnoseError;
 use crate::diagnose::cells::{
     angle_residual, detected_angle, image_cells, missing_cells, residual, timing_cells,
     track_cells, Cells, MotionReference,
 };
+use crate::diagnose::image::{frame_image, measures_image};
 use crate::diagnose::record::{FrameRecord, Record};
 use crate::estimate::{estimate, Estimate};
 use crate::imagestats::MarkerLayout;

@@ -2,11 +2,12 @@
 //! rendered and measured as real footage, as a diagnosis measures it.
 
 use super::*;
+use crate::diagnose::image;
 use crate::imagestats::MarkerLayout;
 use crate::pipeline::analyze::Source;
+use crate::pipeline::diagnose::real;
 use crate::pipeline::diagnose::real::RealMeasurement;
 use crate::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, Case, SuitePlan};
-use crate::pipeline::diagnose::{image, real};
 use std::path::Path;
 
 /// The case (its footage rig and its nominal, the same rig without the clearance), the marker

@@ -33,9 +33,9 @@
 //! not a nuisance) when it has a clearance. (The self-check's 0.5 mm clearance, 12–18 % low
 //! before, is still 11–16 % low with the refit: the crank was not the main cause.)
 
-use super::DiagnoseError;
 use crate::camera::Camera;
 use crate::diagnose::align::{align_motion, apply_motion, MotionAlignment};
+use crate::estimate::angle::screen_angle_rad;
 use crate::estimate::{estimate, Corners, Differentiator, ReferenceCompensation, Timebase};
 use crate::mechanism::effects::axis_runout_offset_m;
 use crate::mechanism::Mechanism;
@@ -43,6 +43,22 @@ use crate::numeric::angle::wrap_pi as wrap;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use crate::scene::{Scene, WheelPose};
+
+/// Why the nominal's view of its motion could not be computed: a part of the scenario that does
+/// not build, or an estimator or a motion alignment that fails on its corners or angles.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error("the nominal scenario's camera")]
+    NominalCamera(#[source] crate::camera::CameraError),
+    #[error("the nominal scenario's scene")]
+    NominalScene(#[source] crate::scene::SceneError),
+    #[error("the nominal scenario's mechanism")]
+    NominalMechanism(#[source] crate::mechanism::MechanismError),
+    #[error("the estimator on the camera's view of the exact motion")]
+    Estimate(#[source] crate::estimate::EstimateError),
+    #[error("aligning the nominal's motion to the measured angle")]
+    AlignMotion(#[source] crate::diagnose::align::AlignError),
+}
 
 /// Most rounds of motion refits with the warp recomputed for the refitted motion (each round
 /// cuts the speed error about fivefold; they stop once the crank start and speed settle).
@@ -54,6 +70,24 @@ const CENTRE_ROUNDS: usize = 8;
 const CENTRE_TOLERANCE_PX: f64 = 1e-3;
 /// Motion refits stop when the speed scale changes by less than this (relative).
 const SPEED_TOLERANCE: f64 = 1e-5;
+
+/// +1 when θ2 grows counter-clockwise on screen for this scene.
+pub fn screen_sign(scene: &Scene) -> f64 {
+    let pose = |th: f64| WheelPose {
+        theta2_rad: th,
+        centre_offset_m: [0.0, 0.0],
+    };
+    let c = scene.rotation_centre_px_at(&pose(0.0));
+    let at = |th: f64| {
+        let p = scene.marker_centre_px_at(&pose(th));
+        screen_angle_rad([p.x, p.y], [c.x, c.y])
+    };
+    if wrap(at(1e-3) - at(0.0)) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
 
 /// Whether `s`'s camera bends the measured angle away from σ·θ2 + c: a tilt, or a lens
 /// distortion, switched on with a non-zero parameter.
@@ -110,7 +144,7 @@ struct WheelAngles {
     seen_rad: Vec<f64>,
 }
 
-fn wheel_angles(s: &Scenario, t_s: &[f64]) -> Result<WheelAngles, DiagnoseError> {
+fn wheel_angles(s: &Scenario, t_s: &[f64]) -> Result<WheelAngles, ViewError> {
     let mut dynamics = s.dynamics.clone();
     dynamics.enabled = dynamics_bends_angle(s);
     // Runout is applied by the view, from `s`'s own section; disc vibration is not a nuisance.
@@ -119,7 +153,7 @@ fn wheel_angles(s: &Scenario, t_s: &[f64]) -> Result<WheelAngles, DiagnoseError>
     dynamics.axis_runout.enabled = false;
     let duration_s = t_s.last().copied().unwrap_or(0.0).max(s.duration_s) + 1.0;
     let mech = Mechanism::new(&s.mechanism, &s.drive_speed, &dynamics, duration_s)
-        .map_err(DiagnoseError::NominalMechanism)?;
+        .map_err(ViewError::NominalMechanism)?;
     Ok(WheelAngles {
         kinematic_rad: t_s.iter().map(|&t| mech.ideal(t).theta2_rad).collect(),
         seen_rad: t_s.iter().map(|&t| mech.actual(t).theta2_rad).collect(),
@@ -127,7 +161,7 @@ fn wheel_angles(s: &Scenario, t_s: &[f64]) -> Result<WheelAngles, DiagnoseError>
 }
 
 /// The estimator on the corners `s`'s camera projects, without rendering or detection.
-pub fn exact_view(s: &Scenario, t_s: &[f64], screen_sign: f64) -> Result<ExactView, DiagnoseError> {
+pub fn exact_view(s: &Scenario, t_s: &[f64], screen_sign: f64) -> Result<ExactView, ViewError> {
     view_of(s, t_s, &wheel_angles(s, t_s)?, screen_sign)
 }
 
@@ -137,9 +171,9 @@ fn view_of(
     t_s: &[f64],
     wheel: &WheelAngles,
     screen_sign: f64,
-) -> Result<ExactView, DiagnoseError> {
-    let camera = Camera::new(&s.camera).map_err(DiagnoseError::NominalCamera)?;
-    let scene = Scene::new(&s.scene, camera).map_err(DiagnoseError::NominalScene)?;
+) -> Result<ExactView, ViewError> {
+    let camera = Camera::new(&s.camera).map_err(ViewError::NominalCamera)?;
+    let scene = Scene::new(&s.scene, camera).map_err(ViewError::NominalScene)?;
     let corners: Vec<Option<Corners>> = t_s
         .iter()
         .zip(&wheel.seen_rad)
@@ -156,7 +190,7 @@ fn view_of(
     config.differentiator = Differentiator::Central3;
     config.reference_compensation = ReferenceCompensation::Off;
     config.timebase = Timebase::Timestamps;
-    let est = estimate(&config, t_s, &corners, None).map_err(DiagnoseError::ExactView)?;
+    let est = estimate(&config, t_s, &corners, None).map_err(ViewError::Estimate)?;
     let measured_rad = est.primary_series().theta_rad.clone();
     let warp_rad = measured_rad
         .iter()
@@ -179,7 +213,7 @@ pub fn realign_motion(
     t_s: &[f64],
     theta_rad: &[f64],
     screen_sign: f64,
-) -> Result<(Scenario, Option<Realigned>), DiagnoseError> {
+) -> Result<(Scenario, Option<Realigned>), ViewError> {
     if !bends_angle(s) {
         return Ok((s.clone(), None));
     }
@@ -196,7 +230,7 @@ fn realign_with(
     theta_rad: &[f64],
     screen_sign: f64,
     mut wheel: WheelAngles,
-) -> Result<(Scenario, Option<Realigned>, WheelAngles), DiagnoseError> {
+) -> Result<(Scenario, Option<Realigned>, WheelAngles), ViewError> {
     let mut out = s.clone();
     let mut speed_scale = 1.0;
     let mut last = None;
@@ -207,8 +241,8 @@ fn realign_with(
             .zip(&view.warp_rad)
             .map(|(th, w)| th - w)
             .collect();
-        let motion = align_motion(&out, t_s, &straightened, screen_sign)
-            .map_err(DiagnoseError::AlignMotion)?;
+        let motion =
+            align_motion(&out, t_s, &straightened, screen_sign).map_err(ViewError::AlignMotion)?;
         out = apply_motion(&out, &motion);
         wheel = wheel_angles(&out, t_s)?;
         // The refit moves the wheel's phase; put the marker back where the footage sees it
@@ -251,7 +285,7 @@ pub fn refit_nuisance(
     t_s: &[f64],
     theta_rad: &[f64],
     screen_sign: f64,
-) -> Result<Scenario, DiagnoseError> {
+) -> Result<Scenario, ViewError> {
     let wheel = wheel_angles(s, t_s)?;
     let centred = centre_at(s, want_centre_px, t_s, &wheel, screen_sign)?;
     if !(bends_angle(&centred) || Effect::DriveSpeed.is_on(&centred)) {
@@ -268,7 +302,7 @@ pub fn measured_centre_px(
     reference: &Scenario,
     t_s: &[f64],
     screen_sign: f64,
-) -> Result<[f64; 2], DiagnoseError> {
+) -> Result<[f64; 2], ViewError> {
     Ok(exact_view(reference, t_s, screen_sign)?.centre_px)
 }
 
@@ -290,7 +324,7 @@ pub fn match_measured_centre(
     reference: &Scenario,
     t_s: &[f64],
     screen_sign: f64,
-) -> Result<Scenario, DiagnoseError> {
+) -> Result<Scenario, ViewError> {
     let want = measured_centre_px(reference, t_s, screen_sign)?;
     centre_at(s, want, t_s, &wheel_angles(s, t_s)?, screen_sign)
 }
@@ -303,7 +337,7 @@ fn centre_at(
     t_s: &[f64],
     wheel: &WheelAngles,
     screen_sign: f64,
-) -> Result<Scenario, DiagnoseError> {
+) -> Result<Scenario, ViewError> {
     let mut out = s.clone();
     // Only the rotation centre's image moves between rounds: the wheel's angles stay.
     for _ in 0..CENTRE_ROUNDS {
@@ -330,7 +364,7 @@ pub fn angle_bend_rms(
     values: &[f64],
     t_s: &[f64],
     screen_sign: f64,
-) -> Result<f64, DiagnoseError> {
+) -> Result<f64, ViewError> {
     let before = exact_view(s, t_s, screen_sign)?;
     let mut with = s.clone();
     effect.apply(&mut with, values);
@@ -371,9 +405,7 @@ mod tests {
         let centred = crate::scenario::load_any("fast").unwrap();
         let t: Vec<f64> = (0..120).map(|k| k as f64 / 30.0).collect();
         let sign = |s: &Scenario| {
-            super::super::nominal::screen_sign(
-                &Scene::new(&s.scene, Camera::new(&s.camera).unwrap()).unwrap(),
-            )
+            super::screen_sign(&Scene::new(&s.scene, Camera::new(&s.camera).unwrap()).unwrap())
         };
         let bend =
             |s: &Scenario| angle_bend_rms(s, Effect::LensDistortion, &[-0.6], &t, sign(s)).unwrap();
@@ -455,7 +487,7 @@ mod tests {
     /// `truth` moved (crank start 2 rad, marker angle +4°, speed ×1.1) and measured on its exact
     /// corners at `frames` frames of 30 fps: its screen sign, the frame times and the angle.
     fn measured_moved(truth: &Scenario, frames: usize) -> (f64, Vec<f64>, Vec<f64>) {
-        let sign = super::super::nominal::screen_sign(&{
+        let sign = super::screen_sign(&{
             let camera = Camera::new(&truth.camera).unwrap();
             Scene::new(&truth.scene, camera).unwrap()
         });
@@ -548,7 +580,7 @@ mod tests {
         let mut clearance = reference.clone();
         Effect::Backlash.apply(&mut clearance, &[0.5]);
         let t: Vec<f64> = (0..60).map(|k| k as f64 / 30.0).collect();
-        let sign = super::super::nominal::screen_sign(&{
+        let sign = super::screen_sign(&{
             let camera = Camera::new(&reference.camera)?;
             Scene::new(&reference.scene, camera)?
         });

@@ -5,7 +5,7 @@
 use crate::detect::GrayView;
 use crate::diagnose::record::{FrameImage, SideEdge};
 use crate::estimate::Corners;
-use crate::imagestats::{self, EdgeOptions, LevelOptions, MarkerLayout, MarkerRegions};
+use crate::imagestats::{self, EdgeOptions, LevelOptions, MarkerLayout};
 use crate::scenario::Scenario;
 
 /// Edge fits on at most 800 pixels per side: the σ of a sharp edge is then known to a few
@@ -39,59 +39,6 @@ pub fn marker_layout(s: &Scenario) -> Result<MarkerLayout, imagestats::StatsErro
     )
 }
 
-/// Blockiness of flat regions: the mean absolute difference between horizontally or vertically
-/// adjacent pixels that straddle an 8-px block boundary (on the absolute grid), divided by the
-/// same over pairs that do not, counting only pairs inside one flat region (ink, paper or
-/// surround, away from every edge). Edges of the marker never enter, so an uncompressed frame
-/// gives 1 up to noise wherever the marker sits; JPEG's block boundaries raise it. `None` with
-/// fewer than 50 pairs of either kind.
-pub fn flat_blockiness(view: &GrayView<'_>, regions: &MarkerRegions) -> Option<f64> {
-    let (ox, oy) = (view.origin_px.0 as i64, view.origin_px.1 as i64);
-    let value = |x: i64, y: i64| -> Option<f64> {
-        let (lx, ly) = (x - ox, y - oy);
-        if lx < 0 || ly < 0 || lx >= view.width as i64 || ly >= view.height as i64 {
-            return None;
-        }
-        view.data
-            .get(ly as usize * view.width + lx as usize)
-            .map(|v| *v as f64)
-    };
-    let (mut on, mut n_on, mut off, mut n_off) = (0.0, 0usize, 0.0, 0usize);
-    for pixels in [&regions.ink, &regions.paper, &regions.surround] {
-        let set: std::collections::HashSet<(i64, i64)> = pixels.iter().copied().collect();
-        for &(x, y) in pixels.iter() {
-            for (dx, dy, coord) in [(1i64, 0i64, x + 1), (0, 1, y + 1)] {
-                if !set.contains(&(x + dx, y + dy)) {
-                    continue;
-                }
-                let (Some(a), Some(b)) = (value(x, y), value(x + dx, y + dy)) else {
-                    continue;
-                };
-                if coord.rem_euclid(8) == 0 {
-                    on += (a - b).abs();
-                    n_on += 1;
-                } else {
-                    off += (a - b).abs();
-                    n_off += 1;
-                }
-            }
-        }
-    }
-    if n_on < 50 || n_off < 50 {
-        return None;
-    }
-    let (m_on, m_off) = (on / n_on as f64, off / n_off as f64);
-    // A frame without noise has no differences at all: no blocks to see.
-    Some(if m_off > 1e-9 {
-        m_on / m_off
-    } else if m_on > 1e-9 {
-        f64::INFINITY
-    } else {
-        1.0
-    })
-    .filter(|v| v.is_finite())
-}
-
 /// Statistics of `view` around the marker at `corners` (fields the frame does not allow are
 /// `None`).
 pub fn frame_image(view: GrayView<'_>, corners: &Corners, layout: &MarkerLayout) -> FrameImage {
@@ -110,7 +57,7 @@ pub fn frame_image(view: GrayView<'_>, corners: &Corners, layout: &MarkerLayout)
             out.noise_paper_dn = Some(paper.noise_sigma_dn);
         }
         out.background_dn = stats(&regions.surround, "surround").map(|s| s.trimmed_mean_dn);
-        out.blockiness = flat_blockiness(&view, &regions);
+        out.blockiness = imagestats::flat_region_blockiness(&view, &regions);
     }
     let edges = imagestats::outer_edge_profiles(&view, corners, layout, &EDGE_OPTIONS);
     for (slot, e) in out.edges.iter_mut().zip(&edges) {

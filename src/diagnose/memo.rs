@@ -12,22 +12,22 @@
 //! the objective depends on: the trial as built (its `Debug` text, which holds every scenario
 //! field, the timing source and any refined runout form or matched rotation centre), the seeds,
 //! the effects whose signature cells are counted, which of the lens's cells count, and the
-//! comparison. A fork starts with an empty memo ([`super::Fitter::fork`]), so a fork's counts do
+//! comparison. A fork starts with an empty memo (`pipeline::diagnose::fit::Fitter::fork`), so a fork's counts do
 //! not depend on what ran before it, and no memo is shared between threads.
 
-use super::Objectives;
+use super::objectives::Objectives;
 use crate::scenario::effects::Effect;
 use std::cell::RefCell;
 use std::collections::HashMap;
 
 /// Everything one fit objective depends on, as text (see the module doc).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub(super) struct MemoKey(String);
+pub struct MemoKey(String);
 
 impl MemoKey {
     /// `trial_debug` is the trial's `Debug` text; `cells` names which cells count (the lens's
     /// and the comparison's choice); `effects` in any order (the cells counted are their union).
-    pub(super) fn new(trial_debug: &str, seeds: &[u64], effects: &[Effect], cells: &str) -> Self {
+    pub fn new(trial_debug: &str, seeds: &[u64], effects: &[Effect], cells: &str) -> Self {
         let mut names: Vec<&str> = effects.iter().map(|e| e.name()).collect();
         names.sort_unstable();
         names.dedup();
@@ -39,25 +39,25 @@ impl MemoKey {
 
 /// Objectives by [`MemoKey`]; interior mutability as the fitter's simulation counter has.
 #[derive(Debug, Default)]
-pub(super) struct ObjectiveMemo {
+pub struct ObjectiveMemo {
     by_key: RefCell<HashMap<MemoKey, Objectives>>,
 }
 
 impl ObjectiveMemo {
-    pub(super) fn get(&self, key: &MemoKey) -> Option<Objectives> {
+    pub fn get(&self, key: &MemoKey) -> Option<Objectives> {
         self.by_key.borrow().get(key).copied()
     }
 
     /// Records a computed objective. A failed one (not finite) is not recorded: a failure may be
     /// a resource one, and a later ask simulates again.
-    pub(super) fn insert(&self, key: MemoKey, objectives: Objectives) {
+    pub fn insert(&self, key: MemoKey, objectives: Objectives) {
         if objectives.sum_z2.is_finite() {
             self.by_key.borrow_mut().insert(key, objectives);
         }
     }
 
     #[cfg(test)]
-    pub(super) fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.by_key.borrow().len()
     }
 }
