@@ -98,6 +98,15 @@ impl GapMap {
     }
 }
 
+/// A Σ z² in words, "failed" where its simulation failed.
+pub fn fmt_sum_z2(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.1}")
+    } else {
+        "failed".to_string()
+    }
+}
+
 /// max(0, |z| − z₀)².
 pub fn excess(z: f64, z0: f64) -> f64 {
     let e = (z.abs() - z0).max(0.0);

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::parse::LogFormat;
+use super::format::LogFormat;
 use crate::validation::{join, Problems};
 
 /// Frame timing of the camera. TOML:

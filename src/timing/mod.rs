@@ -5,6 +5,7 @@
 mod config;
 mod error;
 pub(crate) mod fit;
+mod format;
 mod parse;
 mod schedule;
 pub(crate) mod stats;
@@ -26,9 +27,10 @@ mod tests_stream;
 pub use config::{FrameTimingConfig, LogModel, TimestampMark, TimingModel, VfrModel};
 pub use error::TimingError;
 pub use fit::{fit_vfr, fit_vfr_passes, TimingFit, MEDIAN_SAMPLE};
+pub use format::LogFormat;
 pub use parse::{
     load_from_text, parse_ffprobe_csv, parse_ffprobe_json, parse_frames_csv,
-    parse_frames_csv_numbered, parse_showinfo, parse_showinfo_pts, to_frames_csv, LogFormat,
+    parse_frames_csv_numbered, parse_showinfo, parse_showinfo_pts, to_frames_csv,
 };
 pub use schedule::JITTER_TRUNCATION_SIGMA;
 pub use stats::{TimingStats, DROP_THRESHOLD};

@@ -10,7 +10,7 @@ use std::io::BufRead;
 use serde::de::{self, DeserializeSeed, IgnoredAny, MapAccess, SeqAccess, Visitor};
 
 use super::error::TimingError;
-use super::parse::LogFormat;
+use super::format::LogFormat;
 use super::timestamps::check_next;
 
 /// Longest line accepted, bytes (a showinfo frame line is about 300 bytes).

@@ -5,7 +5,6 @@
 //! seeds, shared with the nominal) and measure how far the gap shrinks.
 
 use super::nominal::Aligned;
-use super::report::fmt_sum_z2;
 use super::simulate::{
     simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
 };
@@ -14,8 +13,8 @@ use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::camera_warp;
 use crate::diagnose::cells::{CellKey, Cells, SlowShape};
 use crate::diagnose::gap::{
-    compare, compare_for_fit, compare_with_slow_shape, excess, shared_tolerance_chi2, GapMap,
-    GapOptions,
+    compare, compare_for_fit, compare_with_slow_shape, excess, fmt_sum_z2, shared_tolerance_chi2,
+    GapMap, GapOptions,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan::{self, in_signature};

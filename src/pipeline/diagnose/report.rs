@@ -14,7 +14,7 @@ use super::{
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::fit_noise::FootageFits;
-use crate::diagnose::gap::{CellGap, GapMap};
+use crate::diagnose::gap::{fmt_sum_z2, CellGap, GapMap};
 use crate::diagnose::holdout;
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
@@ -98,15 +98,6 @@ pub(super) fn skipped_reason(why: SkipReason) -> String {
             fmt_sum_z2(fitted_sum_z2),
             fmt_sum_z2(nominal_sum_z2)
         ),
-    }
-}
-
-/// A Σ z² in words, "failed" where its simulation failed.
-pub(super) fn fmt_sum_z2(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.1}")
-    } else {
-        "failed".to_string()
     }
 }
 
