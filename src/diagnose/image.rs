@@ -9,7 +9,7 @@ use crate::imagestats::{self, EdgeOptions, LevelOptions, MarkerLayout};
 use crate::scenario::Scenario;
 
 /// Edge fits on at most 800 pixels per side: the σ of a sharp edge is then known to a few
-/// hundredths of a pixel, and a frame's four fits cost about a millisecond.
+/// hundredths of a pixel; the four fits are still the costliest part of a simulated measurement.
 const EDGE_OPTIONS: EdgeOptions = EdgeOptions {
     sigma_hint_px: 2.5,
     half_width_px: None,

@@ -15,6 +15,7 @@ use crate::detect::GrayView;
 use crate::estimate::lm;
 use crate::numeric::dist::{normal_cdf, normal_pdf};
 use nalgebra::{DMatrix, DVector};
+use std::cell::RefCell;
 
 /// Sampling and guard settings of an edge fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -505,6 +506,7 @@ pub fn fit_grid_edge(
         let (c, s) = (normal[0].abs(), normal[1].abs());
         (c.max(s), c.min(s))
     };
+    let rows = RefCell::new(WeightRows::default());
     let model = EdgeModel {
         samples: &samples,
         intervals: &intervals,
@@ -513,6 +515,7 @@ pub fn fit_grid_edge(
         box_b: wb,
         max_sigma: 3.0 * hint + 5.0,
         max_offset: 0.5 * band_px,
+        rows: Some(&rows),
     };
     let residuals = |p: &[f64], out: &mut Vec<f64>| model.residuals(p, out).is_some();
     // Coarse start: the edge position over a small grid at a middling σ, on every
@@ -522,6 +525,7 @@ pub fn fit_grid_edge(
     let coarse_samples: Vec<Sample> = samples.iter().step_by(COARSE_STRIDE).copied().collect();
     let coarse = EdgeModel {
         samples: &coarse_samples,
+        rows: None,
         ..model
     };
     let mut best = (f64::INFINITY, 0.0);
@@ -654,20 +658,40 @@ fn add_material_weights_d(
     w_x: &mut [f64],
     w_sigma: &mut [f64],
 ) {
-    let response = |boundary: f64, unbounded: f64| {
-        if boundary.is_finite() {
-            step_response_d(x - boundary, sigma, box_a, box_b)
-        } else {
-            [unbounded, 0.0, 0.0]
+    // A boundary shared with the previous interval is computed once, as in
+    // [`add_material_weights`].
+    let response = |previous: &[(f64, [f64; 3]); 2], boundary: f64, unbounded: f64| {
+        if !boundary.is_finite() {
+            return [unbounded, 0.0, 0.0];
         }
+        previous
+            .iter()
+            .find(|(b, _)| b.to_bits() == boundary.to_bits())
+            .map_or_else(
+                || step_response_d(x - boundary, sigma, box_a, box_b),
+                |&(_, r)| r,
+            )
     };
+    let mut previous = [(f64::NAN, [0.0; 3]); 2];
     for iv in intervals {
-        let (upper, lower) = (response(iv.lo, 1.0), response(iv.hi, 0.0));
+        let upper = response(&previous, iv.lo, 1.0);
+        let lower = response(&previous, iv.hi, 0.0);
+        previous = [(iv.lo, upper), (iv.hi, lower)];
         let m = slot[iv.material];
         w[m] += upper[0] - lower[0];
         w_x[m] += upper[1] - lower[1];
         w_sigma[m] += upper[2] - lower[2];
     }
+}
+
+/// The weights of every sample and their derivatives at one set of parameters, as the last
+/// residual pass computed them (n × k each, row-major).
+#[derive(Default)]
+struct WeightRows {
+    p_bits: Option<[u64; 3]>,
+    w: Vec<f64>,
+    w_x: Vec<f64>,
+    w_sigma: Vec<f64>,
 }
 
 /// The profile model over the collected samples; parameters (offset, tilt, σ).
@@ -680,6 +704,11 @@ struct EdgeModel<'a> {
     box_b: f64,
     max_sigma: f64,
     max_offset: f64,
+    /// Where a residual pass leaves its weights' derivatives for the Jacobian at the same
+    /// parameters (the Levenberg–Marquardt solver asks for it right after the residuals of the
+    /// point it accepts): the Φ and φ values are most of an edge fit's cost, and the Jacobian
+    /// pass recomputed them. `None` where no Jacobian follows (the coarse start).
+    rows: Option<&'a RefCell<WeightRows>>,
 }
 
 impl EdgeModel<'_> {
@@ -698,19 +727,45 @@ impl EdgeModel<'_> {
         for (i, &m) in self.materials.iter().enumerate() {
             slot[m] = i;
         }
-        let mut weights = vec![0.0; self.samples.len() * k];
+        let n = self.samples.len();
+        let mut weights = vec![0.0; n * k];
         let mut ata = vec![vec![0.0; k]; k];
         let mut atb = vec![0.0; k];
-        for (s, w) in self.samples.iter().zip(weights.chunks_exact_mut(k)) {
+        let mut rows = self.rows.map(|c| c.borrow_mut());
+        if let Some(c) = rows.as_deref_mut() {
+            c.p_bits = None;
+            for v in [&mut c.w_x, &mut c.w_sigma] {
+                v.clear();
+                v.resize(n * k, 0.0);
+            }
+        }
+        for (idx, (s, w)) in self
+            .samples
+            .iter()
+            .zip(weights.chunks_exact_mut(k))
+            .enumerate()
+        {
             let x = s.d - (e0 + e1 * s.tau);
             let intervals = &self.intervals[s.first..s.first + s.count];
-            add_material_weights(x, intervals, sigma, self.box_a, self.box_b, &slot, w);
+            let (a, b) = (self.box_a, self.box_b);
+            match rows.as_deref_mut() {
+                Some(c) => {
+                    let at = idx * k..(idx + 1) * k;
+                    let (w_x, w_sigma) = (&mut c.w_x[at.clone()], &mut c.w_sigma[at]);
+                    add_material_weights_d(x, intervals, sigma, a, b, &slot, w, w_x, w_sigma);
+                }
+                None => add_material_weights(x, intervals, sigma, a, b, &slot, w),
+            }
             for i in 0..k {
                 atb[i] += w[i] * s.value;
                 for j in 0..k {
                     ata[i][j] += w[i] * w[j];
                 }
             }
+        }
+        if let Some(mut c) = rows {
+            c.w.clone_from(&weights);
+            c.p_bits = Some([e0.to_bits(), e1.to_bits(), sigma.to_bits()]);
         }
         // Materials within reach of the model but not of the sampled band carry no weight:
         // leave them out of the solve (their level is NaN, reported as absent).
@@ -768,22 +823,33 @@ impl EdgeModel<'_> {
             DMatrix::<f64>::zeros(n, k),
         ];
         let (mut row, mut row_x, mut row_sigma) = (vec![0.0; k], vec![0.0; k], vec![0.0; k]);
+        let p_bits = [e0.to_bits(), e1.to_bits(), sigma.to_bits()];
+        let cached = self
+            .rows
+            .map(|c| c.borrow())
+            .filter(|c| c.p_bits == Some(p_bits) && c.w.len() == n * k);
         for (i, s) in self.samples.iter().enumerate() {
-            let x = s.d - (e0 + e1 * s.tau);
-            row.fill(0.0);
-            row_x.fill(0.0);
-            row_sigma.fill(0.0);
-            add_material_weights_d(
-                x,
-                &self.intervals[s.first..s.first + s.count],
-                sigma,
-                self.box_a,
-                self.box_b,
-                &slot,
-                &mut row,
-                &mut row_x,
-                &mut row_sigma,
-            );
+            if let Some(c) = &cached {
+                let at = i * k..(i + 1) * k;
+                row.copy_from_slice(&c.w[at.clone()]);
+                row_x.copy_from_slice(&c.w_x[at.clone()]);
+                row_sigma.copy_from_slice(&c.w_sigma[at]);
+            } else {
+                row.fill(0.0);
+                row_x.fill(0.0);
+                row_sigma.fill(0.0);
+                add_material_weights_d(
+                    s.d - (e0 + e1 * s.tau),
+                    &self.intervals[s.first..s.first + s.count],
+                    sigma,
+                    self.box_a,
+                    self.box_b,
+                    &slot,
+                    &mut row,
+                    &mut row_x,
+                    &mut row_sigma,
+                );
+            }
             for m in 0..k {
                 w[(i, m)] = row[m];
                 // x = d − e0 − e1·τ.
@@ -1028,11 +1094,33 @@ mod tests {
                 box_b,
                 max_sigma: 12.5,
                 max_offset: 5.0,
+                rows: None,
             };
             let p = [0.05, 0.1, 1.3];
             let mut r = Vec::new();
             model.residuals(&p, &mut r).unwrap();
             let jac = model.jacobian(&p, &r).unwrap();
+            // With the residual pass's rows kept, the same residuals and the same Jacobian, bit
+            // for bit: from the rows at the point they were made, recomputed elsewhere.
+            let rows = RefCell::new(WeightRows::default());
+            let kept = EdgeModel {
+                rows: Some(&rows),
+                ..model
+            };
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut r_kept = Vec::new();
+            kept.residuals(&p, &mut r_kept).unwrap();
+            assert_eq!(bits(&r_kept), bits(&r));
+            assert_eq!(rows.borrow().p_bits, Some(p.map(f64::to_bits)));
+            let jac_kept = kept.jacobian(&p, &r_kept).unwrap();
+            assert_eq!(bits(jac_kept.as_slice()), bits(jac.as_slice()));
+            let elsewhere = [0.0, 0.0, 1.0];
+            let mut r_else = Vec::new();
+            model.residuals(&elsewhere, &mut r_else).unwrap();
+            assert_eq!(
+                bits(kept.jacobian(&elsewhere, &r_else).unwrap().as_slice()),
+                bits(model.jacobian(&elsewhere, &r_else).unwrap().as_slice())
+            );
             let h = 1e-6;
             for j in 0..3 {
                 let (mut up, mut down) = (p, p);
@@ -1105,6 +1193,30 @@ mod tests {
                     }
                     for m in 0..3 {
                         assert_eq!(got[m].to_bits(), want[m].to_bits(), "x {x} σ {sigma} m {m}");
+                    }
+                    // The derivative version shares boundaries too: its weights are the same
+                    // bits, its derivatives those of every boundary computed afresh.
+                    let (mut w, mut w_x, mut w_s) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+                    add_material_weights_d(
+                        x, intervals, sigma, a, b, &slot, &mut w, &mut w_x, &mut w_s,
+                    );
+                    let (mut want_x, mut want_s) = ([0.0; 3], [0.0; 3]);
+                    for i in intervals {
+                        let at = |bound: f64| {
+                            if bound.is_finite() {
+                                step_response_d(x - bound, sigma, a, b)
+                            } else {
+                                [0.0; 3]
+                            }
+                        };
+                        let (upper, lower) = (at(i.lo), at(i.hi));
+                        want_x[i.material] += upper[1] - lower[1];
+                        want_s[i.material] += upper[2] - lower[2];
+                    }
+                    for m in 0..3 {
+                        assert_eq!(w[m].to_bits(), want[m].to_bits(), "x {x} σ {sigma} m {m}");
+                        assert_eq!(w_x[m].to_bits(), want_x[m].to_bits(), "x {x} m {m}");
+                        assert_eq!(w_s[m].to_bits(), want_s[m].to_bits(), "x {x} m {m}");
                     }
                 }
             }
