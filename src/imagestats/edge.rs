@@ -600,6 +600,16 @@ pub fn fit_grid_edge(
     })
 }
 
+/// The response `previous` holds for `boundary` (the same bits: a boundary the previous interval
+/// shares), else `compute`'s: a response is a pure function of its boundary, so either way the
+/// bits are the same.
+fn shared_or<T: Copy>(previous: &[(f64, T); 2], boundary: f64, compute: impl FnOnce() -> T) -> T {
+    previous
+        .iter()
+        .find(|(b, _)| b.to_bits() == boundary.to_bits())
+        .map_or_else(compute, |&(_, r)| r)
+}
+
 /// Adds to `w[slot[m]]` the weight of each material m across the edge at a pixel `x` px from
 /// the fitted line: the share of the pixel's blurred response that falls in its intervals.
 ///
@@ -616,13 +626,9 @@ fn add_material_weights(
     w: &mut [f64],
 ) {
     let response = |previous: &[(f64, f64); 2], boundary: f64| {
-        previous
-            .iter()
-            .find(|(b, _)| b.to_bits() == boundary.to_bits())
-            .map_or_else(
-                || step_response(x - boundary, sigma, box_a, box_b),
-                |&(_, r)| r,
-            )
+        shared_or(previous, boundary, || {
+            step_response(x - boundary, sigma, box_a, box_b)
+        })
     };
     let mut previous = [(f64::NAN, 0.0); 2];
     for iv in intervals {
@@ -664,13 +670,9 @@ fn add_material_weights_d(
         if !boundary.is_finite() {
             return [unbounded, 0.0, 0.0];
         }
-        previous
-            .iter()
-            .find(|(b, _)| b.to_bits() == boundary.to_bits())
-            .map_or_else(
-                || step_response_d(x - boundary, sigma, box_a, box_b),
-                |&(_, r)| r,
-            )
+        shared_or(previous, boundary, || {
+            step_response_d(x - boundary, sigma, box_a, box_b)
+        })
     };
     let mut previous = [(f64::NAN, [0.0; 3]); 2];
     for iv in intervals {
