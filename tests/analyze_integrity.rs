@@ -301,7 +301,8 @@ fn edited_tracks(dir: &Path, name: &str, edit: impl Fn(usize, &str) -> Option<St
 /// The crank speed scale the diagnosis aligns to the track at `tracks`.
 fn aligned_speed_scale(tracks: &Path, work: &Path) -> f64 {
     use geneva_vision::diagnose::image;
-    use geneva_vision::pipeline::diagnose::{nominal, real};
+    use geneva_vision::diagnose::nominal;
+    use geneva_vision::pipeline::diagnose::{real, simulate::RenderDetect};
     let s = fast();
     let layout = image::marker_layout(&s).unwrap();
     let m = real::measure_real(
@@ -312,7 +313,7 @@ fn aligned_speed_scale(tracks: &Path, work: &Path) -> f64 {
         &|_, _| {},
     )
     .unwrap();
-    let speed = nominal::align(&s, &m.record, &m.estimate, &layout)
+    let speed = nominal::align(&s, &m.record, &m.estimate, &layout, &RenderDetect)
         .unwrap()
         .motion
         .speed_scale;

@@ -7,8 +7,8 @@
 use super::eta;
 use anyhow::{bail, Result};
 use clap::Args;
+use geneva_vision::diagnose::simulator::SimMeter;
 use geneva_vision::pipeline::diagnose::shards::Mode;
-use geneva_vision::pipeline::diagnose::simulate::SimMeter;
 use geneva_vision::pipeline::diagnose::{
     candidate_name, diagnose_with, DiagnoseOptions, Finished, StageLog,
 };

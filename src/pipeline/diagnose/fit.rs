@@ -4,10 +4,6 @@
 //! pipeline in the loop, on the fit seeds), then re-simulate on fresh seeds (the evaluation
 //! seeds, shared with the nominal) and measure how far the gap shrinks.
 
-use super::nominal::Aligned;
-use super::simulate::{
-    simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
-};
 use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::camera_warp;
@@ -17,6 +13,7 @@ use crate::diagnose::gap::{
     GapMap, GapOptions,
 };
 use crate::diagnose::moments;
+use crate::diagnose::nominal::{AlignError, Aligned};
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::pose_tilt::PoseTilt;
 use crate::diagnose::runout::RunoutForm;
@@ -24,6 +21,9 @@ use crate::diagnose::search::{
     coupling_from_off_point, minimise, std_with_other_free, SearchOptions, SearchResult,
 };
 use crate::diagnose::spectrum;
+use crate::diagnose::trials::{
+    simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
+};
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
@@ -497,7 +497,7 @@ fn simulated_cells(
     simulations: &RefCell<usize>,
 ) -> Result<Vec<Cells>, DiagnoseError> {
     *simulations.borrow_mut() += seeds.len();
-    trial_cells(ctx, trial, seeds, images)
+    Ok(trial_cells(ctx, trial, seeds, images)?)
 }
 
 impl<'a> Fitter<'a> {
@@ -817,7 +817,7 @@ impl<'a> Fitter<'a> {
         }
         let footage = match self.trial_with(truth).and_then(|trial| {
             *self.simulations.borrow_mut() += 1;
-            simulated_footage(&self.ctx, &trial, footage_seed)
+            Ok(simulated_footage(&self.ctx, &trial, footage_seed)?)
         }) {
             Ok(f) => f,
             Err(e) => return (Err(e), self.simulations()),
@@ -1499,8 +1499,7 @@ impl<'a> Fitter<'a> {
         let mut kind = FitKind::Measured;
         match e {
             Effect::FrameTiming => {
-                let ts =
-                    Timestamps::new(self.real_t_s.to_vec()).map_err(DiagnoseError::FrameTimes)?;
+                let ts = Timestamps::new(self.real_t_s.to_vec()).map_err(AlignError::FrameTimes)?;
                 let f = fit_vfr(&ts).map_err(DiagnoseError::TimingFit)?;
                 let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
                 values = vec![

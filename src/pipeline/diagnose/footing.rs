@@ -4,14 +4,16 @@
 //! it all, so that the [`Fitter`] the diagnosis runs on (and a test's) borrows it from one place.
 
 use super::fit::{self, Fitter, RealSide};
-use super::nominal::{self, Aligned};
 use super::real::RealMeasurement;
-use super::simulate::{RealFrames, SimContext, SimMeter};
+use super::simulate::RenderDetect;
 use super::DiagnoseError;
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, AngleResidual, Cells};
 use crate::diagnose::gap::GapOptions;
+use crate::diagnose::nominal::{self, Aligned};
 use crate::diagnose::pose_tilt::{self, PoseTilt};
 use crate::diagnose::runout::RunoutForm;
+use crate::diagnose::simulator::SimMeter;
+use crate::diagnose::trials::{RealFrames, SimContext};
 use crate::imagestats::MarkerLayout;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
@@ -52,7 +54,7 @@ impl Footing {
         layout: &MarkerLayout,
         effects: Option<&[Effect]>,
     ) -> Result<Self, DiagnoseError> {
-        let aligned = nominal::align(nominal, &real.record, &real.estimate, layout)?;
+        let aligned = nominal::align(nominal, &real.record, &real.estimate, layout, &RenderDetect)?;
         let t_all_s = real.record.t_s();
         let nyquist_hz = 0.5 / fit::median_interval_s(&t_all_s);
         let real_missing: Vec<bool> = real
@@ -126,6 +128,7 @@ impl Footing {
     /// What a simulation of this footage needs.
     pub fn sim_context<'a>(&'a self, layout: &'a MarkerLayout) -> SimContext<'a> {
         SimContext {
+            simulator: &RenderDetect,
             aligned: &self.aligned,
             layout,
             with_images: self.has_images,

@@ -3,9 +3,9 @@
 //! against the footage's.
 
 use super::fit::{applied, Fitter};
-use super::simulate::{trial_theta_residuals, FrameSeries};
 use super::{DiagnoseError, Ranked};
 use crate::diagnose::holdout::{slow_waveform_check, Series, WaveformCheck};
+use crate::diagnose::trials::{trial_theta_residuals, FrameSeries};
 use std::cell::OnceCell;
 
 /// What the held-out check found for one candidate.

@@ -3,10 +3,11 @@
 //!
 //! 1. The real data are measured with the nominal's detector and estimator (the code of
 //!    `geneva analyze`), plus image statistics on every frame ([`real`]).
-//! 2. Nuisance alignment ([`nominal`]): crank phase and speed, marker angle, orientation,
+//! 2. Nuisance alignment ([`crate::diagnose::nominal`]): crank phase and speed, marker angle, orientation,
 //!    radius, image scale, rotation-centre and reference-marker positions are fitted, so that
 //!    what is left is a gap, not a misplacement.
-//! 3. The aligned nominal is simulated at the real frame times on N seeds ([`simulate`]); both
+//! 3. The aligned nominal is simulated at the real frame times on N seeds
+//!    ([`crate::diagnose::trials`], rendered and detected by [`simulate::RenderDetect`]); both
 //!    sides give the same cells ([`crate::diagnose::cells`]); the gap map compares them.
 //! 4. Candidates are screened by their signatures, fitted by simulated method of moments and
 //!    re-simulated on the evaluation seeds ([`fit`]); a greedy pair (its first effect refitted
@@ -23,7 +24,6 @@
 pub mod fit;
 pub mod footing;
 pub mod held_out;
-pub mod nominal;
 pub mod outlook;
 pub mod real;
 pub mod report;
@@ -34,6 +34,7 @@ pub mod simulate;
 use crate::diagnose::cells::Cells;
 use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
 use crate::diagnose::image;
+use crate::diagnose::nominal::Aligned;
 use crate::diagnose::plan;
 use crate::diagnose::verdict::{self, Outcome, Verdict};
 use crate::io::output_dir::OutputDir;
@@ -42,7 +43,6 @@ use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use fit::{Evaluated, Fitter};
 use footing::Footing;
-use nominal::Aligned;
 use shards::{CandidateStudy, Mode};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -99,8 +99,6 @@ pub enum DiagnoseError {
          from every timestamp)"
     )]
     NegativeFrameTime { frame: usize, t_s: f64 },
-    #[error("the real frame times")]
-    FrameTimes(#[source] crate::timing::TimingError),
     #[error("fitting the frame timing of the footage")]
     TimingFit(#[source] crate::timing::TimingError),
     #[error(
@@ -119,26 +117,12 @@ pub enum DiagnoseError {
     Internal(&'static str),
     #[error("the nominal scenario's marker layout")]
     NominalLayout(#[source] crate::imagestats::StatsError),
-    #[error(
-        "the marker centre does not move along a measurable arc; a diagnosis needs footage where \
-         the wheel turns"
-    )]
-    NoArc(#[source] crate::estimate::EstimateError),
-    #[error(
-        "the aligned nominal is not a valid scenario: {}",
-        crate::validation::bullet_list(problems)
-    )]
-    AlignedInvalid {
-        problems: Vec<crate::validation::Problem>,
-    },
+    #[error(transparent)]
+    Align(#[from] crate::diagnose::nominal::AlignError),
     #[error(transparent)]
     View(#[from] crate::diagnose::camera_warp::ViewError),
-    #[error("simulating the nominal: its rig")]
-    SimulateRig(#[source] Box<crate::pipeline::rig::RigError>),
-    #[error("simulating the nominal: rendering and detecting its frames")]
-    SimulateFrames(#[source] Box<crate::pipeline::frames::FramesError>),
-    #[error("estimating the simulated measurement")]
-    SimulateEstimate(#[source] crate::estimate::EstimateError),
+    #[error(transparent)]
+    Simulate(#[from] crate::diagnose::simulator::SimulateError),
     #[error("the self-check's base scenario `{spec}`")]
     SuiteBase {
         spec: String,
@@ -233,7 +217,7 @@ pub struct DiagnoseOptions {
     pub bootstrap: usize,
     /// Where a progress display reads the simulations run and still planned (none: counted
     /// and dropped).
-    pub meter: Option<Arc<simulate::SimMeter>>,
+    pub meter: Option<Arc<crate::diagnose::simulator::SimMeter>>,
 }
 
 impl Default for DiagnoseOptions {

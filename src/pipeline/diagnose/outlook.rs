@@ -4,7 +4,7 @@
 //! total is revised at each decision (candidates bounded out, pairs chosen, the verdict's
 //! checks). It steers nothing: no result depends on it.
 
-use super::simulate::SimMeter;
+use crate::diagnose::simulator::SimMeter;
 
 /// Objective evaluations a fit is expected to take before any has run: one search, which stops
 /// at 9 (most candidates search one parameter; a moment match takes fewer, a tilt more).

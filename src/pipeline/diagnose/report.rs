@@ -6,18 +6,19 @@
 use super::fit::{Evaluated, Fitter};
 use super::held_out::HeldOut;
 use super::real::RealMeasurement;
-use super::simulate::{estimate_record, simulate_record, Trial};
 use super::{
-    candidate_name, nominal, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit,
-    SecondLook, SkipReason, SkippedPair,
+    candidate_name, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit, SecondLook,
+    SkipReason, SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{fmt_sum_z2, CellGap, GapMap};
 use crate::diagnose::holdout;
+use crate::diagnose::nominal;
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::Record;
+use crate::diagnose::trials::{estimate_record, Trial};
 use crate::diagnose::verdict::{SetAside, VerdictReason};
 use crate::errors::FileError;
 use crate::io::json::finite_or_null;
@@ -1474,7 +1475,7 @@ fn overlay(
     let sim = |trial: &Trial| -> Result<Residuals, DiagnoseError> {
         let mut s = trial.scenario.clone();
         s.seed = seed;
-        let mut record = simulate_record(&s, fitter.ctx.layout, false)?;
+        let mut record = fitter.ctx.simulator.record(&s, fitter.ctx.layout, false)?;
         if let Some(fps) = trial.stamped_fps {
             for (k, f) in record.frames.iter_mut().enumerate() {
                 f.t_s = k as f64 / fps;

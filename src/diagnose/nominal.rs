@@ -3,7 +3,7 @@
 //! marker radius, rotation-centre and reference-marker image positions), simulated at the real
 //! frame times. Also the aligned motion that every residual channel is measured against.
 
-use super::DiagnoseError;
+use super::simulator::{SimulateError, Simulator};
 use crate::camera::{Camera, FocalConfig};
 use crate::diagnose::align::{align_motion, apply_motion, MotionAlignment};
 use crate::diagnose::camera_warp::{screen_sign, ViewError};
@@ -18,6 +18,29 @@ use crate::scenario::Scenario;
 use crate::scene::{Scene, WheelPose};
 use crate::timing::{LogModel, Timestamps, TimingModel};
 use serde::Serialize;
+
+/// Why the nominal cannot be aligned to the footage.
+#[derive(Debug, thiserror::Error)]
+pub enum AlignError {
+    #[error("the real frame times")]
+    FrameTimes(#[source] crate::timing::TimingError),
+    #[error(
+        "the marker centre does not move along a measurable arc; a diagnosis needs footage where \
+         the wheel turns"
+    )]
+    NoArc(#[source] crate::estimate::EstimateError),
+    #[error(
+        "the aligned nominal is not a valid scenario: {}",
+        crate::validation::bullet_list(problems)
+    )]
+    AlignedInvalid {
+        problems: Vec<crate::validation::Problem>,
+    },
+    #[error(transparent)]
+    View(#[from] ViewError),
+    #[error(transparent)]
+    Simulate(#[from] SimulateError),
+}
 
 /// The image-geometry nuisance fitted to the real marker track.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -62,15 +85,15 @@ fn circular_median(v: &[f64]) -> f64 {
     wrap(m + d.get(d.len() / 2).copied().unwrap_or(0.0))
 }
 
-fn scene_of(s: &Scenario) -> Result<Scene, DiagnoseError> {
+fn scene_of(s: &Scenario) -> Result<Scene, AlignError> {
     let camera = Camera::new(&s.camera).map_err(ViewError::NominalCamera)?;
     Ok(Scene::new(&s.scene, camera).map_err(ViewError::NominalScene)?)
 }
 
 /// The real frame times as the scenario's frame schedule (a log model that keeps them as they
 /// are), and a duration that covers them.
-pub fn at_frame_times(s: &mut Scenario, t_s: &[f64]) -> Result<(), DiagnoseError> {
-    let ts = Timestamps::new(t_s.to_vec()).map_err(DiagnoseError::FrameTimes)?;
+pub fn at_frame_times(s: &mut Scenario, t_s: &[f64]) -> Result<(), AlignError> {
+    let ts = Timestamps::new(t_s.to_vec()).map_err(AlignError::FrameTimes)?;
     let last = t_s.last().copied().unwrap_or(0.0);
     let step = if t_s.len() > 1 {
         (last - t_s[0]) / (t_s.len() - 1) as f64
@@ -94,7 +117,8 @@ pub fn align(
     record: &Record,
     est: &Estimate,
     layout: &crate::imagestats::MarkerLayout,
-) -> Result<Aligned, DiagnoseError> {
+    simulator: &dyn Simulator,
+) -> Result<Aligned, AlignError> {
     let sign = screen_sign(&scene_of(nominal)?);
     let t_all = record.t_s();
     let primary = est.primary_series();
@@ -118,10 +142,10 @@ pub fn align(
     }
     at_frame_times(&mut s, &t_all)?;
     let mut geometry = align_geometry(&mut s, record, sign)?;
-    refine_by_simulation(&mut s, &mut geometry, record, est, layout)?;
+    refine_by_simulation(&mut s, &mut geometry, record, est, layout, simulator)?;
     let problems = s.validate();
     if !problems.is_empty() {
-        return Err(DiagnoseError::AlignedInvalid {
+        return Err(AlignError::AlignedInvalid {
             problems: problems.0,
         });
     }
@@ -157,7 +181,8 @@ fn refine_by_simulation(
     record: &Record,
     est: &Estimate,
     layout: &crate::imagestats::MarkerLayout,
-) -> Result<(), DiagnoseError> {
+    simulator: &dyn Simulator,
+) -> Result<(), AlignError> {
     let median_side = |r: &Record| -> Option<f64> {
         let mut v: Vec<f64> = r
             .frames
@@ -175,10 +200,10 @@ fn refine_by_simulation(
     for round in 0..REFINE_ROUNDS {
         let mut trial = s.clone();
         trial.seed = s.seed.wrapping_add(3000 + round as u64);
-        let sim = super::simulate::simulate_record(&trial, layout, false)?;
+        let sim = simulator.record(&trial, layout, false)?;
         let (Some(side_sim), Ok(sim_est)) = (
             median_side(&sim),
-            super::simulate::estimate_record(&trial, &sim),
+            super::trials::estimate_record(&trial, &sim),
         ) else {
             return Ok(());
         };
@@ -217,7 +242,7 @@ fn disc_holds_marker(s: &mut Scenario) {
 /// moves the marker's radius, angle or orientation, and the paper's reach from the centre
 /// depends on all three (a calibrated nominal of tilted footage was refused mid-fit with the
 /// paper 0.2 mm past the disc).
-fn grown_scene_of(s: &mut Scenario) -> Result<Scene, DiagnoseError> {
+fn grown_scene_of(s: &mut Scenario) -> Result<Scene, AlignError> {
     disc_holds_marker(s);
     scene_of(s)
 }
@@ -227,7 +252,7 @@ fn align_geometry(
     s: &mut Scenario,
     record: &Record,
     sign: f64,
-) -> Result<GeometryAlignment, DiagnoseError> {
+) -> Result<GeometryAlignment, AlignError> {
     let shapes: Vec<(usize, crate::diagnose::shape::MarkerShape, [[f64; 2]; 4])> = record
         .frames
         .iter()
@@ -243,7 +268,7 @@ fn align_geometry(
         RotationCentreMethod::Geometric,
         2.0,
     )
-    .map_err(DiagnoseError::NoArc)?;
+    .map_err(AlignError::NoArc)?;
     let c = rc.centre_px;
     let r_real = rc.radii_px.first().copied().unwrap_or(0.0);
     let mut sides: Vec<f64> = shapes.iter().map(|(_, sh, _)| sh.side_px).collect();
@@ -328,7 +353,7 @@ fn align_geometry(
 }
 
 /// Moves the static reference marker so its image centre sits where the real one does.
-fn align_reference(s: &mut Scenario, record: &Record) -> Result<(), DiagnoseError> {
+fn align_reference(s: &mut Scenario, record: &Record) -> Result<(), AlignError> {
     let mut xs: Vec<f64> = Vec::new();
     let mut ys: Vec<f64> = Vec::new();
     for f in &record.frames {
@@ -382,7 +407,7 @@ impl ReferenceTable {
         screen_sign: f64,
         t_first_s: f64,
         t_last_s: f64,
-    ) -> Result<Self, DiagnoseError> {
+    ) -> Result<Self, AlignError> {
         let step_s = 1e-3;
         let t0_s = t_first_s - 2.0 * MAX_TIME_SHIFT_S;
         let t1 = t_last_s + 2.0 * MAX_TIME_SHIFT_S;
@@ -529,7 +554,7 @@ pub fn runout_samples(
     aligned: &Aligned,
     record: &Record,
     shift_s: f64,
-) -> Result<Vec<crate::diagnose::runout::RunoutSample>, DiagnoseError> {
+) -> Result<Vec<crate::diagnose::runout::RunoutSample>, AlignError> {
     let mut s = aligned.scenario.clone();
     let scene = grown_scene_of(&mut s)?;
     // A tenth of a millimetre: far above rounding, far inside the camera's linear range.
