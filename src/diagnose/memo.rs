@@ -12,7 +12,7 @@
 //! the objective depends on: the trial as built (its `Debug` text, which holds every scenario
 //! field, the timing source and any refined runout form or matched rotation centre), the seeds,
 //! the effects whose signature cells are counted, which of the lens's cells count, and the
-//! comparison. A fork starts with an empty memo (`pipeline::diagnose::fit::Fitter::fork`), so a fork's counts do
+//! comparison. A fork starts with an empty memo (`diagnose::fit::Fitter::fork`), so a fork's counts do
 //! not depend on what ran before it, and no memo is shared between threads.
 
 use super::objectives::Objectives;

@@ -1,7 +1,7 @@
 //! A fit trial's two objectives and the uncertainty a search of them states: the curvature of
 //! the shared-tolerance χ² at the points a search evaluated, held no tighter than Σ z²'s own,
 //! in quadrature with the spread of the bracket the search ended with. Pure: the trials'
-//! simulations are the fitter's (`pipeline::diagnose::fit`).
+//! simulations are the fitter's (`diagnose::fit`).
 
 use crate::diagnose::search::{curvature_std_about, SearchOptions, SearchResult};
 

@@ -53,6 +53,13 @@ pub struct FrameRecord {
     pub image: Option<FrameImage>,
 }
 
+/// The real data as the diagnosis sees it: its record and the estimate made of it.
+#[derive(Debug, Clone)]
+pub struct RealMeasurement {
+    pub record: Record,
+    pub estimate: crate::estimate::Estimate,
+}
+
 /// A whole measurement, in frame order.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Record {

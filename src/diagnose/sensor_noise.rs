@@ -1,7 +1,7 @@
 //! The pixel noise's parameter space, as its fit searches it: the sensor's noise variance at a
 //! grey level, the valley of fixed total noise that footage dominated by read noise fixes, the
 //! read noise's search step and the cap that keeps a search where the marker can still be found.
-//! Pure functions of the sensor's parameters; the fit itself is `pipeline::diagnose::fit`'s.
+//! Pure functions of the sensor's parameters; the fit itself is [`super::fit`]'s.
 //!
 //! Variances here are the sensor's, in full-well units² at a normalised radiance s (0 black,
 //! 1 full scale): s/FW (shot) + RN²/FW² (read), FW the full well and RN the read noise in e⁻.

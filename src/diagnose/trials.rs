@@ -227,9 +227,9 @@ fn trial_record(
     Ok((s, record))
 }
 
-/// A simulated footage measured as the real one is ([`super::real`] and the diagnosis's
-/// prefix): its cells, frame times, the angle of its detected frames and its angle residual
-/// after the aligned nominal motion, with that residual's spectral peak.
+/// A simulated footage measured as the real one is (as `pipeline::diagnose::real` and the
+/// diagnosis's prefix measure it): its cells, frame times, the angle of its detected frames and
+/// its angle residual after the aligned nominal motion, with that residual's spectral peak.
 pub struct SimulatedFootage {
     pub cells: Cells,
     pub t_s: Vec<f64>,

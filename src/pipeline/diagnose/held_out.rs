@@ -2,8 +2,8 @@
 //! prediction of the slow angle residual, simulated on the evaluation seeds beside the nominal's,
 //! against the footage's.
 
-use super::fit::{applied, Fitter};
 use super::{DiagnoseError, Ranked};
+use crate::diagnose::fit::{applied, Fitter};
 use crate::diagnose::holdout::{slow_waveform_check, Series, WaveformCheck};
 use crate::diagnose::trials::{trial_theta_residuals, FrameSeries};
 use std::cell::OnceCell;

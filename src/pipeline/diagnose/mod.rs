@@ -21,8 +21,8 @@
 //!
 //! No truth of the real data is used anywhere (there is none).
 
-pub mod fit;
-pub mod footing;
+#[cfg(test)]
+mod engine_tests;
 pub mod held_out;
 pub mod outlook;
 pub mod real;
@@ -32,6 +32,8 @@ pub mod shards;
 pub mod simulate;
 
 use crate::diagnose::cells::Cells;
+use crate::diagnose::fit::{self, Evaluated, Fitter};
+use crate::diagnose::footing::Footing;
 use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
 use crate::diagnose::image;
 use crate::diagnose::nominal::Aligned;
@@ -41,8 +43,6 @@ use crate::io::output_dir::OutputDir;
 use crate::pipeline::analyze::Source;
 use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
-use fit::{Evaluated, Fitter};
-use footing::Footing;
 use shards::{CandidateStudy, Mode};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -99,8 +99,6 @@ pub enum DiagnoseError {
          from every timestamp)"
     )]
     NegativeFrameTime { frame: usize, t_s: f64 },
-    #[error("fitting the frame timing of the footage")]
-    TimingFit(#[source] crate::timing::TimingError),
     #[error(
         "--max-minutes stops a search by wall time, which no two machines share: a sharded \
          diagnosis fits every candidate (drop --max-minutes, or use more shards)"
@@ -118,9 +116,7 @@ pub enum DiagnoseError {
     #[error("the nominal scenario's marker layout")]
     NominalLayout(#[source] crate::imagestats::StatsError),
     #[error(transparent)]
-    Align(#[from] crate::diagnose::nominal::AlignError),
-    #[error(transparent)]
-    View(#[from] crate::diagnose::camera_warp::ViewError),
+    Fit(#[from] crate::diagnose::fit::FitError),
     #[error(transparent)]
     Simulate(#[from] crate::diagnose::simulator::SimulateError),
     #[error("the self-check's base scenario `{spec}`")]
@@ -741,8 +737,14 @@ pub fn diagnose_with(
     )?;
     progress("aligning the nominal", 0, 1);
     let meter = options.meter.clone().unwrap_or_default();
-    let footing = Footing::new(nominal, &real, &layout, options.effects.as_deref())?
-        .with_meter(meter.clone());
+    let footing = Footing::new(
+        nominal,
+        &real,
+        &layout,
+        options.effects.as_deref(),
+        &simulate::RenderDetect,
+    )?
+    .with_meter(meter.clone());
     let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
     let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
@@ -841,8 +843,14 @@ pub fn diagnose_with(
             0,
             1,
         );
-        let aligned = Footing::new(&nominal_free, &real, &layout, Some(&[Effect::Backlash]))?
-            .with_meter(meter.clone());
+        let aligned = Footing::new(
+            &nominal_free,
+            &real,
+            &layout,
+            Some(&[Effect::Backlash]),
+            &simulate::RenderDetect,
+        )?
+        .with_meter(meter.clone());
         let free = footing_free.get_or_init(|| aligned).fitter(
             &nominal_free,
             &layout,
@@ -877,7 +885,9 @@ pub fn diagnose_with(
     // Candidates: fitted here, a wave at a time on forks, or looked up in the shards' records.
     let fit_wave = |wave: &[Effect]| -> Vec<Result<(Evaluated, usize), DiagnoseError>> {
         match &stored {
-            None => fitter.on_forks(wave, |fork, &e| fork.fit_single(e)),
+            None => fitter.on_forks(wave, |fork, &e| {
+                fork.fit_single(e).map_err(DiagnoseError::from)
+            }),
             Some(stored) => wave
                 .iter()
                 .map(|&e| {

@@ -5,8 +5,7 @@
 use super::DiagnoseError;
 use crate::detect::GrayView;
 use crate::diagnose::image::{frame_image, measures_image};
-use crate::diagnose::record::{FrameRecord, Record};
-use crate::estimate::Estimate;
+use crate::diagnose::record::{FrameRecord, RealMeasurement, Record};
 use crate::imagestats::MarkerLayout;
 use crate::io::tracks_csv::TrackRow;
 use crate::pipeline::analyze::{analyze, AnalyzeOptions, Source};
@@ -15,13 +14,6 @@ use std::path::Path;
 
 /// Fewest detected frames a diagnosis needs.
 pub const MIN_DETECTED_FRAMES: usize = 30;
-
-/// The real data as the diagnosis sees it.
-#[derive(Debug, Clone)]
-pub struct RealMeasurement {
-    pub record: Record,
-    pub estimate: Estimate,
-}
 
 /// Size of the first frame of `source` (none for a corner track).
 fn first_frame_size(source: &Source) -> Result<Option<(usize, usize)>, DiagnoseError> {

@@ -3,20 +3,20 @@
 //! real and simulated residual curves; written into a staging folder that replaces the output
 //! folder only once everything is written.
 
-use super::fit::{Evaluated, Fitter};
 use super::held_out::HeldOut;
-use super::real::RealMeasurement;
 use super::{
     candidate_name, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit, SecondLook,
     SkipReason, SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
+use crate::diagnose::fit::{Evaluated, Fitter};
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{fmt_sum_z2, CellGap, GapMap};
 use crate::diagnose::holdout;
 use crate::diagnose::nominal;
 use crate::diagnose::plan::SecondLookPair;
+use crate::diagnose::record::RealMeasurement;
 use crate::diagnose::record::Record;
 use crate::diagnose::trials::{estimate_record, Trial};
 use crate::diagnose::verdict::{SetAside, VerdictReason};
@@ -1254,7 +1254,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
              measures (`reports/diagnosis-independent/`: parameters within 2 ± of the truth).\n\n",
             crate::diagnose::verdict::PENALTY_PER_PARAM,
             crate::diagnose::verdict::EXPLAINED_SHRINK,
-            100.0 * super::fit::EDGE_RENDER_DISCREPANCY_REL
+            100.0 * crate::diagnose::fit::EDGE_RENDER_DISCREPANCY_REL
         ));
     }
     if let Some(r) = best {
@@ -1487,7 +1487,7 @@ fn overlay(
     let nominal = sim(&fitter.base)?;
     let best = match d.best {
         Some(b) => {
-            let applied = super::fit::applied(&d.ranking[b].evaluated.effects);
+            let applied = crate::diagnose::fit::applied(&d.ranking[b].evaluated.effects);
             Some((
                 candidate_name(&d.ranking[b].evaluated),
                 sim(&fitter.trial_with(&applied)?)?,
@@ -1881,7 +1881,7 @@ mod tests {
         );
     }
 
-    fn ranked(effects: Vec<super::super::fit::Fitted>, refit: Refit) -> Ranked {
+    fn ranked(effects: Vec<crate::diagnose::fit::Fitted>, refit: Refit) -> Ranked {
         Ranked {
             evaluated: evaluated(effects),
             shrink: 1.0,
@@ -1906,7 +1906,7 @@ mod tests {
             vec![fitted(Effect::MotionBlur, vec![0.0159], vec![0.00126])],
             Refit::Off,
         );
-        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..3)
+        let done: Vec<(u64, Vec<crate::diagnose::fit::Fitted>)> = (0..3)
             .map(|k| {
                 let fits = vec![fitted(Effect::MotionBlur, vec![1.0 / 60.0], vec![0.001])];
                 (5007 + k as u64, fits)
@@ -1965,7 +1965,7 @@ mod tests {
                 short: None,
             },
         );
-        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = [0.40, 0.41, 0.39, 0.40]
+        let done: Vec<(u64, Vec<crate::diagnose::fit::Fitted>)> = [0.40, 0.41, 0.39, 0.40]
             .iter()
             .enumerate()
             .map(|(k, &c)| {
@@ -2035,7 +2035,7 @@ mod tests {
             vec![fitted(timing, values.clone(), stds.clone())],
             Refit::Off,
         );
-        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..4)
+        let done: Vec<(u64, Vec<crate::diagnose::fit::Fitted>)> = (0..4)
             .map(|k| {
                 let mut v: Vec<f64> = values
                     .iter()
@@ -2074,7 +2074,7 @@ mod tests {
     /// One refit per clearance, each ± 0.01 on its own seed, as `pool_refits` takes them.
     fn backlash_refit_runs(
         clearances_mm: &[f64],
-    ) -> Vec<(Vec<u64>, Vec<super::super::fit::Fitted>)> {
+    ) -> Vec<(Vec<u64>, Vec<crate::diagnose::fit::Fitted>)> {
         clearances_mm
             .iter()
             .enumerate()
@@ -2103,7 +2103,7 @@ mod tests {
         ));
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
         assert!(close(best.evaluated.effects[0].stds[0], 0.02));
-        let done: Vec<(u64, Vec<super::super::fit::Fitted>)> = (0..8)
+        let done: Vec<(u64, Vec<crate::diagnose::fit::Fitted>)> = (0..8)
             .map(|k| {
                 let v = if k % 2 == 0 { 0.45 } else { 0.55 };
                 (

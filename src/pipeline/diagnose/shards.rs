@@ -13,9 +13,9 @@
 //! A record keeps every f64 as its bit pattern (a JSON integer): exact, infinities and NaN
 //! included, whatever the JSON float parser does.
 
-use super::fit::{Evaluated, FitKind, Fitted, FittedRunoutForm, Fitter};
 use super::{DiagnoseError, DiagnoseOptions};
 use crate::diagnose::cells::{channel, CellKey, PHASES};
+use crate::diagnose::fit::{Evaluated, FitKind, Fitted, FittedRunoutForm, Fitter};
 use crate::diagnose::gap::{CellGap, GapMap, GapOptions};
 use crate::diagnose::verdict::Outcome;
 use crate::pipeline::analyze::Source;
@@ -465,11 +465,11 @@ mod tests {
         // method says, not the kind the (absent) field would have held, decides.
         let cases = [
             (
-                super::super::fit::search_method(Effect::AxisRunout, 2),
+                crate::diagnose::fit::search_method(Effect::AxisRunout, 2),
                 FitKind::SumZ2Search,
             ),
             (
-                super::super::fit::moment_method("edge width² along the motion", 3, 2),
+                crate::diagnose::fit::moment_method("edge width² along the motion", 3, 2),
                 FitKind::MomentMatch,
             ),
             (

@@ -1,11 +1,12 @@
 //! [`Fitter::backfit_first`] on a real fitter: footage rendered with a withheld backlash,
 //! measured as real footage, and a fitter built on it as a diagnosis builds it
-//! ([`crate::pipeline::diagnose::footing::Footing`]). The guard's rule itself is
-//! [`plan::backfit_keeps_refit`]'s; this checks what the backfit does with it.
+//! ([`crate::diagnose::footing::Footing`]). The guard's rule itself is
+//! [`crate::diagnose::plan::backfit_keeps_refit`]'s; this checks what the backfit does with it.
 
 use super::*;
+use crate::diagnose::footing::Footing;
 use crate::diagnose::gap::GapOptions;
-use crate::pipeline::diagnose::footing::Footing;
+use crate::pipeline::diagnose::simulate::RenderDetect;
 
 /// `effect` at `values`, as a fit of `kind` would state it.
 fn stated(effect: Effect, values: Vec<f64>, kind: FitKind) -> Fitted {
@@ -34,7 +35,7 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
         .map(|v| v.ok_or("the footage's clearance"))
         .collect::<Result<_, _>>()?;
     let effects = [Effect::Backlash, Effect::Timebase];
-    let footing = Footing::new(&nominal, &measured, &layout, Some(&effects))?;
+    let footing = Footing::new(&nominal, &measured, &layout, Some(&effects), &RenderDetect)?;
     let fitter = footing.fitter(
         &nominal,
         &layout,
@@ -56,7 +57,7 @@ fn the_backfit_takes_a_moment_matched_refit_and_keeps_the_lower_of_two_searches(
     let objective = |values: &[f64]| fitter.objective_beside(&others, Effect::Backlash, values).0;
     let refit_sum_z2 = objective(&refit.values);
     assert!(refit_sum_z2.is_finite(), "{refit_sum_z2}");
-    let backfit = |first: Fitted| -> Result<Fitted, DiagnoseError> {
+    let backfit = |first: Fitted| -> Result<Fitted, FitError> {
         let out = fitter.backfit_first(vec![first, second.clone()])?;
         assert_eq!(out.len(), 2);
         assert_eq!(

@@ -3,11 +3,10 @@
 //! times and lost frames) and what the runout and tilt candidates start from. [`Footing`] owns
 //! it all, so that the [`Fitter`] the diagnosis runs on (and a test's) borrows it from one place.
 
-use super::fit::{self, Fitter, RealSide};
-use super::real::RealMeasurement;
-use super::simulate::RenderDetect;
-use super::DiagnoseError;
+use super::record::RealMeasurement;
+use super::simulator::Simulator;
 use crate::diagnose::cells::{image_cells, timing_cells, track_cells, AngleResidual, Cells};
+use crate::diagnose::fit::{self, FitError, Fitter, RealSide};
 use crate::diagnose::gap::GapOptions;
 use crate::diagnose::nominal::{self, Aligned};
 use crate::diagnose::pose_tilt::{self, PoseTilt};
@@ -20,7 +19,9 @@ use crate::scenario::Scenario;
 use std::sync::Arc;
 
 /// The real footage as the fits see it ([`Footing::new`]).
-pub struct Footing {
+pub struct Footing<'s> {
+    /// Renders and measures every simulation of this footage.
+    simulator: &'s dyn Simulator,
     pub aligned: Aligned,
     /// Frame times of all frames, s.
     pub t_all_s: Vec<f64>,
@@ -44,17 +45,19 @@ pub struct Footing {
     meter: Arc<SimMeter>,
 }
 
-impl Footing {
-    /// Aligns `nominal` to the measured footage and computes its cells. The runout form and
-    /// the tilt are read off the real track only when `effects` (`None`: all) holds them: each
-    /// costs a fit over every detected frame.
+impl<'s> Footing<'s> {
+    /// Aligns `nominal` to the measured footage and computes its cells; `simulator` renders
+    /// and measures every simulation of it from then on. The runout form and the tilt are read
+    /// off the real track only when `effects` (`None`: all) holds them: each costs a fit over
+    /// every detected frame.
     pub fn new(
         nominal: &Scenario,
         real: &RealMeasurement,
         layout: &MarkerLayout,
         effects: Option<&[Effect]>,
-    ) -> Result<Self, DiagnoseError> {
-        let aligned = nominal::align(nominal, &real.record, &real.estimate, layout, &RenderDetect)?;
+        simulator: &'s dyn Simulator,
+    ) -> Result<Self, FitError> {
+        let aligned = nominal::align(nominal, &real.record, &real.estimate, layout, simulator)?;
         let t_all_s = real.record.t_s();
         let nyquist_hz = 0.5 / fit::median_interval_s(&t_all_s);
         let real_missing: Vec<bool> = real
@@ -116,6 +119,7 @@ impl Footing {
             t_det_s,
             theta_det_rad,
             meter: Arc::default(),
+            simulator,
         })
     }
 
@@ -128,7 +132,7 @@ impl Footing {
     /// What a simulation of this footage needs.
     pub fn sim_context<'a>(&'a self, layout: &'a MarkerLayout) -> SimContext<'a> {
         SimContext {
-            simulator: &RenderDetect,
+            simulator: self.simulator,
             aligned: &self.aligned,
             layout,
             with_images: self.has_images,
@@ -164,7 +168,7 @@ impl Footing {
         fit_seeds: Vec<u64>,
         eval_seeds: Vec<u64>,
         gap_options: GapOptions,
-    ) -> Result<Fitter<'a>, DiagnoseError> {
+    ) -> Result<Fitter<'a>, FitError> {
         let base = Fitter::base_trial(&self.aligned, nominal, &self.t_all_s);
         Fitter::new(
             self.sim_context(layout),

@@ -1,10 +1,11 @@
 //! [`Fitter::with_clearance_free`] on a real fitter: footage rendered with a withheld 0.5 mm
 //! backlash, measured as real footage, and diagnosed against a nominal that states 0.3 mm, as
-//! a diagnosis builds it ([`crate::pipeline::diagnose::footing::Footing`]).
+//! a diagnosis builds it ([`crate::diagnose::footing::Footing`]).
 
 use super::*;
+use crate::diagnose::footing::Footing;
 use crate::diagnose::gap::GapOptions;
-use crate::pipeline::diagnose::footing::Footing;
+use crate::pipeline::diagnose::simulate::RenderDetect;
 
 #[test]
 fn a_stated_clearance_is_refitted_against_the_clearance_free_motion(
@@ -23,7 +24,7 @@ fn a_stated_clearance_is_refitted_against_the_clearance_free_motion(
 
     let effects = [Effect::Backlash];
     let (fit_seeds, eval_seeds) = (vec![2000, 2001], vec![1000, 1001]);
-    let footing = Footing::new(&stated, &measured, &layout, Some(&effects))?;
+    let footing = Footing::new(&stated, &measured, &layout, Some(&effects), &RenderDetect)?;
     let plain = footing.fitter(
         &stated,
         &layout,
@@ -31,7 +32,13 @@ fn a_stated_clearance_is_refitted_against_the_clearance_free_motion(
         eval_seeds.clone(),
         GapOptions::default(),
     )?;
-    let footing_free = Footing::new(&free_nominal, &measured, &layout, Some(&effects))?;
+    let footing_free = Footing::new(
+        &free_nominal,
+        &measured,
+        &layout,
+        Some(&effects),
+        &RenderDetect,
+    )?;
     let free = || {
         footing_free.fitter(
             &free_nominal,

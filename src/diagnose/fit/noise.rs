@@ -4,6 +4,7 @@
 //! well and read noise, which only the shot part (noise rising with the grey level) sets; this
 //! module keeps a split from being stated where the footage does not measure it.
 
+use super::FitError;
 use super::{
     aligned_of, moment_method, objective_at, shared_std_along, Fitter, LensCells, MomentFit,
     Objectives, MOMENT_SIMULATIONS,
@@ -15,7 +16,6 @@ use crate::diagnose::sensor_noise::{
     full_well_on_valley, mid_grey, noise_split_determined, noise_variance_cap,
     noise_variance_ratio, read_noise_on_valley, sensor_variance, NoiseCap, NOISE_SPLIT_MAX_REL_SD,
 };
-use crate::pipeline::diagnose::DiagnoseError;
 use crate::scenario::effects::Effect;
 use std::cell::RefCell;
 
@@ -205,7 +205,7 @@ impl Fitter<'_> {
         &self,
         prior: &[(Effect, Vec<f64>)],
         start: &[f64],
-    ) -> Result<MomentFit, DiagnoseError> {
+    ) -> Result<MomentFit, FitError> {
         let e = Effect::PixelNoise;
         let sims_factor = self.moment_sims_factor();
         let s = &aligned_of(self).scenario;

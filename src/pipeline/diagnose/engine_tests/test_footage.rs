@@ -3,10 +3,10 @@
 
 use super::*;
 use crate::diagnose::image;
+use crate::diagnose::record::RealMeasurement;
 use crate::imagestats::MarkerLayout;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::diagnose::real;
-use crate::pipeline::diagnose::real::RealMeasurement;
 use crate::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, Case, SuitePlan};
 use std::path::Path;
 

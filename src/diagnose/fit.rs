@@ -1,10 +1,10 @@
 //! Fitting and judging candidate effects: for one effect (or a pair), build the trial (the
 //! aligned nominal with the effect switched on at given parameters), fit the parameters by
-//! simulated method of moments (minimise Σ z² over the effect's signature cells with the real
-//! pipeline in the loop, on the fit seeds), then re-simulate on fresh seeds (the evaluation
-//! seeds, shared with the nominal) and measure how far the gap shrinks.
+//! simulated method of moments (minimise Σ z² over the effect's signature cells with the
+//! [`Simulator`](super::simulator::Simulator) in the loop, on the fit seeds), then re-simulate
+//! on fresh seeds (the evaluation seeds, shared with the nominal) and measure how far the gap
+//! shrinks.
 
-use super::DiagnoseError;
 use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::camera_warp;
 use crate::diagnose::cells::{CellKey, Cells, SlowShape};
@@ -20,6 +20,7 @@ use crate::diagnose::runout::RunoutForm;
 use crate::diagnose::search::{
     coupling_from_off_point, minimise, std_with_other_free, SearchOptions, SearchResult,
 };
+use crate::diagnose::simulator::SimulateError;
 use crate::diagnose::spectrum;
 use crate::diagnose::trials::{
     simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
@@ -30,19 +31,29 @@ use crate::scenario::Scenario;
 use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
 use std::cell::{OnceCell, RefCell};
 
-#[cfg(test)]
-mod backfit_tests;
-#[cfg(test)]
-mod clearance_free_tests;
 mod noise;
-#[cfg(test)]
-mod test_footage;
 use crate::diagnose::memo::{MemoKey, ObjectiveMemo};
 use crate::diagnose::objectives::{
     held_curvature_std, objective_at, shared_curvature_std_along, shared_std, shared_std_along,
     Objectives,
 };
 use crate::diagnose::sensor_noise::{self, NOISE_SEARCH_MAX_RATIO};
+
+/// Why a fit, or the fitter it runs in, gave no answer.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error(transparent)]
+    Align(#[from] AlignError),
+    #[error(transparent)]
+    View(#[from] camera_warp::ViewError),
+    #[error(transparent)]
+    Simulate(#[from] SimulateError),
+    #[error("fitting the frame timing of the footage")]
+    TimingFit(#[source] crate::timing::TimingError),
+    /// A broken invariant of the code, never a property of the input.
+    #[error("internal error: {0}")]
+    Internal(&'static str),
+}
 
 /// Simulations a moment match takes at most (secant or Newton steps).
 const MOMENT_SIMULATIONS: usize = 3;
@@ -125,7 +136,7 @@ impl FitKind {
 
 /// The method of a Σ z² search of `e` on `fit_seeds` seeds (what a tilt, a lens or a runout
 /// did besides is appended).
-pub(super) fn search_method(e: Effect, fit_seeds: usize) -> String {
+pub(crate) fn search_method(e: Effect, fit_seeds: usize) -> String {
     format!(
         "{SEARCH_METHOD} {} signature cells, {fit_seeds} fit seeds",
         e.name()
@@ -133,7 +144,7 @@ pub(super) fn search_method(e: Effect, fit_seeds: usize) -> String {
 }
 
 /// The method of a moment match of `what` that took `n` simulations of `fit_seeds` seeds.
-pub(super) fn moment_method(what: &str, n: usize, fit_seeds: usize) -> String {
+pub(crate) fn moment_method(what: &str, n: usize, fit_seeds: usize) -> String {
     format!(
         "{MOMENT_METHOD} {what} of the simulation set equal to the footage's ({n} simulations \
          of {fit_seeds} fit seeds, secant steps)"
@@ -495,7 +506,7 @@ fn simulated_cells(
     seeds: &[u64],
     images: bool,
     simulations: &RefCell<usize>,
-) -> Result<Vec<Cells>, DiagnoseError> {
+) -> Result<Vec<Cells>, FitError> {
     *simulations.borrow_mut() += seeds.len();
     Ok(trial_cells(ctx, trial, seeds, images)?)
 }
@@ -511,7 +522,7 @@ impl<'a> Fitter<'a> {
         fit_seeds: Vec<u64>,
         eval_seeds: Vec<u64>,
         gap_options: GapOptions,
-    ) -> Result<Self, DiagnoseError> {
+    ) -> Result<Self, FitError> {
         let simulations = RefCell::new(0);
         let nominal_sims = simulated_cells(&ctx, &base, &eval_seeds, true, &simulations)?;
         let nominal_gap = compare(
@@ -547,7 +558,7 @@ impl<'a> Fitter<'a> {
     /// Adds evaluation seeds: the nominal is simulated on the new ones only and the nominal gap
     /// recomputed on all of them. Call before any candidate is judged (they all share the
     /// evaluation seeds).
-    pub fn add_eval_seeds(&mut self, more: &[u64]) -> Result<(), DiagnoseError> {
+    pub fn add_eval_seeds(&mut self, more: &[u64]) -> Result<(), FitError> {
         debug_assert_eq!(
             self.nominal_sims.len(),
             self.eval_seeds.len(),
@@ -605,7 +616,7 @@ impl<'a> Fitter<'a> {
 
     /// This fitter with `free` to fit the backlash on: a fitter of the same footage whose
     /// nominal is this one's without the dynamics (`dynamics.enabled = false`), built from its
-    /// own alignment ([`super::footing::Footing`]). When the nominal states a clearance, the
+    /// own alignment ([`crate::diagnose::footing::Footing`]). When the nominal states a clearance, the
     /// residual cells are read after the nominal's own motion, which bounces with it, and a
     /// band's RMS cannot tell a clearance above the stated one from one below: stated 0.3 mm
     /// of a true 0.5 mm came out 0.129 ± 0.032 (`docs/diagnosis-findings.md`, "Clearance"). Against the
@@ -664,7 +675,7 @@ impl<'a> Fitter<'a> {
         mut self,
         effects: &[Effect],
         seeds: &[u64],
-    ) -> (Result<Vec<Fitted>, DiagnoseError>, usize) {
+    ) -> (Result<Vec<Fitted>, FitError>, usize) {
         let before = self.simulations();
         self.fit_seeds = seeds.to_vec();
         let mut prior: Vec<(Effect, Vec<f64>)> = Vec::with_capacity(effects.len());
@@ -695,7 +706,7 @@ impl<'a> Fitter<'a> {
     /// generic start and can end above them. A first effect matched on its moments (a JPEG
     /// quality on the blockiness, a blur on the edge width) is not fitted on Σ z², and its
     /// refit is the correction the backfit is for: it is always taken.
-    pub fn backfit_first(&self, mut fits: Vec<Fitted>) -> Result<Vec<Fitted>, DiagnoseError> {
+    pub fn backfit_first(&self, mut fits: Vec<Fitted>) -> Result<Vec<Fitted>, FitError> {
         if fits.len() < 2 {
             return Ok(fits);
         }
@@ -792,10 +803,10 @@ impl<'a> Fitter<'a> {
         nominal_sims: &[Cells],
         truth: &[(Effect, Vec<f64>)],
         footage_seed: u64,
-    ) -> (Result<Vec<Fitted>, DiagnoseError>, usize) {
+    ) -> (Result<Vec<Fitted>, FitError>, usize) {
         if nominal_sims.is_empty() {
             return (
-                Err(DiagnoseError::Internal(
+                Err(FitError::Internal(
                     "a footage fit needs the main fitter's nominal simulations",
                 )),
                 0,
@@ -844,7 +855,7 @@ impl<'a> Fitter<'a> {
 
     /// One candidate alone: fitted, then judged on the evaluation seeds, with the simulations
     /// this call ran. The diagnosis calls it on forks ([`Self::on_forks`]), several at once.
-    pub fn fit_single(&self, e: Effect) -> Result<(Evaluated, usize), DiagnoseError> {
+    pub fn fit_single(&self, e: Effect) -> Result<(Evaluated, usize), FitError> {
         let before = self.simulations();
         let fitted = self.fit(e, &[])?;
         let evaluated = self.evaluate(vec![fitted])?;
@@ -894,7 +905,7 @@ impl<'a> Fitter<'a> {
     }
 
     /// The trial with `applied` effects switched on at their values.
-    pub fn trial_with(&self, applied: &[(Effect, Vec<f64>)]) -> Result<Trial, DiagnoseError> {
+    pub fn trial_with(&self, applied: &[(Effect, Vec<f64>)]) -> Result<Trial, FitError> {
         self.trial_with_form(applied, self.fitted_runout_form())
     }
 
@@ -903,7 +914,7 @@ impl<'a> Fitter<'a> {
         &self,
         applied: &[(Effect, Vec<f64>)],
         runout_form: Option<RunoutForm>,
-    ) -> Result<Trial, DiagnoseError> {
+    ) -> Result<Trial, FitError> {
         let mut t = self.base.clone();
         for (e, v) in applied {
             match e {
@@ -1127,17 +1138,12 @@ impl<'a> Fitter<'a> {
     }
 
     /// Cells of a trial on `seeds`.
-    fn cells(
-        &self,
-        trial: &Trial,
-        seeds: &[u64],
-        images: bool,
-    ) -> Result<Vec<Cells>, DiagnoseError> {
+    fn cells(&self, trial: &Trial, seeds: &[u64], images: bool) -> Result<Vec<Cells>, FitError> {
         simulated_cells(&self.ctx, trial, seeds, images, &self.simulations)
     }
 
     /// The comparison of the real data with a trial on `seeds`.
-    pub fn gap(&self, trial: &Trial, seeds: &[u64]) -> Result<GapMap, DiagnoseError> {
+    pub fn gap(&self, trial: &Trial, seeds: &[u64]) -> Result<GapMap, FitError> {
         Ok(compare(
             self.real_cells,
             &self.cells(trial, seeds, true)?,
@@ -1163,7 +1169,7 @@ impl<'a> Fitter<'a> {
     fn objectives_of(
         &self,
         effects: &[Effect],
-        trial: Result<Trial, DiagnoseError>,
+        trial: Result<Trial, FitError>,
         comparison: fn(&Cells, &[Cells], GapOptions) -> GapMap,
         lens: LensCells,
     ) -> Objectives {
@@ -1468,7 +1474,7 @@ impl<'a> Fitter<'a> {
     }
 
     /// Fits `e` on top of `prior` (already fitted effects, kept fixed).
-    pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, DiagnoseError> {
+    pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, FitError> {
         if let Some(free) = self.delegate(e) {
             let mut fitted = free.fit(e, prior)?;
             *self.simulations.borrow_mut() += free.simulations();
@@ -1500,7 +1506,7 @@ impl<'a> Fitter<'a> {
         match e {
             Effect::FrameTiming => {
                 let ts = Timestamps::new(self.real_t_s.to_vec()).map_err(AlignError::FrameTimes)?;
-                let f = fit_vfr(&ts).map_err(DiagnoseError::TimingFit)?;
+                let f = fit_vfr(&ts).map_err(FitError::TimingFit)?;
                 let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
                 values = vec![
                     f.jitter_s,
@@ -1871,7 +1877,7 @@ impl<'a> Fitter<'a> {
         prior: &[(Effect, Vec<f64>)],
         e: Effect,
         v: &[f64],
-    ) -> Result<GapMap, DiagnoseError> {
+    ) -> Result<GapMap, FitError> {
         let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
         applied.push((e, v.to_vec()));
         let trial = self.trial_with(&applied)?;
@@ -1896,7 +1902,7 @@ impl<'a> Fitter<'a> {
         e: Effect,
         prior: &[(Effect, Vec<f64>)],
         start: &[f64],
-    ) -> Result<MomentFit, DiagnoseError> {
+    ) -> Result<MomentFit, FitError> {
         let motion = ["dwell", "entry", "drive", "exit"];
         let sims_factor = self.moment_sims_factor();
         let gap_at = |v: &[f64]| self.gap_with(prior, e, v);
@@ -2044,7 +2050,7 @@ impl<'a> Fitter<'a> {
         &self,
         prior: &[(Effect, Vec<f64>)],
         start: &[f64],
-    ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, DiagnoseError> {
+    ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, FitError> {
         let e = Effect::DiscVibration;
         let (t, residual) = (self.real_t_s, self.real_theta_residual);
         let span_s = match (t.first(), t.last()) {
@@ -2063,7 +2069,7 @@ impl<'a> Fitter<'a> {
         let seeds = gain_placement_seeds(&self.fit_seeds);
         // Complex amplitudes (sin, cos coefficients) of the simulations at amplitude `a`, one
         // per placement seed.
-        let simulated = |a: f64| -> Result<Option<Vec<[f64; 2]>>, DiagnoseError> {
+        let simulated = |a: f64| -> Result<Option<Vec<[f64; 2]>>, FitError> {
             let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
             applied.push((e, vec![a, f]));
             let trial = self.trial_with(&applied)?;
@@ -2135,7 +2141,7 @@ impl<'a> Fitter<'a> {
     }
 
     /// Judges `fitted` (applied together) on the evaluation seeds.
-    pub fn evaluate(&self, fitted: Vec<Fitted>) -> Result<Evaluated, DiagnoseError> {
+    pub fn evaluate(&self, fitted: Vec<Fitted>) -> Result<Evaluated, FitError> {
         let trial = self.trial_with(&applied(&fitted))?;
         let gap = self.gap(&trial, &self.eval_seeds)?;
         let params: usize = fitted.iter().map(|f| f.values.len()).sum();
