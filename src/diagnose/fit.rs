@@ -28,16 +28,29 @@ use crate::diagnose::trials::{
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
-use crate::timing::{fit_vfr, FrameTimingConfig, Timestamps, TimingModel, VfrModel};
+use crate::timing::{FrameTimingConfig, TimingModel, VfrModel};
 use std::cell::{OnceCell, RefCell};
 
+mod direct;
+mod lens;
+mod moment_match;
 mod noise;
+mod runout;
+mod search;
+mod sinusoid;
+mod tilt;
 use crate::diagnose::memo::{MemoKey, ObjectiveMemo};
 use crate::diagnose::objectives::{
     held_curvature_std, objective_at, shared_curvature_std_along, shared_std, shared_std_along,
     Objectives,
 };
-use crate::diagnose::sensor_noise::{self, NOISE_SEARCH_MAX_RATIO};
+pub use lens::{lens_bend_informs, LENS_ANGLE_BEND_MIN_SHARE};
+use moment_match::MomentFit;
+pub use runout::FittedRunoutForm;
+use runout::RunoutPhase;
+use sinusoid::vibration_start_hz;
+pub use sinusoid::{gain_placement_seeds, GAIN_PLACEMENTS};
+pub use tilt::{pose_reported, POSE_DELTA_CHI2};
 
 /// Why a fit, or the fitter it runs in, gave no answer.
 #[derive(Debug, thiserror::Error)]
@@ -55,8 +68,8 @@ pub enum FitError {
     Internal(&'static str),
 }
 
-/// Simulations a moment match takes at most (secant or Newton steps).
-const MOMENT_SIMULATIONS: usize = 3;
+/// A fit read off or matched directly: values, standard uncertainties, the method in words.
+type Found = (Vec<f64>, Vec<f64>, String);
 
 /// The effects of `fitted` at their values, as [`Fitter::trial_with`] applies them.
 pub fn applied(fitted: &[Fitted]) -> Vec<(Effect, Vec<f64>)> {
@@ -251,95 +264,6 @@ pub fn with_edge_discrepancy(e: Effect, value: f64, sd: f64) -> f64 {
     }
 }
 
-/// Blockiness per percent of JPEG quantisation scale: the first step's slope of a compression
-/// match when the nominal's own blockiness gives none. Measured on the second rig's strong case
-/// (commit `2a5b40d`: quality 30, scale 167, blockiness 3.1 against 1.0 without
-/// JPEG). Later steps take the secant.
-const BLOCKINESS_PER_JPEG_SCALE: f64 = 0.0127;
-
-/// The coordinate a one-parameter moment match steps in ([`moments`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum MomentCoord {
-    /// The parameter itself.
-    Linear,
-    /// Its square (a blur's σ or exposure, against an edge variance).
-    Squared,
-    /// A JPEG quality's quantisation scale ([`moments::jpeg_scale_of_quality`]).
-    JpegScale,
-}
-
-impl MomentCoord {
-    fn x_of(self, v: f64) -> f64 {
-        match self {
-            Self::Linear => v,
-            Self::Squared => v * v,
-            Self::JpegScale => moments::jpeg_scale_of_quality(v),
-        }
-    }
-
-    fn value_of(self, x: f64) -> f64 {
-        match self {
-            Self::Linear => x,
-            Self::Squared => x.max(0.0).sqrt(),
-            Self::JpegScale => moments::quality_of_jpeg_scale(x),
-        }
-    }
-
-    /// |dv/dx| at `v`, to carry an uncertainty in x over to the parameter.
-    fn dv_dx(self, v: f64) -> f64 {
-        match self {
-            Self::Linear => 1.0,
-            Self::Squared => 1.0 / (2.0 * v.max(1e-12)),
-            Self::JpegScale => moments::quality_per_jpeg_scale(v),
-        }
-    }
-}
-
-/// The part of a moment's uncertainty that is not sampling: how differently another honest
-/// renderer may draw the same statistic. For the compression's blockiness, the gap map's own
-/// tolerance of that channel (what the comparison already forgives between renderers), so a
-/// quality is never claimed closer than the statistic it rests on can be trusted; the blurs
-/// and the rolling shutter carry theirs on the parameter ([`with_edge_discrepancy`]), the
-/// others none.
-fn moment_render_tolerance(e: Effect, moment: f64) -> f64 {
-    match e {
-        Effect::Compression => crate::diagnose::cells::channel("blockiness")
-            .map_or(0.0, |c| c.tol_abs + c.tol_rel * moment.abs()),
-        _ => 0.0,
-    }
-}
-
-/// The frequency a disc-vibration fit starts from: the peak of the angle residual after the
-/// aligned nominal motion (`residual_peak_hz`, clamped to the search range `search_hz`), or,
-/// only when that residual shows none, the peak above a smooth trend (`trend_peak_hz`).
-fn vibration_start_hz(
-    residual_peak_hz: Option<f64>,
-    search_hz: (f64, f64),
-    trend_peak_hz: impl FnOnce() -> Option<f64>,
-) -> Option<f64> {
-    match residual_peak_hz {
-        Some(f) if f.is_finite() => Some(f.clamp(search_hz.0, search_hz.1)),
-        _ => trend_peak_hz(),
-    }
-}
-
-/// Where a moment match's step `x1` goes within the search range `x_range` of its coordinate:
-/// clamped into it, or `None` for a compression whose blockiness asks for a quality beyond it.
-/// Such a blockiness is not this effect's map (as the noise's match, `noise_by_moments`), and
-/// Σ z² over the whole signature judges it instead; on pixel-noise footage every compression
-/// match otherwise stopped at the bound.
-fn moment_step_in_range(e: Effect, x1: f64, x_range: (f64, f64)) -> Option<f64> {
-    let clamped = x1.clamp(x_range.0, x_range.1);
-    (e != Effect::Compression || clamped == x1).then_some(clamped)
-}
-
-/// What a moment match gives: the fit (values, stds, method, as in [`Fitted`]), or a search of
-/// Σ z² instead, with the reason when the match ran and was set aside (for the method's words).
-enum MomentFit {
-    Fitted((Vec<f64>, Vec<f64>, String)),
-    Search(Option<String>),
-}
-
 /// Which of the lens's signature cells a fit objective counts: all of them, or its shape cells
 /// alone (the first stage of a lens fit, [`LENS_ANGLE_BEND_MIN_SHARE`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -355,132 +279,6 @@ fn in_fit_objective(e: Effect, key: &CellKey, lens: LensCells) -> bool {
         && !(e == Effect::LensDistortion
             && lens == LensCells::ShapeOnly
             && plan::is_angle_channel(key.channel))
-}
-
-/// Share of the aligned angle residual's RMS that a lens's bend of the measured angle (exact
-/// corners) must reach before the angle cells (θ, ω̂, α̂, the angle's peak) enter its fit.
-///
-/// A radial lens keeps a circle about its centre a circle: a wheel whose axis is imaged near
-/// the lens centre keeps its measured angle, and only the marker's shape shows the lens. The
-/// angle cells then hold detection noise, and on 2 fit seeds that noise moved Σ z² by ±15 between
-/// neighbouring k1: on the project's own renderer, the axis 0.02 px from the centre, a k1 = −0.09
-/// lens was fitted at −0.174 ± 0.003 (the search stopped in a dip of the noise), and at −0.109
-/// on the shape cells alone. A lens fit therefore starts on its shape cells; the angle cells join
-/// in a second search when the lens, at the fitted k1 plus two standard deviations, bends the
-/// angle by this share of the residual. The angle residual's slowest band (0–1.5 Hz of 15) holds
-/// about 0.3 of its RMS, and a bend moves such a cell (30 % relative tolerance) by one z only
-/// beyond about 0.8 of the band's own RMS: 0.3 × 0.8 ≈ 0.25. Off the centre (the bend grows by
-/// 3·10⁻⁴ rad per pixel of offset at k1 = 0.6 on the self-check's rig) the angle cells join and
-/// carry most of what identifies k1.
-pub const LENS_ANGLE_BEND_MIN_SHARE: f64 = 0.25;
-
-/// Whether a lens that bends the measured angle by `bend_rad` RMS moves the angle cells of
-/// footage whose aligned angle residual is `residual_rad` RMS (see
-/// [`LENS_ANGLE_BEND_MIN_SHARE`]); true when either is unknown (`None` or not finite), as
-/// [`lens_bend_phrase`] says.
-pub fn lens_bend_informs(bend_rad: Option<f64>, residual_rad: f64) -> bool {
-    match bend_rad.filter(|b| b.is_finite()) {
-        Some(b) if residual_rad.is_finite() && residual_rad > 0.0 => {
-            b >= LENS_ANGLE_BEND_MIN_SHARE * residual_rad
-        }
-        _ => true,
-    }
-}
-
-/// How a lens at k1 = `probe` bends the measured angle, in the lens fit's method string: the
-/// bend beside the aligned angle residual, or why that comparison cannot be made (the bend not
-/// computable on this rig, or no residual to compare with), in which case the angle cells join.
-fn lens_bend_phrase(probe: f64, bend_rad: Option<f64>, residual_rad: f64) -> String {
-    let residual_known = residual_rad.is_finite() && residual_rad > 0.0;
-    match bend_rad.filter(|b| b.is_finite()) {
-        None => format!(
-            "the bend of the measured angle by a lens at k1 = {probe:.3} could not be computed \
-             on this rig"
-        ),
-        Some(b) if residual_known => format!(
-            "a lens at k1 = {probe:.3} bends the measured angle by {b:.2e} rad RMS on this rig \
-             ({:.1} % of the aligned angle residual, {residual_rad:.2e} rad)",
-            100.0 * b / residual_rad
-        ),
-        Some(b) => format!(
-            "a lens at k1 = {probe:.3} bends the measured angle by {b:.2e} rad RMS on this rig, \
-             and the aligned angle residual is zero or unknown"
-        ),
-    }
-}
-
-/// Share of the marker-centre residual a runout form must take before the runout candidate takes
-/// it (order, phase, and its amplitude as the search's start). Below it the residual is mostly
-/// other motion and noise, and the candidate keeps its own form: on the independent renderer's
-/// footage a 3-cycle runout took 83 % of it, the angle-only effects 25 % (backlash) and 44 %
-/// (drive speed), where a free form let the runout candidate come within 0.04 of backlash's
-/// shrink.
-const RUNOUT_FORM_MIN_SHARE: f64 = 0.6;
-
-/// How far from the track's phase [`Fitter::refine_runout_phase`] searches, rad: beyond the
-/// track's largest error seen (0.19 rad), short of a quarter turn of the form.
-const RUNOUT_PHASE_REACH_RAD: f64 = 0.5;
-
-/// The runout form's phase as the simulation refined it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct RunoutPhase {
-    refined_rad: f64,
-    /// The parts of [`RunoutPhase::std_rad`]: the shared χ²'s curvature alone (infinite where
-    /// it has none) and the final bracket's spread.
-    curvature_std_rad: f64,
-    bracket_std_rad: f64,
-    /// Σ z²'s curvature (the search's own, which the reported ± never falls below).
-    search_std_rad: f64,
-    /// The amplitude the phase was searched at (the track's), m.
-    at_amplitude_m: f64,
-}
-
-impl RunoutPhase {
-    /// The refined phase's uncertainty with the amplitude held at `at_amplitude_m`, as every
-    /// searched parameter's ([`shared_std_along`]): the shared-tolerance χ²'s curvature and the
-    /// search's final bracket. It does not hold the fit seeds' own noise: on the independent
-    /// renderer's calibrated chain the phase came out 0.14 ± 0.05 rad for a true 0 on 2 fit
-    /// seeds (± 0.04 from Σ z²'s curvature), 0.07 ± 0.14 on 3.
-    fn std_rad(&self) -> f64 {
-        held_curvature_std(self.search_std_rad, self.curvature_std_rad).hypot(self.bracket_std_rad)
-    }
-}
-
-/// The runout's amplitude and phase uncertainties with the other free
-/// ([`Fitter::runout_phase_freed`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct RunoutFreed {
-    amplitude_std_m: f64,
-    phase_std_rad: f64,
-    /// The shared χ²'s normalised cross-curvature of amplitude and phase
-    /// ([`coupling_from_off_point`]).
-    coupling: f64,
-    /// ρ² reached [`crate::diagnose::search::COUPLING_SQ_MAX`]: both ± are lower bounds.
-    capped: bool,
-}
-
-/// The runout form a fitted runout took from the footage (the track's order, the phase refined
-/// by simulation), reported beside its amplitude.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FittedRunoutForm {
-    pub cycles_per_wheel_rev: f64,
-    pub phase_rad: f64,
-    /// The phase's 1-σ uncertainty, with the amplitude free when the fit measured how the two
-    /// trade ([`Fitter::runout_phase_freed`]), else with it held at the track's.
-    pub phase_std_rad: f64,
-}
-
-/// Standard deviation of the median frame interval of timestamps `t_s`: the median's large-sample
-/// sd from the intervals' MAD (1.2533 × 1.4826 × MAD / √n), never below 1 ns, the finest stamp a
-/// clock gives (a constant-rate footage's intervals differ only by rounding; a zero sd claimed
-/// a rate 10⁻¹³ fps off to be exact).
-fn median_interval_sd_s(t_s: &[f64]) -> f64 {
-    let d: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return f64::INFINITY;
-    }
-    let mad = crate::numeric::robust::mad(&d);
-    (1.2533 * crate::numeric::robust::MAD_TO_SD * mad / (d.len() as f64).sqrt()).max(1e-9)
 }
 
 /// The footage's median frame interval ([`crate::timing::median_interval_s`]), or 1/30 s when
@@ -1011,132 +809,6 @@ impl<'a> Fitter<'a> {
         Ok(t)
     }
 
-    /// The runout form the candidate takes from the track: only when the nominal states no
-    /// runout of its own (a stated form is the user's, refitted in amplitude alone) and the form
-    /// takes [`RUNOUT_FORM_MIN_SHARE`] of the centre residual.
-    /// Its phase is the simulation's refinement when [`Fitter::refine_runout_phase`] ran.
-    fn fitted_runout_form(&self) -> Option<RunoutForm> {
-        self.track_runout_form().map(|f| RunoutForm {
-            phase_rad: self.runout_phase.map_or(f.phase_rad, |p| p.refined_rad),
-            ..f
-        })
-    }
-
-    /// The runout form as read off the track, when the candidate takes it
-    /// ([`Fitter::fitted_runout_form`]).
-    fn track_runout_form(&self) -> Option<RunoutForm> {
-        if Effect::AxisRunout.is_on(&self.base.scenario) {
-            return None;
-        }
-        self.runout_form
-            .filter(|f| f.rss_reduction_frac >= RUNOUT_FORM_MIN_SHARE)
-    }
-
-    /// Refines the phase of the runout form read off the track by simulation: a search of the
-    /// phase, at the track's amplitude, on Σ z² over the runout's signature cells (the
-    /// pipeline in the loop). Call before candidates are fitted; forks take the result, so every
-    /// fit, pair and shard uses the same form. Nothing to do when the candidate keeps its own
-    /// form (or the nominal's).
-    ///
-    /// Why: the track's least squares read the phase 0.05–0.19 rad off on both renderers'
-    /// footage (what the nominal's alignment and circle fit take of the wobble bends the
-    /// residual it reads), and at 0.11 rad off a 2 mm runout fitted 1.955 mm closed only 80 % of
-    /// its own gap (a drive-speed variation closed 100 %); at the true phase it closed 100 %.
-    pub fn refine_runout_phase(&mut self) {
-        let Some(form) = self.track_runout_form() else {
-            return;
-        };
-        let e = Effect::AxisRunout;
-        let amplitude_m = self.start_values(e)[0];
-        let mut o = SearchOptions::new(
-            form.phase_rad - RUNOUT_PHASE_REACH_RAD,
-            form.phase_rad + RUNOUT_PHASE_REACH_RAD,
-            false,
-        );
-        // Three points and one parabolic step (or one step outwards): the track's phase is
-        // near, and each evaluation costs the fit seeds' simulations.
-        o.step_u = 0.12;
-        o.tol_u = 0.02;
-        o.max_evaluations = 4;
-        let applied = [(e, vec![amplitude_m])];
-        let evaluated: RefCell<Vec<(Vec<f64>, Objectives)>> = RefCell::new(Vec::new());
-        let r = minimise(
-            |phase_rad| {
-                let trial = self.trial_with_form(&applied, Some(RunoutForm { phase_rad, ..form }));
-                let f = self.objectives_of(&[e], trial, compare_for_fit, LensCells::All);
-                evaluated.borrow_mut().push((vec![phase_rad], f));
-                f.sum_z2
-            },
-            form.phase_rad,
-            &o,
-        );
-        if r.objective.is_finite() {
-            let evaluated = evaluated.borrow();
-            self.runout_phase = Some(RunoutPhase {
-                refined_rad: r.value,
-                curvature_std_rad: shared_curvature_std_along(&evaluated, |x| vec![x], &r, &o),
-                bracket_std_rad: r.bracket_std(),
-                search_std_rad: r.std,
-                at_amplitude_m: amplitude_m,
-            });
-        }
-    }
-
-    /// The runout amplitude's and phase's uncertainties with the other free, for a runout fitted
-    /// alone whose form took the refined phase: the phase was searched at the track's amplitude
-    /// and the amplitude at the refined phase, each with the other held, and the two trade. One
-    /// more evaluation, 2 σ off both search lines, measures the shared χ²'s cross-curvature
-    /// ([`coupling_from_off_point`]), and each ± grows by 1/√(1 − ρ²). The fit seeds' own noise
-    /// is still not in them (see [`RunoutPhase::std_rad`]).
-    /// `None` when a curvature is missing or the point says nothing (the ± then hold the other
-    /// fixed, and the method says so).
-    fn runout_phase_freed(
-        &self,
-        amplitude_m: f64,
-        search: &(SearchResult, SearchOptions),
-        evaluated: &[(Vec<f64>, Objectives)],
-    ) -> Option<RunoutFreed> {
-        let (p, form) = (self.runout_phase?, self.fitted_runout_form()?);
-        let (r, o) = search;
-        let sigma_a = shared_curvature_std_along(evaluated, |x| vec![x], r, o);
-        let at_minimum = objective_at(evaluated, &[amplitude_m])?.shared_chi2;
-        let sigma_p = p.curvature_std_rad;
-        if !(sigma_a.is_finite() && sigma_p.is_finite() && at_minimum.is_finite()) {
-            return None;
-        }
-        // Away from the amplitude the phase was searched at: a point back on that line says
-        // nothing of the cross term.
-        let from_track = (amplitude_m - p.at_amplitude_m) / sigma_a;
-        let s = if from_track >= 0.0 || amplitude_m - 2.0 * sigma_a <= 0.0 {
-            2.0
-        } else {
-            -2.0
-        };
-        let t = 2.0;
-        let e = Effect::AxisRunout;
-        let trial = self.trial_with_form(
-            &[(e, vec![amplitude_m + s * sigma_a])],
-            Some(RunoutForm {
-                phase_rad: form.phase_rad + t * sigma_p,
-                ..form
-            }),
-        );
-        let off = self
-            .objectives_of(&[e], trial, compare_for_fit, LensCells::All)
-            .shared_chi2;
-        let coupling = coupling_from_off_point(at_minimum, off, s, t, from_track)?;
-        let (amplitude_curvature, capped) =
-            std_with_other_free(held_curvature_std(r.std, sigma_a), coupling);
-        let (phase_curvature, _) =
-            std_with_other_free(held_curvature_std(p.search_std_rad, sigma_p), coupling);
-        Some(RunoutFreed {
-            amplitude_std_m: amplitude_curvature.hypot(r.bracket_std()),
-            phase_std_rad: phase_curvature.hypot(p.bracket_std_rad),
-            coupling,
-            capped,
-        })
-    }
-
     /// Cells of a trial on `seeds`.
     fn cells(&self, trial: &Trial, seeds: &[u64], images: bool) -> Result<Vec<Cells>, FitError> {
         simulated_cells(&self.ctx, trial, seeds, images, &self.simulations)
@@ -1403,77 +1075,11 @@ impl<'a> Fitter<'a> {
         v
     }
 
-    /// The second stage of a lens fit, after its first on the shape cells alone: the angle cells
-    /// join and k1 is searched again from the first stage's value when the lens, at that k1
-    /// plus two standard deviations (the search's far end when the first stage set no
-    /// uncertainty), bends the measured angle by [`LENS_ANGLE_BEND_MIN_SHARE`] of the aligned
-    /// angle residual. Updates `values` and `stds`; returns the method's words for it.
-    fn lens_second_stage(
-        &self,
-        prior: &[(Effect, Vec<f64>)],
-        values: &mut [f64],
-        stds: &mut [f64],
-        reported: &mut [Option<f64>],
-    ) -> String {
-        let e = Effect::LensDistortion;
-        let spec = &e.params()[0];
-        let (k1, sd) = (values[0], stds[0]);
-        // The first stage's ± as the report states it (not the Σ z² curvature its search
-        // decides on), so that the method's words compare with the reported ±.
-        let first_reported_sd = reported[0].unwrap_or(sd);
-        let reach = if sd.is_finite() {
-            k1.abs() + 2.0 * sd
-        } else {
-            spec.search.0.abs().max(spec.search.1.abs())
-        };
-        let probe = if k1 > 0.0 {
-            reach.min(spec.search.1)
-        } else {
-            -reach.min(-spec.search.0)
-        };
-        let (td, _) = self.real_theta_det;
-        let bend_rad = camera_warp::angle_bend_rms(
-            &self.base.scenario,
-            e,
-            &[probe],
-            td,
-            aligned_of(self).screen_sign,
-        )
-        .ok();
-        let residual_rad = aligned_of(self).motion.rms_residual_rad;
-        let bend = lens_bend_phrase(probe, bend_rad, residual_rad);
-        if !lens_bend_informs(bend_rad, residual_rad) {
-            return format!(
-                "; on the shape cells: the angle cells left out, as {bend}, below {:.0} %",
-                100.0 * LENS_ANGLE_BEND_MIN_SHARE
-            );
-        }
-        // The search's own first step (a sixth of its range), not one scaled by the first
-        // stage's uncertainty: the shape cells' k1 can be off by a quarter with another
-        // renderer's edges, and a step of 4σ (0.01) left a k1 = −0.3 lens at the first stage's
-        // −0.212 on the project's renderer, where the full step reached −0.242.
-        let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
-        o.max_evaluations = 9;
-        let evaluated: RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
-        let r = minimise(
-            |x| {
-                let f = self.objectives_beside(prior, e, &[x], compare_for_fit, LensCells::All);
-                evaluated.borrow_mut().push((vec![x], f));
-                f.sum_z2
-            },
-            k1,
-            &o,
-        );
-        values[0] = r.value;
-        stds[0] = r.std;
-        reported[0] = Some(shared_std(&evaluated.borrow(), &[k1], 0, &r, &o));
-        format!(
-            "; first on the shape cells (k1 = {k1:.4} ± {first_reported_sd:.4}), then with the \
-             angle cells, as {bend}"
-        )
-    }
-
-    /// Fits `e` on top of `prior` (already fitted effects, kept fixed).
+    /// Fits `e` on top of `prior` (already fitted effects, kept fixed): on the clearance-free
+    /// fitter for a delegated clearance, else by the effect's strategy — a moment match
+    /// (`moments`), a direct reading of the footage (`direct`), a disc vibration's sinusoid
+    /// (`sinusoid`), or a search of Σ z² (`search`, with the tilt's, lens's, runout's and
+    /// noise's own steps).
     pub fn fit(&self, e: Effect, prior: &[(Effect, Vec<f64>)]) -> Result<Fitted, FitError> {
         if let Some(free) = self.delegate(e) {
             let mut fitted = free.fit(e, prior)?;
@@ -1485,362 +1091,37 @@ impl<'a> Fitter<'a> {
         let specs = self.specs(e);
         let mut values = self.start_values(e);
         let mut stds = vec![f64::INFINITY; specs.len()];
-        // A moment match, or a disc vibration's sinusoid (the residual's sinusoid at the
-        // vibration's frequency matched to the footage's).
-        let fitted = |(values, stds, method): (Vec<f64>, Vec<f64>, String)| Fitted {
+        let fitted = |(values, stds, method): Found, kind: FitKind| Fitted {
             effect: e,
             values,
             stds,
             method,
             simulations: *self.simulations.borrow() - before,
             runout_form: None,
-            kind: FitKind::MomentMatch,
+            kind,
         };
         let why_searched = match self.fit_by_moments(e, prior, &values)? {
-            MomentFit::Fitted(direct) => return Ok(fitted(direct)),
+            MomentFit::Fitted(direct) => return Ok(fitted(direct, FitKind::MomentMatch)),
             MomentFit::Search(why) => why,
         };
-        let mut method: String;
-        let mut runout_form: Option<FittedRunoutForm> = None;
-        let mut kind = FitKind::Measured;
-        match e {
-            Effect::FrameTiming => {
-                let ts = Timestamps::new(self.real_t_s.to_vec()).map_err(AlignError::FrameTimes)?;
-                let f = fit_vfr(&ts).map_err(FitError::TimingFit)?;
-                let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
-                values = vec![
-                    f.jitter_s,
-                    f.first_interval_s,
-                    rate_ppm,
-                    f.drop_probability,
-                    f.pair_alternation_s.abs(),
-                ];
-                stds = vec![
-                    f.jitter_s / ((f.frames.max(4) - 3) as f64).sqrt() / std::f64::consts::SQRT_2,
-                    f.first_interval_stderr_s,
-                    f.fps_stderr / self.nominal.frame_timing.fps * 1e6,
-                    (f.drop_probability * (1.0 - f.drop_probability) / f.frames.max(1) as f64)
-                        .sqrt(),
-                    f.pair_alternation_stderr_s,
-                ];
-                method = "fitted directly to the footage's timestamps (geneva timing fit)".into();
-            }
-            Effect::Timebase => {
-                let fps = 1.0 / self.median_interval_s();
-                values = vec![fps];
-                stds = vec![fps * fps * median_interval_sd_s(self.real_t_s)];
-                method = "rate of the footage's timestamps; frames taken on the nominal's schedule"
-                    .into();
-            }
-            Effect::Lighting => {
-                let s = &aligned_of(self).scenario;
-                let all = ["dwell", "entry", "drive", "exit"];
-                let (s_i, s_p, s_m) = (
-                    s.scene.ink_radiance,
-                    s.scene.paper_radiance,
-                    s.scene.disc_radiance,
-                );
-                // Levels and gamma from ink, paper and the disc around the marker (a mid-tone);
-                // levels alone (gamma as the nominal's) when the mid-tone does not resolve gamma.
-                let gamma0 = values[2];
-                let tone = |ink: f64, paper: f64, mid: Option<f64>| {
-                    mid.and_then(|m| plan::guess_tone([ink, paper, m], s_i, s_p, s_m))
-                        .or_else(|| {
-                            plan::guess_levels(ink, paper, s_i, s_p).map(|(b, w)| (b, w, gamma0))
-                        })
-                };
-                let real_mid = self.channel_pair("background", &all).map(|p| p.0);
-                if let (Some((ink, _)), Some((paper, _))) = (
-                    self.channel_pair("ink", &all),
-                    self.channel_pair("paper", &all),
-                ) {
-                    if let Some((b, w, g)) = tone(ink, paper, real_mid) {
-                        values = vec![b, w, g];
-                    }
-                }
-                // One correction with simulations (blur, noise and the surround's own model
-                // error move the measured levels): the tone solved on the simulations is moved
-                // onto the tone solved on the footage.
-                let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-                applied.push((e, values.clone()));
-                let trial = self.trial_with(&applied)?;
-                let g = self.gap(&trial, &self.fit_seeds)?;
-                let means = |ch: &str| moments::channel_means(&g, ch, &all);
-                let gamma_resolved;
-                if let (Some(ink), Some(paper)) = (means("ink"), means("paper")) {
-                    let mid = means("background");
-                    let r = tone(ink.real, paper.real, mid.map(|m| m.real));
-                    let m = tone(ink.sim, paper.sim, mid.map(|m| m.sim));
-                    gamma_resolved = mid.is_some_and(|m| {
-                        plan::guess_tone([ink.real, paper.real, m.real], s_i, s_p, s_m).is_some()
-                            && plan::guess_tone([ink.sim, paper.sim, m.sim], s_i, s_p, s_m)
-                                .is_some()
-                    });
-                    if let (Some(r), Some(m)) = (r, m) {
-                        values[0] += r.0 - m.0;
-                        values[1] += r.1 - m.1;
-                        if gamma_resolved {
-                            values[2] = (values[2] * r.2 / m.2).clamp(0.3, 3.0);
-                        }
-                    }
-                } else {
-                    gamma_resolved = false;
-                }
-                let tol = crate::diagnose::cells::channel("ink").map_or(4.0, |c| c.tol_abs);
-                // Gamma's uncertainty: the mid-tone moved by the level tolerance.
-                let gamma_std = if gamma_resolved {
-                    let (ink, paper) = (means("ink"), means("paper"));
-                    match (ink, paper, means("background")) {
-                        (Some(i), Some(p), Some(m)) => {
-                            let at = |d: f64| {
-                                plan::guess_tone([i.real, p.real, m.real + d], s_i, s_p, s_m)
-                                    .map(|t| t.2)
-                            };
-                            match (at(tol), at(-tol)) {
-                                (Some(a), Some(b)) => 0.5 * (a - b).abs(),
-                                _ => f64::INFINITY,
-                            }
-                        }
-                        _ => f64::INFINITY,
-                    }
-                } else {
-                    f64::INFINITY
-                };
-                stds = vec![tol, tol, gamma_std];
-                method = if gamma_resolved {
-                    "levels and gamma inverted from the measured ink, paper and disc (a mid-tone), \
-                     corrected once by simulation"
-                        .into()
-                } else {
-                    "levels inverted from the measured ink and paper (gamma as the nominal's), \
-                     corrected once by simulation"
-                        .into()
-                };
-            }
-            _ => {
-                if e == Effect::DiscVibration {
-                    // The frequency is the peak of the angle residual after the aligned nominal
-                    // motion (the start already holds it, as the `theta_peak` cell and the
-                    // sinusoid read it); the peak above a smooth trend only when that residual
-                    // shows none. A trend keeps the motion's own harmonics above its cutoff
-                    // (Nyquist / 10): on an external drive filmed at 60 fps they outgrew a 7 Hz
-                    // vibration at 3.2 Hz, and the sinusoid found nothing there.
-                    let peak_hz =
-                        vibration_start_hz(self.real_theta_peak_hz, specs[1].search, || {
-                            self.theta_peak_hz(self.ctx.nyquist_hz).map(|(f, _)| f)
-                        });
-                    if let Some(f) = peak_hz {
-                        values[1] = f;
-                        stds[1] = 0.05;
-                    }
-                    if let Some(direct) = self.disc_vibration_by_sinusoid(prior, &values)? {
-                        return Ok(fitted(direct));
-                    }
-                }
-                // The tilt's two angles interact (either turns the marker's keystone): a second
-                // round refits each at the other's fitted value.
-                let searched: Vec<usize> = match e {
-                    Effect::PerspectiveTilt => vec![0, 1, 0, 1],
-                    Effect::PixelNoise => vec![0, 1],
-                    _ => vec![0],
-                };
-                let pose_start = (e == Effect::PerspectiveTilt)
-                    .then_some(self.pose_tilt)
-                    .flatten();
-                // Every objective value by its parameters: a later search starts where an earlier
-                // one ended, and the objective is deterministic (fixed seeds), so it is looked up.
-                let evaluated: std::cell::RefCell<Vec<(Vec<f64>, Objectives)>> = Default::default();
-                let lens_cells = if e == Effect::LensDistortion {
-                    LensCells::ShapeOnly
-                } else {
-                    LensCells::All
-                };
-                let mut moved = vec![f64::INFINITY; specs.len()];
-                // The uncertainties reported, from the shared-tolerance χ² ([`Objectives`]);
-                // `stds` (Σ z²'s) steer the search's own decisions, as they always have.
-                let mut reported: Vec<Option<f64>> = vec![None; specs.len()];
-                let mut searches_run = 0usize;
-                let mut last_search: Option<(SearchResult, SearchOptions)> = None;
-                let noise_cap = (e == Effect::PixelNoise)
-                    .then(|| self.noise_search_cap())
-                    .flatten();
-                for (k, &i) in searched.iter().enumerate() {
-                    // A second round refits a coordinate at the others' new values: pointless when
-                    // the one searched last did not move beyond its own uncertainty (a bound or a
-                    // flat objective, infinite uncertainty, counts as moved).
-                    if k >= specs.len() {
-                        let last = searched[k - 1];
-                        if stds[last].is_finite() && moved[last] <= stds[last] {
-                            break;
-                        }
-                    }
-                    let spec = specs[i];
-                    let mut o = SearchOptions::new(spec.search.0, spec.search.1, spec.log_scale);
-                    o.max_evaluations = 9;
-                    if let Some(p) = pose_start {
-                        // Started at the corners' tilt: step by its uncertainty, not by a
-                        // sixth of the range (which could cross into the mirror minimum).
-                        let u95 = if i == 0 { p.u95_x_deg } else { p.u95_y_deg };
-                        o.step_u = u95.clamp(0.5, 4.0);
-                    }
-                    if e == Effect::PixelNoise {
-                        if let Some(cap) = noise_cap {
-                            (o.lo, o.hi) = cap.bound(i, &values, (o.lo, o.hi));
-                        }
-                        if i == 1 {
-                            let s_ref = sensor_noise::mid_grey(&aligned_of(self).scenario.scene);
-                            o.step_u = sensor_noise::read_noise_step_e(values[0], values[1], s_ref);
-                        }
-                    }
-                    let base = values.clone();
-                    let r = minimise(
-                        |x| {
-                            let mut v = base.clone();
-                            v[i] = x;
-                            self.cached_sum_z2(prior, e, v, lens_cells, &evaluated)
-                        },
-                        values[i],
-                        &o,
-                    );
-                    moved[i] = (r.value - values[i]).abs();
-                    values[i] = r.value;
-                    stds[i] = r.std;
-                    reported[i] = Some(shared_std(&evaluated.borrow(), &base, i, &r, &o));
-                    searches_run += 1;
-                    last_search = Some((r, o));
-                }
-                kind = FitKind::SumZ2Search;
-                method = search_method(e, self.fit_seeds.len());
-                if let Some(why) = &why_searched {
-                    method.push_str(why);
-                }
-                if let Some(cap) = noise_cap {
-                    let span_dn = aligned_of(self).scenario.effects.lighting.span_dn();
-                    method.push_str(&format!(
-                        "; searched where the sensor's noise at mid-grey is at most \
-                         {NOISE_SEARCH_MAX_RATIO} times the footage's (σ {:.1} DN before the \
-                         tone curve)",
-                        cap.variance.sqrt() * span_dn
-                    ));
-                }
-                if e == Effect::LensDistortion {
-                    method.push_str(&self.lens_second_stage(
-                        prior,
-                        &mut values,
-                        &mut stds,
-                        &mut reported,
-                    ));
-                }
-                if let Some(p) = pose_start {
-                    method.push_str(&format!(
-                        "; started at the tilt the marker corners show through the nominal \
-                         camera (pose fit: {:.2}° ± {:.2}°, {:.2}° ± {:.2}°), {}",
-                        p.tilt_x_deg,
-                        p.u95_x_deg,
-                        p.tilt_y_deg,
-                        p.u95_y_deg,
-                        tilt_rounds_phrase(searches_run, specs.len())
-                    ));
-                    // The simulated moments carry the simulation's own rendering: a tilt read
-                    // through another renderer's edges lands off by more than the curvature
-                    // says (a 20° tilt fitted at 18.6° ± 0.08°, its pose fit 20.1° ± 0.5°). The
-                    // pose fit measures the tilt directly; when the moments cannot tell it
-                    // from their minimum (Σ z² within χ²₂(95 %) of it), it is the value reported.
-                    //
-                    // That is a test, not a fit: both sides are compared with the verdict's
-                    // tolerance ([`compare`], with a tilt on), which lets a cleaner renderer's
-                    // footage lie below the simulations. The fit's symmetric tolerance rejected the 20.12° pose fit
-                    // of a 20° tilt drawn by another renderer for the moments' 18.62°.
-                    let with = |v: &[f64]| {
-                        self.objectives_beside(prior, e, v, compare_with_slow_shape, LensCells::All)
-                            .sum_z2
-                    };
-                    let at_pose = with(&[p.tilt_x_deg, p.tilt_y_deg]);
-                    let at_minimum = with(&values);
-                    if let Some(v) = pose_reported(at_pose, at_minimum, &stds, &p) {
-                        method.push_str(&format!(
-                            "; reported at the pose fit: its Σ z² ({at_pose:.1}) is within \
-                             {POSE_DELTA_CHI2} of the moments' minimum ({at_minimum:.1} at \
-                             {:.2}°, {:.2}°)",
-                            values[0], values[1]
-                        ));
-                        (values, stds) = v;
-                        reported.fill(None);
-                    }
-                }
-                if e == Effect::PixelNoise {
-                    method.push_str(&self.noise_along_valley(
-                        prior,
-                        &mut values,
-                        &mut stds,
-                        &mut reported,
-                        &evaluated,
-                    ));
-                }
-                if let Some(caveat) = stated_clearance_caveat(e, self.nominal) {
-                    method.push_str(&caveat);
-                }
-                for (s, r) in stds.iter_mut().zip(&reported) {
-                    if let Some(r) = r {
-                        *s = *r;
-                    }
-                }
-                if let (Effect::AxisRunout, Some(f)) = (e, self.track_runout_form()) {
-                    method.push_str(&format!(
-                        "; form from the marker-centre track: {} cycles per wheel revolution, \
-                         phase {:.2} rad ({:.0} % of the centre residual)",
-                        f.cycles_per_wheel_rev,
-                        f.phase_rad,
-                        100.0 * f.rss_reduction_frac
-                    ));
-                    // The track's phase, without a ± of its own, unless the simulation refined it.
-                    let mut phase = (f.phase_rad, f64::INFINITY);
-                    if let Some(p) = self.runout_phase {
-                        // In a pair the other effect's cells join the objective, whose phase
-                        // curvature the refinement did not measure.
-                        let freed =
-                            last_search
-                                .as_ref()
-                                .filter(|_| prior.is_empty())
-                                .and_then(|search| {
-                                    self.runout_phase_freed(values[0], search, &evaluated.borrow())
-                                });
-                        let phase_std_rad = freed.map_or(p.std_rad(), |fr| fr.phase_std_rad);
-                        phase = (p.refined_rad, phase_std_rad);
-                        method.push_str(&format!(
-                            ", the phase refined by simulation to {:.2} ± {:.2} rad",
-                            p.refined_rad, phase_std_rad
-                        ));
-                        match freed {
-                            Some(fr) => {
-                                stds[0] = fr.amplitude_std_m;
-                                method.push_str(&format!(
-                                    "; amplitude and phase trade against each other \
-                                     (cross-curvature {:.2}, from one more evaluation off both \
-                                     searches) and each ± holds the other free{}",
-                                    fr.coupling,
-                                    if fr.capped {
-                                        " (the cross-curvature at its cap: both ± are lower \
-                                         bounds)"
-                                    } else {
-                                        ""
-                                    }
-                                ));
-                            }
-                            None => method.push_str(
-                                "; the amplitude's ± holds that phase fixed, and amplitude and \
-                                 phase trade against each other",
-                            ),
-                        }
-                    }
-                    runout_form = Some(FittedRunoutForm {
-                        cycles_per_wheel_rev: f.cycles_per_wheel_rev,
-                        phase_rad: phase.0,
-                        phase_std_rad: phase.1,
-                    });
-                }
+        let direct = match e {
+            Effect::FrameTiming => Some(self.frame_timing_direct()?),
+            Effect::Timebase => Some(self.timebase_direct()),
+            Effect::Lighting => Some(self.lighting_inverted(prior, values.clone())?),
+            _ => None,
+        };
+        if let Some(direct) = direct {
+            return Ok(fitted(direct, FitKind::Measured));
+        }
+        if e == Effect::DiscVibration {
+            self.start_vibration_frequency(specs[1].search, &mut values, &mut stds);
+            // The residual's sinusoid at the vibration's frequency matched to the footage's.
+            if let Some(direct) = self.disc_vibration_by_sinusoid(prior, &values)? {
+                return Ok(fitted(direct, FitKind::MomentMatch));
             }
         }
+        let (values, stds, method, runout_form) =
+            self.fit_by_search(e, prior, values, stds, why_searched.as_deref())?;
         Ok(Fitted {
             effect: e,
             values,
@@ -1848,27 +1129,8 @@ impl<'a> Fitter<'a> {
             method,
             simulations: *self.simulations.borrow() - before,
             runout_form,
-            kind,
+            kind: FitKind::SumZ2Search,
         })
-    }
-
-    /// Σ z² with `e` at `v` on top of `prior` (cells as `lens` says), looked up in `evaluated`
-    /// when a search already simulated it (the objective is deterministic: fixed seeds), else
-    /// simulated and recorded there.
-    fn cached_sum_z2(
-        &self,
-        prior: &[(Effect, Vec<f64>)],
-        e: Effect,
-        v: Vec<f64>,
-        lens: LensCells,
-        evaluated: &RefCell<Vec<(Vec<f64>, Objectives)>>,
-    ) -> f64 {
-        if let Some(f) = objective_at(&evaluated.borrow(), &v) {
-            return f.sum_z2;
-        }
-        let f = self.objectives_beside(prior, e, &v, compare_for_fit, lens);
-        evaluated.borrow_mut().push((v, f));
-        f.sum_z2
     }
 
     /// The gap map with `e` at `v` on top of `prior`, on the fit seeds.
@@ -1882,262 +1144,6 @@ impl<'a> Fitter<'a> {
         applied.push((e, v.to_vec()));
         let trial = self.trial_with(&applied)?;
         self.gap(&trial, &self.fit_seeds)
-    }
-
-    /// How much a moment's sampling error grows once the simulation set's own mean (on the
-    /// fit seeds) is compared with it: √(1 + 1/seeds).
-    fn moment_sims_factor(&self) -> f64 {
-        (1.0 + 1.0 / self.fit_seeds.len() as f64).sqrt()
-    }
-
-    /// Fits `e` by moment matching ([`moments`]) when one statistic of the gap map carries its
-    /// parameter: optical blur (edge width along the motion, on σ²), motion blur (extra edge
-    /// variance across the motion during the drive, on T²), rolling shutter (the readout implied
-    /// by stretch against velocity), compression (8-px grid blockiness, on the JPEG quantisation
-    /// scale) and pixel noise (noise at the ink and paper levels, on the coordinates where the
-    /// variance is linear). [`MomentFit::Search`] for other effects, or
-    /// when the data do not give the statistic (the caller then searches Σ z²).
-    fn fit_by_moments(
-        &self,
-        e: Effect,
-        prior: &[(Effect, Vec<f64>)],
-        start: &[f64],
-    ) -> Result<MomentFit, FitError> {
-        let motion = ["dwell", "entry", "drive", "exit"];
-        let sims_factor = self.moment_sims_factor();
-        let gap_at = |v: &[f64]| self.gap_with(prior, e, v);
-        let method = |what: &str, n: usize| moment_method(what, n, self.fit_seeds.len());
-        if e == Effect::PixelNoise {
-            return self.noise_by_moments(prior, start);
-        }
-        // One-parameter effects: coordinate x = T(v), moment m(gap) → (real target, simulated,
-        // the target's standard error), model slope dm/dx.
-        let speed = self.drive_speed_px_s();
-        let (coord, slope0, what): (MomentCoord, f64, &str) = match e {
-            Effect::OpticalBlur => (MomentCoord::Squared, 1.0, "edge width² along the motion"),
-            Effect::MotionBlur => (
-                MomentCoord::Squared,
-                (speed * speed / 12.0).max(1e-9),
-                "extra edge variance across the motion during the drive",
-            ),
-            Effect::RollingShutter => (
-                MomentCoord::Linear,
-                1.0,
-                "rolling-shutter readout implied by stretch",
-            ),
-            Effect::Compression => (
-                MomentCoord::JpegScale,
-                BLOCKINESS_PER_JPEG_SCALE,
-                "8-px grid blockiness (on the JPEG quantisation scale)",
-            ),
-            _ => return Ok(MomentFit::Search(None)),
-        };
-        let moment = |g: &GapMap| -> Option<(f64, f64, f64)> {
-            match e {
-                Effect::OpticalBlur => {
-                    let c = moments::channel_means(g, "edge_along", &motion)?;
-                    Some((
-                        c.real * c.real,
-                        c.sim * c.sim,
-                        2.0 * c.real.abs() * c.real_std,
-                    ))
-                }
-                Effect::MotionBlur => {
-                    let a = moments::channel_means(g, "edge_across", &["drive"])?;
-                    let l = moments::channel_means(g, "edge_along", &["drive"])?;
-                    Some((
-                        a.real * a.real - l.real * l.real,
-                        a.sim * a.sim - l.sim * l.sim,
-                        2.0 * ((a.real * a.real_std).powi(2) + (l.real * l.real_std).powi(2))
-                            .sqrt(),
-                    ))
-                }
-                Effect::Compression => {
-                    let c = moments::channel_means(g, "blockiness", &motion)?;
-                    Some((c.real, c.sim, c.real_std))
-                }
-                _ => {
-                    // The sub-pixel shape's readout when the frames were seen, the corner
-                    // track's otherwise (a tracks CSV).
-                    let c = moments::channel_means(g, "rs_fine", &["all"])
-                        .or_else(|| moments::channel_means(g, "rs_readout", &["all"]))?;
-                    Some((c.real, c.sim, c.real_std))
-                }
-            }
-        };
-        // The compression's blockiness at the nominal's own quality (none when it compresses
-        // nothing), read off the nominal's simulations: with the first simulation it gives the
-        // slope of this footage's blockiness against the scale, which depends on its content
-        // and noise, so the model slope serves only when the two coincide.
-        let anchor = (e == Effect::Compression)
-            .then(|| {
-                let s = &aligned_of(self).scenario;
-                let x = if e.is_on(s) {
-                    coord.x_of(e.values(s)[0])
-                } else {
-                    0.0
-                };
-                moments::channel_means(&self.nominal_gap, "blockiness", &motion).map(|c| (x, c.sim))
-            })
-            .flatten();
-        let mut slope0 = slope0;
-        let spec = self.specs(e)[0];
-        let (x_lo, x_hi) = {
-            let (a, b) = (coord.x_of(spec.search.0), coord.x_of(spec.search.1));
-            (a.min(b), a.max(b))
-        };
-        let mut v = start.to_vec();
-        let mut history: Vec<(f64, f64)> = Vec::new();
-        for k in 0..MOMENT_SIMULATIONS {
-            let x = coord.x_of(v[0]);
-            let Some((target, m, m_std)) = moment(&gap_at(&v)?) else {
-                return Ok(MomentFit::Search(None));
-            };
-            if let (0, Some((xa, ma))) = (k, anchor) {
-                let s = (m - ma) / (x - xa);
-                if s.is_finite() && s > 0.0 && (x - xa).abs() > 1.0 {
-                    slope0 = s;
-                }
-            }
-            history.push((x, m));
-            let Some((x1, slope)) = moments::secant_step(&history, target, slope0) else {
-                return Ok(MomentFit::Search(None));
-            };
-            let Some(x1) = moment_step_in_range(e, x1, (x_lo, x_hi)) else {
-                return Ok(MomentFit::Search(Some(format!(
-                    "; searched, not matched: the blockiness asked for a quality beyond {:.0}–{:.0}",
-                    spec.search.0, spec.search.1
-                ))));
-            };
-            let done = (m - target).abs() < 0.25 * m_std || k + 1 == MOMENT_SIMULATIONS;
-            v[0] = coord.value_of(x1);
-            if done {
-                let sd_m = (m_std * sims_factor).hypot(moment_render_tolerance(e, target));
-                let sd_v = coord.dv_dx(v[0]) * sd_m / slope.abs();
-                let mut sd = vec![f64::INFINITY; v.len()];
-                sd[0] = if sd_v.is_finite() {
-                    with_edge_discrepancy(e, v[0], sd_v)
-                } else {
-                    f64::INFINITY
-                };
-                return Ok(MomentFit::Fitted((v, sd, method(what, k + 1))));
-            }
-        }
-        Ok(MomentFit::Search(None))
-    }
-
-    /// The disc vibration from the sinusoid at its frequency in the angle residual
-    /// ([`spectrum::sinusoid_fit`]), its frequency refined on the real residual around `start`'s.
-    /// The residual's sinusoid is a complex amplitude c (amplitude and phase), linear in the
-    /// vibration's: c(A) = c₀ + h·A, where c₀ is what the residual holds at that frequency with no
-    /// vibration (the motion's own content there, which adds to the vibration with its phase)
-    /// and h the pipeline's complex gain. Simulations at A = 0 and at the footage's amplitude on
-    /// [`GAIN_PLACEMENTS`] seeds (the fit seeds first), each its own sub-pixel placement, give
-    /// c₀ and h (common random numbers), and the footage's c then gives A = |(c − c₀) / h|, with
-    /// the gain's spread over the placements in its ± ([`spectrum::invert_through_gain`]: the
-    /// gain of an unrefined detector to a sub-pixel motion depends on the placement, and the
-    /// footage's is one of them). `None` when the residual
-    /// gives no sinusoid, the gain vanishes or A leaves its search range (the caller then
-    /// searches Σ z²).
-    ///
-    /// Σ z² over the angle's bands matches band power, which also holds the detector's error:
-    /// footage whose detection error is smaller than the simulation's (another renderer's edges,
-    /// a sharper lens) then takes part of the vibration for noise. On the independent
-    /// renderer's footage that fitted a 2 mrad vibration at 1.37 mrad. A sinusoid's
-    /// least-squares amplitude holds only the error at its own frequency.
-    #[allow(clippy::type_complexity)] // (values, stds, method), as in `Fitted`
-    fn disc_vibration_by_sinusoid(
-        &self,
-        prior: &[(Effect, Vec<f64>)],
-        start: &[f64],
-    ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, FitError> {
-        let e = Effect::DiscVibration;
-        let (t, residual) = (self.real_t_s, self.real_theta_residual);
-        let span_s = match (t.first(), t.last()) {
-            (Some(a), Some(b)) if b > a => b - a,
-            _ => return Ok(None),
-        };
-        // A periodogram bin is 1/(4 T): refine within two of them.
-        let Some(real) = spectrum::sinusoid_fit_refined(t, residual, start[1], 0.5 / span_s)
-            .filter(|r| r.amplitude > 0.0 && r.frequency_hz < self.ctx.nyquist_hz)
-        else {
-            return Ok(None);
-        };
-        let f = real.frequency_hz;
-        let (lo, hi) = e.params()[0].search;
-        let probe = real.amplitude.clamp(lo, hi);
-        let seeds = gain_placement_seeds(&self.fit_seeds);
-        // Complex amplitudes (sin, cos coefficients) of the simulations at amplitude `a`, one
-        // per placement seed.
-        let simulated = |a: f64| -> Result<Option<Vec<[f64; 2]>>, FitError> {
-            let mut applied: Vec<(Effect, Vec<f64>)> = prior.to_vec();
-            applied.push((e, vec![a, f]));
-            let trial = self.trial_with(&applied)?;
-            *self.simulations.borrow_mut() += seeds.len();
-            let sims = trial_theta_residuals(&self.ctx, &trial, &seeds)?;
-            let fits: Vec<[f64; 2]> = sims
-                .iter()
-                .filter_map(|(t, r)| spectrum::sinusoid_fit(t, r, f))
-                .map(|s| complex(s.amplitude, s.phase_rad))
-                .collect();
-            Ok((fits.len() == sims.len()).then_some(fits))
-        };
-        let (Some(without), Some(with)) = (simulated(0.0)?, simulated(probe)?) else {
-            return Ok(None);
-        };
-        let c = complex(real.amplitude, real.phase_rad);
-        let Some(inv) =
-            spectrum::invert_through_gain(c, real.amplitude_std, &without, &with, probe)
-        else {
-            return Ok(None);
-        };
-        let gain = inv.gain;
-        // A pipeline that passes less than a tenth of the vibration cannot be inverted.
-        if gain <= 0.1 {
-            return Ok(None);
-        }
-        let amplitude = inv.amplitude;
-        if !(amplitude > lo && amplitude < hi) {
-            return Ok(None);
-        }
-        let sd_amplitude = inv.amplitude_std;
-        // Cramér–Rao for a sinusoid's frequency over T s: √6·σ_A / (2π A T).
-        let sd_frequency =
-            6.0f64.sqrt() * real.amplitude_std / (std::f64::consts::TAU * real.amplitude * span_s);
-        let method = format!(
-            "amplitude of the sinusoid at {f:.3} Hz in the angle residual (least squares; \
-             frequency refined on the footage's residual), inverted through the pipeline's \
-             complex gain {gain:.3} (sd {:.3} from one placement on the pixel grid to the next, \
-             which the ± holds: the footage's placement is one of them) and the residual's own \
-             content there ({:.3} mrad), from simulations at 0 and {:.3} mrad on {} placements \
-             (the {} fit seeds and {} more); footage {:.3} ± {:.3} mrad",
-            inv.gain_spread,
-            1e3 * inv.content_without,
-            1e3 * probe,
-            seeds.len(),
-            self.fit_seeds.len(),
-            seeds.len().saturating_sub(self.fit_seeds.len()),
-            1e3 * real.amplitude,
-            1e3 * real.amplitude_std
-        );
-        Ok(Some((
-            vec![amplitude, f],
-            vec![sd_amplitude, sd_frequency],
-            method,
-        )))
-    }
-
-    /// The strongest frequency of the real angle residual above the low band, with its power.
-    fn theta_peak_hz(&self, nyquist_hz: f64) -> Option<(f64, f64)> {
-        let (t, th) = self.real_theta_det;
-        // Residual after a smooth trend: the aligned motion is not needed for a peak search.
-        let trend = crate::diagnose::bands::smooth(
-            t,
-            th,
-            crate::diagnose::bands::gaussian_sigma_for_cutoff_s(nyquist_hz / 10.0),
-        );
-        let r: Vec<f64> = th.iter().zip(&trend).map(|(a, b)| a - b).collect();
-        plan::dominant_frequency_hz(t, &r, nyquist_hz / 10.0, 0.98 * nyquist_hz, 0.02)
     }
 
     /// Judges `fitted` (applied together) on the evaluation seeds.
@@ -2170,37 +1176,6 @@ pub fn cell_shrink(before: &GapMap, after: &GapMap) -> Vec<(crate::diagnose::cel
             let e0 = excess(c.z, z0);
             let e1 = after.cell(&c.key).map_or(e0, |a| excess(a.z, z0));
             (c.key, 1.0 - e1 / e0)
-        })
-        .collect()
-}
-
-/// The sinusoid A·sin(ωt + φ) as its complex amplitude (A cos φ, A sin φ): its sin and cos
-/// coefficients.
-fn complex(amplitude: f64, phase_rad: f64) -> [f64; 2] {
-    [amplitude * phase_rad.cos(), amplitude * phase_rad.sin()]
-}
-
-/// Placements (simulation seeds, each with its own sub-pixel placement) a vibration's gain is
-/// measured on ([`spectrum::invert_through_gain`]): its spread from one placement to the next
-/// is part of the amplitude's ±, so it needs more draws than a fit's few seeds give it (with
-/// 2, its sd rests on one degree of freedom). The 12 more simulations of the angle alone cost
-/// about 7 s per fit of 180 frames on a 2-core host.
-pub const GAIN_PLACEMENTS: usize = 8;
-
-/// Offset between the fit seeds and the further placement seeds derived from them: far above
-/// any seed the diagnosis draws otherwise, so a refit's set stays disjoint from the others'.
-const PLACEMENT_SEED_STRIDE: u64 = 1 << 40;
-
-/// The fit seeds, then seeds derived from them (each fit seed plus a multiple of
-/// [`PLACEMENT_SEED_STRIDE`], in turn) up to [`GAIN_PLACEMENTS`] in all: disjoint fit-seed sets
-/// give disjoint placement sets.
-pub fn gain_placement_seeds(fit_seeds: &[u64]) -> Vec<u64> {
-    let n = fit_seeds.len();
-    (0..GAIN_PLACEMENTS.max(n))
-        .filter_map(|k| {
-            let round = (k / n.max(1)) as u64;
-            let seed = fit_seeds.get(k % n.max(1))?;
-            Some(seed.wrapping_add(round.wrapping_mul(PLACEMENT_SEED_STRIDE)))
         })
         .collect()
 }
@@ -2257,88 +1232,9 @@ pub fn stated_clearance_caveat(e: Effect, nominal: &Scenario) -> Option<String> 
     ))
 }
 
-/// Δ Σ z² of χ² with 2 degrees of freedom at 95 %: two tilts the moments cannot tell apart.
-pub const POSE_DELTA_CHI2: f64 = 5.99;
-
-/// The tilt to report when the pose fit's objective `at_pose` is within [`POSE_DELTA_CHI2`] of the
-/// moments' minimum `at_minimum` (whose values have standard uncertainties `stds`), both taken
-/// with the verdict's tolerance: the pose fit's values, each with the pose fit's standard
-/// uncertainty and the moments' in quadrature. `None` when the moments reject the pose fit, or
-/// it is not finite.
-#[allow(clippy::type_complexity)] // (values, stds), as in `Fitted`
-pub fn pose_reported(
-    at_pose: f64,
-    at_minimum: f64,
-    stds: &[f64],
-    pose: &PoseTilt,
-) -> Option<(Vec<f64>, Vec<f64>)> {
-    let finite = [
-        pose.tilt_x_deg,
-        pose.tilt_y_deg,
-        pose.u95_x_deg,
-        pose.u95_y_deg,
-    ]
-    .iter()
-    .all(|v| v.is_finite());
-    if !finite || !at_pose.is_finite() || at_pose > at_minimum + POSE_DELTA_CHI2 {
-        return None;
-    }
-    let combine = |u95: f64, sd: f64| {
-        let sd = if sd.is_finite() { sd } else { 0.0 };
-        ((u95 / 1.96).powi(2) + sd * sd).sqrt()
-    };
-    Some((
-        vec![pose.tilt_x_deg, pose.tilt_y_deg],
-        vec![
-            combine(pose.u95_x_deg, stds.first().copied().unwrap_or(0.0)),
-            combine(pose.u95_y_deg, stds.get(1).copied().unwrap_or(0.0)),
-        ],
-    ))
-}
-
-/// How many rounds a coordinate-wise search of `coordinates` parameters ran, in the method's
-/// words: the second round stops as soon as the coordinate searched last did not move beyond its
-/// uncertainty, so it may have refitted only some of them.
-fn tilt_rounds_phrase(searches_run: usize, coordinates: usize) -> String {
-    let second = searches_run.saturating_sub(coordinates);
-    if coordinates == 0 || second == 0 {
-        "one round (the second angle did not move beyond its uncertainty)".to_string()
-    } else if second >= coordinates {
-        "two rounds".to_string()
-    } else {
-        format!(
-            "a second round on {second} of the {coordinates} angles (then the one refitted last \
-             did not move beyond its uncertainty)"
-        )
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_vibrations_gain_is_measured_on_the_fit_seeds_and_placements_derived_from_them(
-    ) -> Result<(), String> {
-        let a = gain_placement_seeds(&[2007, 2008]);
-        let b = gain_placement_seeds(&[3007, 3008]);
-        if a.len() != GAIN_PLACEMENTS || a[..2] != [2007, 2008] {
-            return Err(format!("{a:?}"));
-        }
-        let distinct: std::collections::BTreeSet<u64> = a.iter().chain(&b).copied().collect();
-        if distinct.len() != 2 * GAIN_PLACEMENTS {
-            return Err(format!("not disjoint: {a:?} {b:?}"));
-        }
-        // More fit seeds than placements: the fit seeds alone; three: 8 from them in turn.
-        let many: Vec<u64> = (0..10).collect();
-        if gain_placement_seeds(&many) != many || gain_placement_seeds(&[1, 2, 3]).len() != 8 {
-            return Err("wrong count".into());
-        }
-        if !gain_placement_seeds(&[]).is_empty() {
-            return Err("seeds from no fit seed".into());
-        }
-        Ok(())
-    }
 
     #[test]
     fn a_clearance_refitted_from_a_stated_one_carries_a_caution() -> Result<(), String> {
@@ -2391,105 +1287,6 @@ mod tests {
     }
 
     #[test]
-    fn a_vibrations_frequency_starts_at_the_residuals_peak_not_the_trends() {
-        // The trend's peak (the motion's harmonics above its cutoff) is read only when the
-        // residual after the aligned motion has no peak.
-        let trend_called = std::cell::Cell::new(false);
-        let trend = || {
-            trend_called.set(true);
-            Some(3.2)
-        };
-        assert_eq!(
-            vibration_start_hz(Some(7.0), (0.2, 200.0), trend),
-            Some(7.0)
-        );
-        assert!(!trend_called.get());
-        assert_eq!(
-            vibration_start_hz(Some(500.0), (0.2, 200.0), || None),
-            Some(200.0)
-        );
-        assert_eq!(
-            vibration_start_hz(None, (0.2, 200.0), || Some(3.2)),
-            Some(3.2)
-        );
-        assert_eq!(
-            vibration_start_hz(Some(f64::NAN), (0.2, 200.0), || Some(3.2)),
-            Some(3.2)
-        );
-        assert_eq!(vibration_start_hz(None, (0.2, 200.0), || None), None);
-    }
-
-    #[test]
-    fn a_compression_match_beyond_its_quality_range_is_handed_to_the_search() {
-        let c = MomentCoord::JpegScale;
-        let (a, b) = (c.x_of(5.0), c.x_of(98.0));
-        let range = (a.min(b), a.max(b));
-        let inside = c.x_of(40.0);
-        assert_eq!(
-            moment_step_in_range(Effect::Compression, inside, range),
-            Some(inside)
-        );
-        // Quality 99.5 and 2 lie beyond 5–98 on either side of the scale.
-        for q in [99.5, 2.0] {
-            assert_eq!(
-                moment_step_in_range(Effect::Compression, c.x_of(q), range),
-                None,
-                "q {q}"
-            );
-        }
-        // The blurs and the readout keep the bound: their step is clamped, not handed over.
-        assert_eq!(
-            moment_step_in_range(Effect::OpticalBlur, 9.0, (0.0, 4.0)),
-            Some(4.0)
-        );
-        assert_eq!(
-            moment_step_in_range(Effect::RollingShutter, -1.0, (0.0, 0.05)),
-            Some(0.0)
-        );
-    }
-
-    #[test]
-    fn a_compression_is_matched_on_the_jpeg_scale_within_the_blockinesss_tolerance() {
-        let c = MomentCoord::JpegScale;
-        for q in [5.0, 30.0, 49.0, 60.0, 98.0] {
-            assert!((c.value_of(c.x_of(q)) - q).abs() < 1e-9, "{q}");
-        }
-        // Blockiness grows with the scale, so a lower quality is a larger x.
-        assert!(c.x_of(30.0) > c.x_of(60.0));
-        // An uncertainty in the scale carries over with |dq/dx|: a central difference.
-        let (q, h) = (30.0, 1e-3);
-        let x = 5000.0 / q;
-        let num = (c.value_of(x - h) - c.value_of(x + h)) / (2.0 * h);
-        assert!((num - c.dv_dx(q)).abs() < 1e-6, "{num} vs {}", c.dv_dx(q));
-        assert_eq!(MomentCoord::Squared.dv_dx(2.0), 0.25);
-        assert_eq!(MomentCoord::Linear.x_of(3.0), 3.0);
-        // The compression's quality is never stated closer than the blockiness channel's own
-        // tolerance between renderers; the other moments carry none here.
-        let spec = crate::diagnose::cells::channel("blockiness").unwrap();
-        let tol = moment_render_tolerance(Effect::Compression, 3.0);
-        assert!((tol - (spec.tol_abs + 3.0 * spec.tol_rel)).abs() < 1e-12 && tol > 0.0);
-        assert_eq!(moment_render_tolerance(Effect::RollingShutter, 3.0), 0.0);
-        assert_eq!(moment_render_tolerance(Effect::OpticalBlur, 3.0), 0.0);
-    }
-
-    #[test]
-    fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {
-        // The self-check's rig, axis 0.02 px from the lens centre: a k1 of 0.6 bends the angle
-        // by 7 µrad against 484 µrad of residual.
-        assert!(!lens_bend_informs(Some(6.8e-6), 4.84e-4));
-        assert!(!lens_bend_informs(Some(0.2 * 4.84e-4), 4.84e-4));
-        assert!(lens_bend_informs(Some(0.25 * 4.84e-4), 4.84e-4));
-        assert!(lens_bend_informs(Some(1e-2), 4.84e-4));
-        // Unknown: kept.
-        assert!(lens_bend_informs(None, 4.84e-4));
-        assert!(lens_bend_informs(Some(f64::INFINITY), 4.84e-4));
-        assert!(lens_bend_informs(Some(f64::NAN), 4.84e-4));
-        assert!(lens_bend_informs(Some(1e-9), 0.0));
-        assert!(lens_bend_informs(Some(1e-9), f64::NAN));
-        assert!(plan::is_angle_channel("theta_peak") && !plan::is_angle_channel("side"));
-    }
-
-    #[test]
     fn the_reported_uncertainty_is_the_shared_chi2s_and_never_below_the_searchs() {
         // Σ z² of four phase cells that share one offset, and its shared χ² (a quarter):
         // the uncertainty doubles, about the minimum Σ z² found.
@@ -2531,23 +1328,6 @@ mod tests {
     }
 
     #[test]
-    fn the_median_intervals_sd_follows_the_jitter_and_never_claims_exactness() {
-        let even: Vec<f64> = (0..181).map(|i| i as f64 / 30.0).collect();
-        assert_eq!(median_interval_sd_s(&even), 1e-9);
-        // 180 intervals of 1/30 s − 0.5 ms, 1/30 s and 1/30 s + 0.5 ms in turn: MAD 0.5 ms.
-        let jittered: Vec<f64> = std::iter::once(0.0)
-            .chain((0..180).scan(0.0, |t, i| {
-                *t += 1.0 / 30.0 + [-5e-4, 0.0, 5e-4][i % 3];
-                Some(*t)
-            }))
-            .collect();
-        let sd = median_interval_sd_s(&jittered);
-        let expected = 1.2533 * 1.4826 * 5e-4 / 180f64.sqrt();
-        assert!((sd / expected - 1.0).abs() < 1e-6, "{sd} vs {expected}");
-        assert_eq!(median_interval_sd_s(&[1.0]), f64::INFINITY);
-    }
-
-    #[test]
     fn the_median_interval_ignores_dropped_frames_and_has_a_default() {
         // Two dropped frames: intervals 40, 80, 80, 40, 40 ms. The median is 40 ms; the middle
         // of the unsorted intervals would be 80 ms.
@@ -2557,71 +1337,6 @@ mod tests {
         assert!((median_interval_s(&[0.0, 0.03, 0.04]) - 0.02).abs() < 1e-12);
         assert_eq!(median_interval_s(&[1.0]), 1.0 / 30.0);
         assert_eq!(median_interval_s(&[]), 1.0 / 30.0);
-    }
-
-    #[test]
-    fn the_lens_bend_phrase_never_prints_an_infinite_share() {
-        let known = lens_bend_phrase(-0.3, Some(1.2e-4), 4.8e-4);
-        assert!(known.contains("25.0 %"), "{known}");
-        for phrase in [
-            lens_bend_phrase(-0.3, None, 4.8e-4),
-            lens_bend_phrase(-0.3, Some(f64::INFINITY), 4.8e-4),
-            lens_bend_phrase(-0.3, Some(1.2e-4), 0.0),
-            lens_bend_phrase(-0.3, Some(1.2e-4), f64::NAN),
-        ] {
-            assert!(
-                !phrase.contains("inf") && !phrase.contains("NaN"),
-                "{phrase}"
-            );
-        }
-        assert!(lens_bend_phrase(-0.3, None, 4.8e-4).contains("could not be computed"));
-        assert!(lens_bend_phrase(-0.3, Some(1e-4), 0.0).contains("zero or unknown"));
-    }
-
-    #[test]
-    fn the_method_says_how_far_the_second_round_went() {
-        assert!(tilt_rounds_phrase(2, 2).starts_with("one round"));
-        assert_eq!(tilt_rounds_phrase(4, 2), "two rounds");
-        assert!(
-            tilt_rounds_phrase(3, 2).starts_with("a second round on 1 of the 2 angles"),
-            "{}",
-            tilt_rounds_phrase(3, 2)
-        );
-    }
-
-    fn pose() -> PoseTilt {
-        PoseTilt {
-            tilt_x_deg: 20.1,
-            tilt_y_deg: -3.0,
-            u95_x_deg: 0.98,
-            u95_y_deg: 1.96,
-        }
-    }
-
-    #[test]
-    fn the_pose_fit_is_reported_when_the_moments_cannot_reject_it() {
-        let (v, sd) = pose_reported(14.0, 10.0, &[0.3, 0.4], &pose()).unwrap();
-        assert_eq!(v, vec![20.1, -3.0]);
-        assert!((sd[0] - (0.25f64 + 0.09).sqrt()).abs() < 1e-12, "{sd:?}");
-        assert!((sd[1] - (1.0f64 + 0.16).sqrt()).abs() < 1e-12, "{sd:?}");
-        // Exactly at the threshold it is kept; beyond it the moments' minimum stands.
-        assert!(pose_reported(10.0 + POSE_DELTA_CHI2, 10.0, &[0.3, 0.4], &pose()).is_some());
-        assert!(pose_reported(10.0 + POSE_DELTA_CHI2 + 0.01, 10.0, &[0.3, 0.4], &pose()).is_none());
-    }
-
-    #[test]
-    fn a_failed_pose_objective_or_a_non_finite_pose_reports_nothing() {
-        assert!(pose_reported(f64::INFINITY, 10.0, &[0.3, 0.4], &pose()).is_none());
-        assert!(pose_reported(f64::NAN, 10.0, &[0.3, 0.4], &pose()).is_none());
-        let mut p = pose();
-        p.u95_y_deg = f64::NAN;
-        assert!(pose_reported(11.0, 10.0, &[0.3, 0.4], &p).is_none());
-        // A flat objective (infinite curvature σ) leaves the pose fit's own uncertainty.
-        let (_, sd) = pose_reported(11.0, 10.0, &[f64::INFINITY, 0.0], &pose()).unwrap();
-        assert!(
-            (sd[0] - 0.5).abs() < 1e-12 && (sd[1] - 1.0).abs() < 1e-12,
-            "{sd:?}"
-        );
     }
 
     /// The discrepancy's form: the edge-matched effects' ± gains the renderers' difference in

@@ -4,10 +4,10 @@
 //! well and read noise, which only the shot part (noise rising with the grey level) sets; this
 //! module keeps a split from being stated where the footage does not measure it.
 
-use super::FitError;
+use super::moment_match::MOMENT_SIMULATIONS;
 use super::{
-    aligned_of, moment_method, objective_at, shared_std_along, Fitter, LensCells, MomentFit,
-    Objectives, MOMENT_SIMULATIONS,
+    aligned_of, moment_method, objective_at, shared_std_along, FitError, Fitter, LensCells,
+    MomentFit, Objectives,
 };
 use crate::diagnose::moments;
 use crate::diagnose::plan;
