@@ -10,10 +10,10 @@
 //!    ([`crate::diagnose::trials`], rendered and detected by [`simulate::RenderDetect`]); both
 //!    sides give the same cells ([`crate::diagnose::cells`]); the gap map compares them.
 //! 4. Candidates are screened by their signatures, fitted by simulated method of moments and
-//!    re-simulated on the evaluation seeds ([`fit`]); a greedy pair (its first effect refitted
-//!    once beside its second) is tried when one effect is not enough, or when it is but leaves
-//!    more than noise leaves in another candidate's cells (a second look, [`SecondLook`]); the
-//!    ranking and the verdict are pure ([`crate::diagnose::verdict`]).
+//!    re-simulated on the evaluation seeds ([`candidates`], [`fit`]); a greedy pair (its first
+//!    effect refitted once beside its second) is tried when one effect is not enough, or when
+//!    it is but leaves more than noise leaves in another candidate's cells (a second look,
+//!    [`SecondLook`]); the ranking and the verdict are pure ([`crate::diagnose::verdict`]).
 //! 5. Outputs ([`report`]): `diagnosis.json`, `diagnosis.md`, gap-map heatmaps, a ranking
 //!    chart, before/after residual overlays; the real measurement's `tracks.csv` under `real/`.
 //! 6. Beyond one machine ([`shards`]): the single-candidate fits of step 4 as shards, merged
@@ -21,6 +21,7 @@
 //!
 //! No truth of the real data is used anywhere (there is none).
 
+mod candidates;
 #[cfg(test)]
 mod engine_tests;
 pub mod held_out;
@@ -38,6 +39,7 @@ use crate::diagnose::gap::{seed_limited, CellGap, GapMap, GapOptions};
 use crate::diagnose::image;
 use crate::diagnose::nominal::Aligned;
 use crate::diagnose::plan;
+use crate::diagnose::record::RealMeasurement;
 use crate::diagnose::verdict::{self, Outcome, Verdict};
 use crate::io::output_dir::OutputDir;
 use crate::pipeline::analyze::Source;
@@ -45,6 +47,7 @@ use crate::scenario::effects::Effect;
 use crate::scenario::Scenario;
 use shards::{CandidateStudy, Mode};
 use std::cell::RefCell;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -705,48 +708,18 @@ pub fn diagnose_with(
     progress: &Progress<'_>,
 ) -> Result<Finished, DiagnoseError> {
     let started = Instant::now();
-    if mode != Mode::Whole && options.max_minutes.is_some() {
-        return Err(DiagnoseError::MaxMinutesWithShards);
-    }
-    if options.seeds < 2 {
-        return Err(DiagnoseError::TooFewSeeds {
-            seeds: options.seeds,
-        });
-    }
+    check_options(options, mode)?;
     let layout = image::marker_layout(nominal).map_err(DiagnoseError::NominalLayout)?;
     real::check_source(nominal, source)?;
-    // A shard keeps no report: its real measurement goes to a scratch folder, never committed.
-    let staging_dir = match mode {
-        Mode::Shard { shard, .. } => out_dir
-            .join(crate::shard::SHARDS)
-            .join(format!(".{}.prefix", shard.index)),
-        _ => out_dir.to_path_buf(),
-    };
-    let staging = match mode {
-        Mode::Merge => OutputDir::create_carrying(&staging_dir, &[crate::shard::SHARDS]),
-        _ => OutputDir::create(&staging_dir),
-    }?;
+    let staging = open_staging(out_dir, mode)?;
 
-    progress("measuring the real footage", 0, 1);
-    let real = real::measure_real(
-        nominal,
-        source,
-        &layout,
-        &staging.path().join("real"),
-        &|d, t| progress("measuring the real footage", d, t),
-    )?;
-    progress("aligning the nominal", 0, 1);
     let meter = options.meter.clone().unwrap_or_default();
-    let footing = Footing::new(
-        nominal,
-        &real,
-        &layout,
-        options.effects.as_deref(),
-        &simulate::RenderDetect,
-    )?
-    .with_meter(meter.clone());
-    let eval_seed = |k: usize| nominal.seed.wrapping_add(1000 + k as u64);
-    let mut seeds: Vec<u64> = (0..options.seeds).map(eval_seed).collect();
+    let (real, footing) = measure_and_align(
+        nominal, source, &layout, &staging, options, &meter, progress,
+    )?;
+    let seeds: Vec<u64> = (0..options.seeds)
+        .map(|k| eval_seed(nominal.seed, k))
+        .collect();
     let fit_seeds: Vec<u64> = (0..options.fit_seeds.max(2) as u64)
         .map(|k| nominal.seed.wrapping_add(2000 + k))
         .collect();
@@ -758,79 +731,28 @@ pub fn diagnose_with(
     let footing_free: std::cell::OnceCell<Footing> = std::cell::OnceCell::new();
     meter.plan_more(seeds.len());
     progress("simulating the nominal", 0, seeds.len());
-    let mut fitter = footing.fitter(
-        nominal,
-        &layout,
-        fit_seeds.clone(),
-        seeds.clone(),
-        options.gap,
-    )?;
-    // A verdict of no gap that more seeds could overturn is not taken on too few: the nominal
-    // is simulated on more (the first ones are kept, so only the new ones cost) and every
-    // candidate is then judged on all of them.
-    let limited = seed_limited(&fitter.nominal_gap);
-    let escalation = if !limited.is_empty() && options.escalate_seeds > options.seeds {
-        progress(
-            &format!(
-                "simulating the nominal on {} more seeds ({} cell(s) short of significance \
-                 only for lack of seeds)",
-                options.escalate_seeds - options.seeds,
-                limited.len()
-            ),
-            0,
-            1,
-        );
-        let more: Vec<u64> = (options.seeds..options.escalate_seeds)
-            .map(eval_seed)
-            .collect();
-        meter.plan_more(more.len());
-        fitter.add_eval_seeds(&more)?;
-        seeds.extend(more);
-        Some(SeedEscalation {
-            from_seeds: options.seeds,
-            to_seeds: options.escalate_seeds,
-            cells: limited,
-        })
-    } else {
-        None
-    };
+    let mut fitter = footing.fitter(nominal, &layout, fit_seeds.clone(), seeds, options.gap)?;
+    let escalation = escalate_seeds(&mut fitter, options, nominal.seed, &meter, progress)?;
+    // The evaluation seeds, escalated or not.
+    let seeds = fitter.eval_seeds.clone();
     let nominal_gap = fitter.nominal_gap.clone();
     let nominal_gap = &nominal_gap;
-    let d0 = nominal_gap.total;
 
-    let candidates: Vec<Effect> = options
-        .effects
-        .clone()
-        .unwrap_or_else(|| Effect::ALL.to_vec());
-    let (candidates, not_judged): (Vec<Effect>, Vec<Effect>) = candidates
-        .into_iter()
-        .partition(|e| real.record.has_images || !e.needs_frames());
-    // Screening: only effects with a significant cell in their signature are fitted, largest
-    // possible share of the gap first. The fitted ones are the work units of a shard.
-    let mut screened: Vec<(Effect, f64)> = candidates
-        .iter()
-        .map(|&e| (e, plan::screening_share(e, nominal_gap)))
-        .collect();
-    screened.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let units: Vec<Effect> = screened
-        .iter()
-        .map(|(e, _)| *e)
-        .filter(|&e| nominal_gap.n_significant() > 0 && plan::signature_significant(e, nominal_gap))
-        .collect();
-    // What is planned: each candidate to fit, then the refits and bootstrap footages of the
-    // one read first (about a fit each) and its held-out check (the nominal and it on the
-    // evaluation seeds).
-    let mut outlook = outlook::Outlook::new(fit_seeds.len(), seeds.len());
-    let tail_fits = options.refits + options.bootstrap;
-    let held_out_sims = 2 * seeds.len();
-    let plan_tail = |outlook: &outlook::Outlook, fits: usize| {
-        if nominal_gap.n_significant() > 0 {
-            outlook.plan(&meter, fits + tail_fits, held_out_sims);
-        } else {
-            outlook.plan(&meter, 0, 0);
-        }
-    };
-    plan_tail(&outlook, units.len());
+    let candidates::Screening {
+        screened,
+        units,
+        not_judged,
+    } = candidates::screen(options, real.record.has_images, nominal_gap);
+    let stage_outlook = outlook::Outlook::new(fit_seeds.len(), seeds.len());
+    let fits = units.len();
+    candidates::plan_tail(
+        &stage_outlook,
+        &meter,
+        nominal_gap,
+        options,
+        seeds.len(),
+        fits,
+    );
     // The runout form's phase is refined once, before any fit, so that every fit, pair and
     // shard takes the same form.
     if units.contains(&Effect::AxisRunout) {
@@ -843,14 +765,13 @@ pub fn diagnose_with(
             0,
             1,
         );
-        let aligned = Footing::new(
+        let aligned = aligned_footing(
             &nominal_free,
             &real,
             &layout,
             Some(&[Effect::Backlash]),
-            &simulate::RenderDetect,
-        )?
-        .with_meter(meter.clone());
+            &meter,
+        )?;
         let free = footing_free.get_or_init(|| aligned).fitter(
             &nominal_free,
             &layout,
@@ -861,10 +782,147 @@ pub fn diagnose_with(
         fitter = fitter.with_clearance_free(free);
     }
     let fitter = fitter;
-    let stored = match mode {
-        Mode::Whole => None,
+    let stored = match shard_or_merge(
+        nominal,
+        source,
+        out_dir,
+        options,
+        mode,
+        &fitter,
+        units.clone(),
+        progress,
+    )? {
+        ControlFlow::Break(shard) => return Ok(shard),
+        ControlFlow::Continue(stored) => stored,
+    };
+    let fit_wave = candidates::wave_fitter(&fitter, stored.as_deref());
+    let stage = candidates::Stage {
+        fitter: &fitter,
+        nominal_gap,
+        options,
+        progress,
+        started,
+        meter: &meter,
+        outlook: RefCell::new(stage_outlook),
+    };
+    let mut singles = candidates::Singles::default();
+    let mut pairs = candidates::Pairs::default();
+    if nominal_gap.n_significant() > 0 {
+        singles = candidates::fit_singles(&stage, screened, &fit_wave, stored.is_some())?;
+        pairs = candidates::fit_pairs(&stage, &units, &mut singles.ranking)?;
+    }
+    let mut ranking = singles.ranking;
+    let chosen = candidates::choose(&stage, &mut ranking, pairs.second_look.as_ref())?;
+    // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
+    let simulations =
+        fitter.simulations() + singles.simulations + pairs.simulations + chosen.simulations;
+    let diagnosis = Diagnosis {
+        verdict: chosen.verdict,
+        aligned: footing.aligned.clone(),
+        nominal_gap: nominal_gap.clone(),
+        real_cells: footing.real_cells.clone(),
+        ranking,
+        best: chosen.best,
+        screened_out: singles.screened_out,
+        bounded_out: singles.bounded_out,
+        not_tried: singles.not_tried,
+        not_judged,
+        pair_tried: pairs.tried,
+        skipped_pairs: pairs.skipped,
+        second_look: pairs.second_look,
+        not_distinct: chosen.not_distinct,
+        escalation,
+        seeds,
+        fit_seeds,
+        simulations,
+        frames: real.record.frames.len(),
+        detected: real.record.detected(),
+        has_images: real.record.has_images,
+        nyquist_hz: footing.nyquist_hz,
+        real_time_shift_s: footing.real_time_shift_s,
+        held_out: chosen.held_out,
+        elapsed_s: started.elapsed().as_secs_f64(),
+    };
+    progress("writing the report", 0, 1);
+    let files = report::write(&diagnosis, &fitter, &real, &staging)?;
+    let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
+    staging.commit()?;
+    Ok(Finished::Diagnosis(Box::new(diagnosis), files))
+}
+
+/// The real footage measured (into `real/` of the staging folder) and the nominal aligned to
+/// it, its simulations counted on `meter`.
+#[allow(clippy::too_many_arguments)] // the prefix's inputs, each used once
+fn measure_and_align(
+    nominal: &Scenario,
+    source: &Source,
+    layout: &crate::imagestats::MarkerLayout,
+    staging: &OutputDir,
+    options: &DiagnoseOptions,
+    meter: &Arc<crate::diagnose::simulator::SimMeter>,
+    progress: &Progress<'_>,
+) -> Result<(RealMeasurement, Footing<'static>), DiagnoseError> {
+    progress("measuring the real footage", 0, 1);
+    let real = real::measure_real(
+        nominal,
+        source,
+        layout,
+        &staging.path().join("real"),
+        &|d, t| progress("measuring the real footage", d, t),
+    )?;
+    progress("aligning the nominal", 0, 1);
+    let footing = aligned_footing(nominal, &real, layout, options.effects.as_deref(), meter)?;
+    Ok((real, footing))
+}
+
+/// `nominal` aligned to the measured footage, simulated by render → detect, its simulations
+/// counted on `meter`; the runout form and tilt read only for `effects` (`None`: all).
+fn aligned_footing(
+    nominal: &Scenario,
+    real: &RealMeasurement,
+    layout: &crate::imagestats::MarkerLayout,
+    effects: Option<&[Effect]>,
+    meter: &Arc<crate::diagnose::simulator::SimMeter>,
+) -> Result<Footing<'static>, DiagnoseError> {
+    Ok(
+        Footing::new(nominal, real, layout, effects, &simulate::RenderDetect)?
+            .with_meter(meter.clone()),
+    )
+}
+
+/// What the options allow: `--max-minutes` only on one machine, at least two seeds.
+fn check_options(options: &DiagnoseOptions, mode: Mode) -> Result<(), DiagnoseError> {
+    if mode != Mode::Whole && options.max_minutes.is_some() {
+        return Err(DiagnoseError::MaxMinutesWithShards);
+    }
+    if options.seeds < 2 {
+        return Err(DiagnoseError::TooFewSeeds {
+            seeds: options.seeds,
+        });
+    }
+    Ok(())
+}
+
+/// Every candidate's fit, as the shards stored it.
+type StoredFits = Vec<(Effect, shards::StoredFit)>;
+
+/// A shard fits its share of the candidate `units` here and is done (`Break`, with its
+/// report); a merge continues with the shards' stored fits; a whole diagnosis with none.
+#[allow(clippy::too_many_arguments)] // the prefix's state, each used once
+fn shard_or_merge(
+    nominal: &Scenario,
+    source: &Source,
+    out_dir: &Path,
+    options: &DiagnoseOptions,
+    mode: Mode,
+    fitter: &Fitter,
+    units: Vec<Effect>,
+    progress: &Progress<'_>,
+) -> Result<ControlFlow<Finished, Option<StoredFits>>, DiagnoseError> {
+    match mode {
+        Mode::Whole => Ok(ControlFlow::Continue(None)),
         Mode::Shard { shard, restart } => {
-            let manifest = shards::manifest(nominal, source, options, &fitter, &units);
+            let manifest = shards::manifest(nominal, source, options, fitter, &units);
             let study = CandidateStudy::new(fitter.fork(), units, manifest);
             let total = crate::shard::Study::manifest(&study).units;
             // The fits run in parallel and `progress` need not be thread-safe: one line here.
@@ -875,412 +933,72 @@ pub fn diagnose_with(
             );
             let control = crate::shard::Control::none();
             let report = crate::shard::run_shard(&study, out_dir, shard, restart, &control)?;
-            return Ok(Finished::Shard(report));
+            Ok(ControlFlow::Break(Finished::Shard(report)))
         }
         Mode::Merge => {
-            let manifest = shards::manifest(nominal, source, options, &fitter, &units);
-            Some(shards::stored(out_dir, &manifest, &units)?)
-        }
-    };
-    // Candidates: fitted here, a wave at a time on forks, or looked up in the shards' records.
-    let fit_wave = |wave: &[Effect]| -> Vec<Result<(Evaluated, usize), DiagnoseError>> {
-        match &stored {
-            None => fitter.on_forks(wave, |fork, &e| {
-                fork.fit_single(e).map_err(DiagnoseError::from)
-            }),
-            Some(stored) => wave
-                .iter()
-                .map(|&e| {
-                    stored
-                        .iter()
-                        .find(|(x, _)| *x == e)
-                        .map(|(_, r)| r.clone())
-                        .ok_or(DiagnoseError::MissingCandidate { effect: e.name() })
-                })
-                .collect(),
-        }
-    };
-    let mut candidate_simulations = 0usize;
-    let mut screened_out = Vec::new();
-    let mut bounded_out = Vec::new();
-    let mut not_tried = Vec::new();
-    let mut ranking: Vec<Ranked> = Vec::new();
-    let mut pair_tried = false;
-    let mut skipped_pairs = Vec::new();
-    let mut second_look: Option<SecondLook> = None;
-    if nominal_gap.n_significant() > 0 {
-        let deadline = options.max_minutes.map(|m| m * 60.0);
-        let total = screened.len();
-        let mut best_score = f64::NEG_INFINITY;
-        let mut queue = screened.into_iter().enumerate().peekable();
-        let mut done = 0usize;
-        while queue.peek().is_some() {
-            // A wave of up to CONCURRENT_FITS candidates, each judged against the best score
-            // of the waves before it.
-            let mut wave: Vec<Effect> = Vec::with_capacity(CONCURRENT_FITS);
-            let before = done;
-            while wave.len() < CONCURRENT_FITS {
-                let Some((i, (e, share))) = queue.next() else {
-                    break;
-                };
-                done = i + 1;
-                if !plan::signature_significant(e, nominal_gap) {
-                    screened_out.push((e, share));
-                    continue;
-                }
-                // A candidate moves only its signature cells, so its shrink is at most its
-                // share; below the best score by more than the group margin it can neither win
-                // nor join the best's group.
-                if share < best_score - verdict::GROUP_MARGIN {
-                    bounded_out.push((e, share));
-                    continue;
-                }
-                if deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d) {
-                    not_tried.push(e);
-                    continue;
-                }
-                wave.push(e);
-            }
-            if wave.is_empty() {
-                continue;
-            }
-            progress(&fitting(wave.iter().map(|e| e.name())), before, total);
-            for result in fit_wave(&wave) {
-                let (evaluated, simulations) = result?;
-                candidate_simulations += simulations;
-                if stored.is_none() {
-                    outlook.fitted(simulations);
-                }
-                let r = ranked(nominal_gap, evaluated);
-                progress(
-                    &format!(
-                        "{}: shrink {:.2}, score {:.2}",
-                        candidate_name(&r.evaluated),
-                        r.shrink,
-                        r.score
-                    ),
-                    done,
-                    total,
-                );
-                best_score = best_score.max(r.score);
-                ranking.push(r);
-            }
-            let left = queue
-                .clone()
-                .filter(|(_, (e, _))| plan::signature_significant(*e, nominal_gap))
-                .count();
-            plan_tail(&outlook, left);
-        }
-        sort_ranking(d0, &mut ranking);
-        // A second effect when the best single one does not explain the gap, or when it does
-        // but leaves more than noise leaves, held by another candidate's cells (a second look).
-        let best_explains = ranking
-            .first()
-            .is_some_and(|r| verdict::explains(d0, &r.evaluated.outcome));
-        let look = match ranking.first() {
-            Some(r) if options.pairs && best_explains && r.evaluated.effects.len() == 1 => {
-                plan::second_look_effects(
-                    r.evaluated.effects[0].effect,
-                    &units,
-                    &r.evaluated.gap,
-                    MAX_SECOND_EFFECTS,
-                )
-            }
-            _ => Vec::new(),
-        };
-        // The second look does not need another fitted single: an explaining single that
-        // scored high bounds the others out of the single fits, the second cause among them.
-        if options.pairs && ((!best_explains && ranking.len() >= 2) || !look.is_empty()) {
-            let deadline_hit = deadline.is_some_and(|d| started.elapsed().as_secs_f64() > d);
-            if !deadline_hit {
-                pair_tried = true;
-                let first = ranking[0].evaluated.effects[0].clone();
-                let prior = vec![(first.effect, first.values.clone())];
-                let single_remainder = ranking[0].evaluated.gap.total;
-                // Chosen on what the first leaves, not on the nominal gap it dominates.
-                let others = if best_explains {
-                    second_look = Some(SecondLook {
-                        first: first.effect,
-                        remainder: single_remainder,
-                        tried: Vec::new(),
-                    });
-                    look
-                } else {
-                    let mut chosen = plan::second_effects(
-                        first.effect,
-                        &units,
-                        &ranking[0].evaluated.gap,
-                        MAX_SECOND_EFFECTS,
-                    );
-                    let singles: Vec<(Effect, f64)> = ranking
-                        .iter()
-                        .filter(|r| r.evaluated.effects.len() == 1)
-                        .map(|r| (r.evaluated.effects[0].effect, r.score))
-                        .collect();
-                    chosen.extend(plan::runner_up_second(first.effect, &singles, &chosen));
-                    chosen
-                };
-                // A second effect fitted where it does nothing is no second cause: the pair
-                // would be the single under another name, and its evaluation differs from the
-                // single's by seed noise alone (a motion blur and a JPEG quality clamped at 98
-                // "closed" the single's one cell left).
-                let fps_hz = fitter.footage_fps_hz();
-                for (k, wave) in others.chunks(CONCURRENT_FITS).enumerate() {
-                    plan_tail(&outlook, others.len() - k * CONCURRENT_FITS);
-                    let names = wave
-                        .iter()
-                        .map(|e| format!("{} + {}", first.effect.name(), e.name()));
-                    progress(&fitting(names), k * CONCURRENT_FITS, others.len());
-                    let fits = fitter.on_forks(wave, |fork, &e| {
-                        let evaluated = fork.fit(e, &prior).and_then(|second| {
-                            let skipped = |why| SkippedPair {
-                                first: first.effect,
-                                second: second.effect,
-                                values: second.values.clone(),
-                                why,
-                            };
-                            if second.effect.does_nothing_at(&second.values, fps_hz) {
-                                return Ok(Err(skipped(SkipReason::AtNeutral)));
-                            }
-                            let (fitted, nominal) =
-                                fork.objective_beside(&prior, second.effect, &second.values);
-                            if !plan::second_lowers_fit(nominal, fitted, second.values.len()) {
-                                return Ok(Err(skipped(SkipReason::NoLowerThanNominal {
-                                    fitted_sum_z2: fitted,
-                                    nominal_sum_z2: nominal,
-                                })));
-                            }
-                            let pair = fork.backfit_first(vec![first.clone(), second])?;
-                            fork.evaluate(pair).map(Ok)
-                        });
-                        (evaluated, fork.simulations())
-                    });
-                    for (evaluated, simulations) in fits {
-                        candidate_simulations += simulations;
-                        outlook.fitted(simulations);
-                        match evaluated? {
-                            // A second look keeps a pair only when it closes a good part of
-                            // what the explaining single left.
-                            Ok(evaluated) if second_look.is_some() => {
-                                let remaining = evaluated.gap.total;
-                                let second_tells = evaluated.effects.get(1).and_then(|second| {
-                                    fitted_from_nominal(
-                                        &fitter,
-                                        second,
-                                        plan::SECOND_LOOK_DISTINCT_Z,
-                                    )
-                                    .1
-                                });
-                                let judged = plan::judge_second_look_pair(
-                                    single_remainder,
-                                    remaining,
-                                    second_tells,
-                                );
-                                if let (Some(look), Some(second)) =
-                                    (second_look.as_mut(), evaluated.effects.get(1))
-                                {
-                                    look.tried.push((second.effect, remaining, judged));
-                                }
-                                let why = report::set_aside_reason(judged).map(|why| {
-                                    format!(
-                                        "{why} ({remaining:.1} of the {single_remainder:.1} {} \
-                                         left)",
-                                        first.effect.name()
-                                    )
-                                });
-                                match why {
-                                    None => ranking.push(ranked(nominal_gap, evaluated)),
-                                    Some(why) => progress(
-                                        &format!(
-                                            "{}: set aside, {why}",
-                                            candidate_name(&evaluated)
-                                        ),
-                                        k * CONCURRENT_FITS,
-                                        others.len(),
-                                    ),
-                                }
-                            }
-                            Ok(evaluated) => ranking.push(ranked(nominal_gap, evaluated)),
-                            Err(skipped) => {
-                                progress(
-                                    &format!(
-                                        "{} + {}: set aside, {}",
-                                        skipped.first.name(),
-                                        skipped.second.name(),
-                                        report::skipped_reason(skipped.why)
-                                    ),
-                                    k * CONCURRENT_FITS,
-                                    others.len(),
-                                );
-                                skipped_pairs.push(skipped);
-                            }
-                        }
-                    }
-                }
-                sort_ranking(d0, &mut ranking);
-            }
+            let manifest = shards::manifest(nominal, source, options, fitter, &units);
+            Ok(ControlFlow::Continue(Some(shards::stored(
+                out_dir, &manifest, &units,
+            )?)))
         }
     }
-    let outcomes: Vec<Outcome> = ranking
-        .iter()
-        .map(|r| r.evaluated.outcome.clone())
-        .collect();
-    let order = verdict::rank(d0, &outcomes);
-    let group = verdict::group_of_best(d0, &outcomes, &order);
-    plan_tail(&outlook, 0);
-    let capped = || {
-        options
-            .max_minutes
-            .is_some_and(|m| started.elapsed().as_secs_f64() > m * 60.0)
+}
+
+/// The output folder a diagnosis writes into: a shard's scratch folder for its real
+/// measurement (a shard keeps no report, and the folder is never committed), else `out_dir`
+/// (a merge carrying the shards' records over).
+fn open_staging(out_dir: &Path, mode: Mode) -> Result<OutputDir, DiagnoseError> {
+    let staging_dir = match mode {
+        Mode::Shard { shard, .. } => out_dir
+            .join(crate::shard::SHARDS)
+            .join(format!(".{}.prefix", shard.index)),
+        _ => out_dir.to_path_buf(),
     };
-    // The fit's own noise, measured on the candidate a user reads first: its parameters fitted
-    // again on fresh fit seeds, and stated as the mean of all its fits (the footage's noise
-    // too with `--bootstrap`). The ranking does not change (it judged the first fit's values);
-    // only the values and ± the report states do.
-    let mut settle = |r: &mut Ranked| {
-        let (refit, simulations) = if options.refits == 0 {
-            (Refit::Off, 0)
-        } else if capped() {
-            (Refit::TimeCap, 0)
-        } else {
-            let plan = RefitPlan {
-                nominal_seed: nominal.seed,
-                seeds_per_run: fit_seeds.len(),
-                runs: options.refits,
-            };
-            refit_on_fresh_seeds(&fitter, r, &plan, capped, progress)
-        };
-        candidate_simulations += simulations;
-        r.refit = Some(refit);
-        let (bootstrap, simulations) = if options.bootstrap == 0 {
-            (Bootstrap::Off, 0)
-        } else if capped() {
-            (Bootstrap::TimeCap, 0)
-        } else {
-            let plan = BootstrapPlan {
-                nominal_seed: nominal.seed,
-                footages: options.bootstrap,
-            };
-            bootstrap_footage(&fitter, r, &plan, capped, progress)
-        };
-        candidate_simulations += simulations;
-        r.bootstrap = Some(bootstrap);
-    };
-    let mut not_distinct = Vec::new();
-    let mut held_out = held_out::Judge::new(&fitter, &seeds);
-    let choice = {
-        let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
-        let mut judged = 0usize;
-        verdict::choose(
-            &order,
-            explains,
-            |i| {
-                if judged > 0 {
-                    progress(
-                        &format!(
-                            "the values fitted so far do not tell their candidate from the \
-                             nominal; judging {}",
-                            candidate_name(&ranking[i].evaluated)
-                        ),
-                        judged,
-                        MAX_DISTINCT_TRIES + 1,
-                    );
-                }
-                judged += 1;
-                settle(&mut ranking[i]);
-                let (mut judged, tells) = from_nominal(&fitter, i, &ranking[i]);
-                if tells == Some(false) {
-                    not_distinct.push(judged);
-                    return tells;
-                }
-                // Values that tell it from the nominal: now what its fit did not use.
-                if !(nominal_gap.n_significant() > 0 && explains(i)) {
-                    return tells;
-                }
-                progress(
-                    &format!(
-                        "checking {} on what its fit did not use",
-                        candidate_name(&ranking[i].evaluated)
-                    ),
-                    0,
-                    1,
-                );
-                match held_out.failed(i, &ranking[i]) {
-                    Some(check) => {
-                        judged.held_out = Some(check);
-                        not_distinct.push(judged);
-                        Some(false)
-                    }
-                    None => tells,
-                }
-            },
-            MAX_DISTINCT_TRIES,
-        )
-    };
-    // The held-out check of the candidate the verdict rests on (the first one tried when none
-    // passed).
-    let (held_out, simulations) = held_out.finish(choice.best)?;
-    candidate_simulations += simulations;
-    // Every candidate judged and set aside is recorded; one that was not chosen because it did
-    // not explain the gap is not among them.
-    not_distinct.retain(|n| choice.not_distinct.contains(&n.ranked));
-    let best = choice.best;
-    if let Some(b) = best {
-        // A pair a second look kept closed what its first effect alone left: that single is
-        // told apart from it, however close their scores against the whole gap.
-        let looked_single = second_look
-            .as_ref()
-            .and_then(|look| look.single_behind(&ranking, b));
-        // Its group: the others the data cannot tell apart from it, less those set aside.
-        ranking[b].group = group
-            .iter()
-            .filter(|&&i| i != b && !choice.not_distinct.contains(&i) && Some(i) != looked_single)
-            .map(|&i| candidate_name(&ranking[i].evaluated))
-            .collect();
+    Ok(match mode {
+        Mode::Merge => OutputDir::create_carrying(&staging_dir, &[crate::shard::SHARDS]),
+        _ => OutputDir::create(&staging_dir),
+    }?)
+}
+
+/// The k-th evaluation seed of a nominal seeded `nominal_seed`.
+fn eval_seed(nominal_seed: u64, k: usize) -> u64 {
+    nominal_seed.wrapping_add(1000 + k as u64)
+}
+
+/// A verdict of no gap that more seeds could overturn is not taken on too few: the nominal is
+/// simulated on more (`--escalate-seeds`; the first ones are kept, so only the new ones cost)
+/// and every candidate is then judged on all of them.
+fn escalate_seeds(
+    fitter: &mut Fitter,
+    options: &DiagnoseOptions,
+    nominal_seed: u64,
+    meter: &crate::diagnose::simulator::SimMeter,
+    progress: &Progress<'_>,
+) -> Result<Option<SeedEscalation>, DiagnoseError> {
+    let limited = seed_limited(&fitter.nominal_gap);
+    if limited.is_empty() || options.escalate_seeds <= options.seeds {
+        return Ok(None);
     }
-    let distinct = choice.distinct;
-    // `ranking` is best first: a candidate chosen over those set aside moves to the front.
-    let best = best.map(|b| to_front(&mut ranking, &mut not_distinct, b));
-    let verdict = verdict::verdict(
-        nominal_gap.n_significant(),
-        d0,
-        best.map(|b| &ranking[b].evaluated.outcome),
-        distinct,
+    progress(
+        &format!(
+            "simulating the nominal on {} more seeds ({} cell(s) short of significance only \
+             for lack of seeds)",
+            options.escalate_seeds - options.seeds,
+            limited.len()
+        ),
+        0,
+        1,
     );
-    // The prefix ran on `fitter`; each candidate, pair and refit on a fork of it.
-    let simulations = fitter.simulations() + candidate_simulations;
-    let diagnosis = Diagnosis {
-        verdict,
-        aligned: footing.aligned.clone(),
-        nominal_gap: nominal_gap.clone(),
-        real_cells: footing.real_cells.clone(),
-        ranking,
-        best,
-        screened_out,
-        bounded_out,
-        not_tried,
-        not_judged,
-        pair_tried,
-        skipped_pairs,
-        second_look,
-        not_distinct,
-        escalation,
-        seeds,
-        fit_seeds,
-        simulations,
-        frames: real.record.frames.len(),
-        detected: real.record.detected(),
-        has_images: real.record.has_images,
-        nyquist_hz: footing.nyquist_hz,
-        real_time_shift_s: footing.real_time_shift_s,
-        held_out,
-        elapsed_s: started.elapsed().as_secs_f64(),
-    };
-    progress("writing the report", 0, 1);
-    let files = report::write(&diagnosis, &fitter, &real, &staging)?;
-    let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
-    staging.commit()?;
-    Ok(Finished::Diagnosis(Box::new(diagnosis), files))
+    let more: Vec<u64> = (options.seeds..options.escalate_seeds)
+        .map(|k| eval_seed(nominal_seed, k))
+        .collect();
+    meter.plan_more(more.len());
+    fitter.add_eval_seeds(&more)?;
+    Ok(Some(SeedEscalation {
+        from_seeds: options.seeds,
+        to_seeds: options.escalate_seeds,
+        cells: limited,
+    }))
 }
 
 /// The progress line of a wave: "fitting a and b".
