@@ -131,20 +131,6 @@ impl FitKind {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
-
-    /// The kind of a fit recorded before fits carried one (shard records written by
-    /// builds before `Fitted::kind`): read off its method's opening words, which those builds wrote the same way.
-    /// Whether it was a Σ z² search, all the guard asks, is recovered exactly; a disc
-    /// vibration's sinusoid fit reads as `Measured`, not as the `MomentMatch` it now records.
-    pub fn of_legacy_method(method: &str) -> Self {
-        if method.starts_with(SEARCH_METHOD) {
-            Self::SumZ2Search
-        } else if method.starts_with(MOMENT_METHOD) {
-            Self::MomentMatch
-        } else {
-            Self::Measured
-        }
-    }
 }
 
 /// The method of a Σ z² search of `e` on `fit_seeds` seeds (what a tilt, a lens or a runout
@@ -1262,28 +1248,15 @@ mod tests {
     }
 
     #[test]
-    fn an_older_records_fit_kind_is_read_off_the_method_its_build_wrote() {
-        // The methods as `fit` writes them, with what a lens or a tilt appends.
-        let searched = search_method(Effect::AxisRunout, 2);
-        assert_eq!(FitKind::of_legacy_method(&searched), FitKind::SumZ2Search);
-        assert_eq!(
-            FitKind::of_legacy_method(&format!("{searched}; started at the tilt …")),
-            FitKind::SumZ2Search
-        );
-        assert_eq!(
-            FitKind::of_legacy_method(&moment_method("edge width² along the motion", 3, 2)),
-            FitKind::MomentMatch
-        );
-        assert_eq!(
-            FitKind::of_legacy_method(
-                "fitted directly to the footage's timestamps (geneva timing fit)"
-            ),
-            FitKind::Measured
-        );
+    fn a_fit_kinds_name_round_trips_and_no_other_name_is_a_kind() {
         for kind in FitKind::ALL {
             assert_eq!(FitKind::from_name(kind.name()), Some(kind));
         }
         assert_eq!(FitKind::from_name("searched"), None);
+        assert_eq!(
+            FitKind::from_name(&search_method(Effect::AxisRunout, 2)),
+            None
+        );
     }
 
     #[test]

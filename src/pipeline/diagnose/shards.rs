@@ -187,8 +187,8 @@ struct FittedRecord {
     /// An axis runout's form as bits: cycles per wheel revolution, phase, phase's σ.
     #[serde(default)]
     runout_form: Option<[u64; 3]>,
-    /// [`FitKind::name`]; absent from records written before fits carried it
-    /// ([`FitKind::of_legacy_method`]).
+    /// [`FitKind::name`]. Absent from records written by builds before fits carried it:
+    /// such a record is refused (its shard is run again), never read off the method's words.
     #[serde(default)]
     kind: Option<String>,
 }
@@ -295,7 +295,13 @@ pub fn decode(text: &str, place: &Path) -> Result<(Evaluated, usize), DiagnoseEr
                         r.candidate, f.effect
                     ))
                 })?,
-                None => FitKind::of_legacy_method(&f.method),
+                None => {
+                    return Err(bad(format!(
+                        "{}: {}'s fit states no kind (a record of an older build of geneva): \
+                         run its shard again",
+                        r.candidate, f.effect
+                    )))
+                }
             };
             Ok(Fitted {
                 effect,
@@ -455,37 +461,23 @@ mod tests {
     }
 
     #[test]
-    fn a_fits_kind_round_trips_and_older_records_read_it_off_the_method() {
+    fn a_fits_kind_round_trips_and_a_record_without_one_is_refused() {
         for kind in FitKind::ALL {
             let text = record_of("any words", kind);
             let (back, _) = decode(&text, Path::new("x")).unwrap();
             assert_eq!(back.effects[0].kind, kind);
         }
-        // Older records: the method's opening words, as those builds wrote them; what the
-        // method says, not the kind the (absent) field would have held, decides.
-        let cases = [
-            (
-                crate::diagnose::fit::search_method(Effect::AxisRunout, 2),
-                FitKind::SumZ2Search,
-            ),
-            (
-                crate::diagnose::fit::moment_method("edge width² along the motion", 3, 2),
-                FitKind::MomentMatch,
-            ),
-            (
-                "fitted directly to the footage's timestamps (geneva timing fit)".into(),
-                FitKind::Measured,
-            ),
-        ];
-        for (method, expected) in cases {
-            let old = without_kind(&record_of(&method, FitKind::Measured));
-            let (back, _) = decode(&old, Path::new("x")).unwrap();
-            assert_eq!(back.effects[0].kind, expected, "{method}");
-            assert_eq!(
-                back.effects[0].searched_on_sum_z2(),
-                expected == FitKind::SumZ2Search
-            );
-        }
+        // A record of a build before fits carried their kind: its method's words are not read
+        // back as a kind; the record is refused, naming its place and what to do.
+        let method = crate::diagnose::fit::search_method(Effect::AxisRunout, 2);
+        let old = without_kind(&record_of(&method, FitKind::SumZ2Search));
+        let err = decode(&old, Path::new("shards/2/units.tsv"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("shards/2/units.tsv") && err.contains("no kind") && err.contains("again"),
+            "{err}"
+        );
     }
 
     #[test]
