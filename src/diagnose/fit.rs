@@ -167,6 +167,7 @@ pub struct Evaluated {
 }
 
 /// What the real measurement gives every comparison and fit.
+#[derive(Clone, Copy)]
 pub struct RealSide<'a> {
     pub cells: &'a Cells,
     /// Frame times of all frames, s.
@@ -190,18 +191,8 @@ pub struct Fitter<'a> {
     pub ctx: SimContext<'a>,
     /// The user's nominal (before alignment).
     pub nominal: &'a Scenario,
-    pub real_cells: &'a Cells,
-    /// Real frame times (all frames) and the primary angle of the detected frames.
-    pub real_t_s: &'a [f64],
-    pub real_theta_det: (&'a [f64], &'a [f64]),
-    /// The real angle residual after the aligned nominal motion (all frames; NaN undetected).
-    pub real_theta_residual: &'a [f64],
-    pub real_theta_peak_hz: Option<f64>,
-    /// The axis-runout form read off the real marker-centre track: the runout candidate takes
-    /// its order and phase (the nominal's own when it states a runout).
-    pub runout_form: Option<RunoutForm>,
-    /// The camera tilt read off the real corners: the tilt candidate's start.
-    pub pose_tilt: Option<PoseTilt>,
+    /// The real footage's side of every comparison and what its candidates start from.
+    pub real: RealSide<'a>,
     /// The runout form's phase refined by simulation ([`Fitter::refine_runout_phase`]), which
     /// the candidate then takes instead of the track's.
     runout_phase: Option<RunoutPhase>,
@@ -318,13 +309,7 @@ impl<'a> Fitter<'a> {
         Ok(Self {
             ctx,
             nominal,
-            real_cells: real.cells,
-            real_t_s: real.t_s,
-            real_theta_det: real.theta_det,
-            real_theta_residual: real.theta_residual,
-            real_theta_peak_hz: real.theta_peak_hz,
-            runout_form: real.runout_form,
-            pose_tilt: real.pose_tilt,
+            real,
             runout_phase: None,
             nominal_gap,
             nominal_sims,
@@ -352,7 +337,7 @@ impl<'a> Fitter<'a> {
         self.nominal_sims.extend(sims);
         self.eval_seeds.extend_from_slice(more);
         self.nominal_gap = compare(
-            self.real_cells,
+            self.real.cells,
             &self.nominal_sims,
             self.gap_options,
             SlowShape::of(&self.base.scenario),
@@ -366,13 +351,7 @@ impl<'a> Fitter<'a> {
         Fitter {
             ctx: self.ctx,
             nominal: self.nominal,
-            real_cells: self.real_cells,
-            real_t_s: self.real_t_s,
-            real_theta_det: self.real_theta_det,
-            real_theta_residual: self.real_theta_residual,
-            real_theta_peak_hz: self.real_theta_peak_hz,
-            runout_form: self.runout_form,
-            pose_tilt: self.pose_tilt,
+            real: self.real,
             runout_phase: self.runout_phase,
             nominal_gap: self.nominal_gap.clone(),
             nominal_sims: Vec::new(),
@@ -618,11 +597,14 @@ impl<'a> Fitter<'a> {
             Err(e) => return (Err(e), self.simulations()),
         };
         let on_footage = Fitter {
-            real_cells: &footage.cells,
-            real_t_s: &footage.t_s,
-            real_theta_det: (&footage.t_det_s, &footage.theta_det_rad),
-            real_theta_residual: &footage.theta_residual,
-            real_theta_peak_hz: footage.theta_peak_hz,
+            real: RealSide {
+                cells: &footage.cells,
+                t_s: &footage.t_s,
+                theta_det: (&footage.t_det_s, &footage.theta_det_rad),
+                theta_residual: &footage.theta_residual,
+                theta_peak_hz: footage.theta_peak_hz,
+                ..self.real
+            },
             nominal_gap: compare(
                 &footage.cells,
                 nominal_sims,
@@ -664,11 +646,11 @@ impl<'a> Fitter<'a> {
     }
 
     fn real_duration_s(&self) -> f64 {
-        self.real_t_s.last().copied().unwrap_or(0.0) - self.real_t_s.first().copied().unwrap_or(0.0)
+        self.real.t_s.last().copied().unwrap_or(0.0) - self.real.t_s.first().copied().unwrap_or(0.0)
     }
 
     fn median_interval_s(&self) -> f64 {
-        median_interval_s(self.real_t_s)
+        median_interval_s(self.real.t_s)
     }
 
     /// The values at which `e` would leave the aligned nominal as it is on this footage
@@ -741,13 +723,13 @@ impl<'a> Fitter<'a> {
                     t.stamped_fps = Some(fps);
                     t.timing = TimingSource::ConstantRate {
                         fps_hz: fps,
-                        frames: self.real_t_s.len(),
+                        frames: self.real.t_s.len(),
                     };
                 }
                 Effect::DriveSpeed => {
                     e.apply(&mut t.scenario, v);
                     // The crank phase and mean speed are nuisance: refit them for this profile.
-                    let (td, th) = self.real_theta_det;
+                    let (td, th) = self.real.theta_det;
                     let a = align_motion(&t.scenario, td, th, aligned_of(self).screen_sign)
                         .map_err(camera_warp::ViewError::AlignMotion)?;
                     t.scenario = apply_motion(&t.scenario, &a);
@@ -781,7 +763,7 @@ impl<'a> Fitter<'a> {
             // of the self-check: its shared fit seeds, not this refit; commit `8b8b8cf`.)
             // A crank speed profile too (`Effect::trial_refits_motion`): the nominal's
             // constant-speed alignment took the profile's slow engagements for a slower crank.
-            let (td, th) = self.real_theta_det;
+            let (td, th) = self.real.theta_det;
             let sign = aligned_of(self).screen_sign;
             let want_px = match self.base_centre_px.get() {
                 Some(c) => *c,
@@ -803,7 +785,7 @@ impl<'a> Fitter<'a> {
     /// The comparison of the real data with a trial on `seeds`.
     pub fn gap(&self, trial: &Trial, seeds: &[u64]) -> Result<GapMap, FitError> {
         Ok(compare(
-            self.real_cells,
+            self.real.cells,
             &self.cells(trial, seeds, true)?,
             self.gap_options,
             SlowShape::of(&trial.scenario),
@@ -859,7 +841,7 @@ impl<'a> Fitter<'a> {
             return failed;
         };
         let counted = |key: &CellKey| effects.iter().any(|e| in_fit_objective(*e, key, lens));
-        let sum_z2 = comparison(self.real_cells, &sims, self.gap_options)
+        let sum_z2 = comparison(self.real.cells, &sims, self.gap_options)
             .cells
             .iter()
             .filter(|c| counted(&c.key))
@@ -867,7 +849,7 @@ impl<'a> Fitter<'a> {
             .sum();
         let objectives = Objectives {
             sum_z2,
-            shared_chi2: shared_tolerance_chi2(self.real_cells, &sims, self.gap_options, counted),
+            shared_chi2: shared_tolerance_chi2(self.real.cells, &sims, self.gap_options, counted),
         };
         self.objective_memo.insert(key, objectives);
         objectives
@@ -954,7 +936,7 @@ impl<'a> Fitter<'a> {
                 // The trend's peak, the fallback, needs the gap; `fit` reads it when this holds
                 // none.
                 if let Some(f) =
-                    vibration_start_hz(self.real_theta_peak_hz, e.params()[1].search, || None)
+                    vibration_start_hz(self.real.theta_peak_hz, e.params()[1].search, || None)
                 {
                     v[1] = f;
                 }
@@ -1049,7 +1031,7 @@ impl<'a> Fitter<'a> {
             }
             Effect::LensDistortion => v[0] = if e.is_on(s) { v[0] } else { 0.0 },
             Effect::PerspectiveTilt => {
-                if let Some(p) = self.pose_tilt {
+                if let Some(p) = self.real.pose_tilt {
                     v = vec![p.tilt_x_deg, p.tilt_y_deg];
                 } else if !e.is_on(s) {
                     v = vec![0.0, 0.0];

@@ -25,7 +25,7 @@ fn median_interval_sd_s(t_s: &[f64]) -> f64 {
 impl Fitter<'_> {
     /// The frame timing: the VFR model fitted to the footage's timestamps.
     pub(super) fn frame_timing_direct(&self) -> Result<Found, FitError> {
-        let ts = Timestamps::new(self.real_t_s.to_vec()).map_err(AlignError::FrameTimes)?;
+        let ts = Timestamps::new(self.real.t_s.to_vec()).map_err(AlignError::FrameTimes)?;
         let f = fit_vfr(&ts).map_err(FitError::TimingFit)?;
         let rate_ppm = (f.fps / self.nominal.frame_timing.fps - 1.0) * 1e6;
         let values = vec![
@@ -50,7 +50,7 @@ impl Fitter<'_> {
     pub(super) fn timebase_direct(&self) -> Found {
         let fps = 1.0 / self.median_interval_s();
         let values = vec![fps];
-        let stds = vec![fps * fps * median_interval_sd_s(self.real_t_s)];
+        let stds = vec![fps * fps * median_interval_sd_s(self.real.t_s)];
         let method: String =
             "rate of the footage's timestamps; frames taken on the nominal's schedule".into();
         (values, stds, method)

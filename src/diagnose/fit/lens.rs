@@ -85,7 +85,7 @@ impl Fitter<'_> {
         } else {
             -reach.min(-spec.search.0)
         };
-        let (td, _) = self.real_theta_det;
+        let (td, _) = self.real.theta_det;
         let bend_rad = camera_warp::angle_bend_rms(
             &self.base.scenario,
             e,

@@ -82,7 +82,8 @@ impl Fitter<'_> {
         if Effect::AxisRunout.is_on(&self.base.scenario) {
             return None;
         }
-        self.runout_form
+        self.real
+            .runout_form
             .filter(|f| f.rss_reduction_frac >= RUNOUT_FORM_MIN_SHARE)
     }
 

@@ -37,7 +37,7 @@ impl Fitter<'_> {
             _ => vec![0],
         };
         let pose_start = (e == Effect::PerspectiveTilt)
-            .then_some(self.pose_tilt)
+            .then_some(self.real.pose_tilt)
             .flatten();
         // Every objective value by its parameters: a later search starts where an earlier
         // one ended, and the objective is deterministic (fixed seeds), so it is looked up.

@@ -76,7 +76,7 @@ impl Fitter<'_> {
         start: &[f64],
     ) -> Result<Option<(Vec<f64>, Vec<f64>, String)>, FitError> {
         let e = Effect::DiscVibration;
-        let (t, residual) = (self.real_t_s, self.real_theta_residual);
+        let (t, residual) = (self.real.t_s, self.real.theta_residual);
         let span_s = match (t.first(), t.last()) {
             (Some(a), Some(b)) if b > a => b - a,
             _ => return Ok(None),
@@ -153,7 +153,7 @@ impl Fitter<'_> {
 
     /// The strongest frequency of the real angle residual above the low band, with its power.
     pub(super) fn theta_peak_hz(&self, nyquist_hz: f64) -> Option<(f64, f64)> {
-        let (t, th) = self.real_theta_det;
+        let (t, th) = self.real.theta_det;
         // Residual after a smooth trend: the aligned motion is not needed for a peak search.
         let trend = crate::diagnose::bands::smooth(
             t,
@@ -176,7 +176,7 @@ impl Fitter<'_> {
         values: &mut [f64],
         stds: &mut [f64],
     ) {
-        let peak_hz = vibration_start_hz(self.real_theta_peak_hz, search_hz, || {
+        let peak_hz = vibration_start_hz(self.real.theta_peak_hz, search_hz, || {
             self.theta_peak_hz(self.ctx.nyquist_hz).map(|(f, _)| f)
         });
         if let Some(f) = peak_hz {

@@ -109,7 +109,7 @@ impl<'f, 'a> Judge<'f, 'a> {
         }
         let nominal = self.nominal.get().map(Vec::as_slice).unwrap_or_default();
         let found = slow_waveform_check(
-            (f.real_t_s, f.real_theta_residual),
+            (f.real.t_s, f.real.theta_residual),
             &view(nominal),
             &view(&candidate),
             f.ctx.nyquist_hz,

@@ -128,7 +128,7 @@ pub fn manifest(
         "prefix".to_string(),
         json!({
             "candidates": names(units),
-            "frames": fitter.real_t_s.len(),
+            "frames": fitter.real.t_s.len(),
             "nominal gap D0": g.total,
             "nominal gap D0 bits": format!("{:016x}", g.total.to_bits()),
             "significant cells": g.n_significant(),
