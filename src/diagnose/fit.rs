@@ -9,22 +9,14 @@ use crate::diagnose::align::{align_motion, apply_motion};
 use crate::diagnose::camera_warp;
 use crate::diagnose::cells::{CellKey, Cells, SlowShape};
 use crate::diagnose::gap::{
-    compare, compare_for_fit, compare_with_slow_shape, excess, fmt_sum_z2, shared_tolerance_chi2,
-    GapMap, GapOptions,
+    compare, compare_for_fit, excess, fmt_sum_z2, shared_tolerance_chi2, GapMap, GapOptions,
 };
-use crate::diagnose::moments;
 use crate::diagnose::nominal::{AlignError, Aligned};
 use crate::diagnose::plan::{self, in_signature};
 use crate::diagnose::pose_tilt::PoseTilt;
 use crate::diagnose::runout::RunoutForm;
-use crate::diagnose::search::{
-    coupling_from_off_point, minimise, std_with_other_free, SearchOptions, SearchResult,
-};
 use crate::diagnose::simulator::SimulateError;
-use crate::diagnose::spectrum;
-use crate::diagnose::trials::{
-    simulated_footage, trial_cells, trial_theta_residuals, SimContext, TimingSource, Trial,
-};
+use crate::diagnose::trials::{simulated_footage, trial_cells, SimContext, TimingSource, Trial};
 use crate::diagnose::verdict::Outcome;
 use crate::scenario::effects::{Effect, ParamSpec};
 use crate::scenario::Scenario;
@@ -40,10 +32,7 @@ mod search;
 mod sinusoid;
 mod tilt;
 use crate::diagnose::memo::{MemoKey, ObjectiveMemo};
-use crate::diagnose::objectives::{
-    held_curvature_std, objective_at, shared_curvature_std_along, shared_std, shared_std_along,
-    Objectives,
-};
+use crate::diagnose::objectives::{objective_at, shared_std_along, Objectives};
 pub use lens::{lens_bend_informs, LENS_ANGLE_BEND_MIN_SHARE};
 use moment_match::MomentFit;
 pub use runout::FittedRunoutForm;
@@ -1203,6 +1192,8 @@ pub fn stated_clearance_caveat(e: Effect, nominal: &Scenario) -> Option<String> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnose::objectives::shared_std;
+    use crate::diagnose::search::{minimise, SearchOptions};
 
     #[test]
     fn a_clearance_refitted_from_a_stated_one_carries_a_caution() -> Result<(), String> {

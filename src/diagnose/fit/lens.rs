@@ -2,7 +2,15 @@
 //! cells once the lens bends the measured angle beyond the residual's noise
 //! ([`LENS_ANGLE_BEND_MIN_SHARE`]).
 
-use super::*;
+use super::{aligned_of, Fitter, LensCells};
+use crate::diagnose::camera_warp;
+use crate::diagnose::gap::compare_for_fit;
+use crate::diagnose::objectives::shared_std;
+use crate::diagnose::objectives::Objectives;
+use crate::diagnose::search::minimise;
+use crate::diagnose::search::SearchOptions;
+use crate::scenario::effects::Effect;
+use std::cell::RefCell;
 
 /// Share of the aligned angle residual's RMS that a lens's bend of the measured angle (exact
 /// corners) must reach before the angle cells (θ, ω̂, α̂, the angle's peak) enter its fit.
@@ -131,6 +139,7 @@ impl Fitter<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnose::plan;
 
     #[test]
     fn the_angle_cells_join_a_lens_fit_when_the_lens_bends_the_angle_beyond_noise() {

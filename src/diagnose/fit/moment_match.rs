@@ -3,7 +3,10 @@
 //! compression on blockiness, the pixel noise on the ink's and paper's noise) is matched on it
 //! in a few simulations (secant or Newton steps, [`crate::diagnose::moments`]).
 
-use super::*;
+use super::{aligned_of, moment_method, with_edge_discrepancy, FitError, Fitter, Found};
+use crate::diagnose::gap::GapMap;
+use crate::diagnose::moments;
+use crate::scenario::effects::Effect;
 
 /// Simulations a moment match takes at most (secant or Newton steps).
 pub(super) const MOMENT_SIMULATIONS: usize = 3;

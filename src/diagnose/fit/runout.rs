@@ -1,7 +1,20 @@
 //! The axis runout's form: its order and phase read off the marker-centre track, the phase
 //! refined by simulation, and the amplitude's and phase's uncertainties with the other free.
 
-use super::*;
+use super::{Fitter, LensCells};
+use crate::diagnose::gap::compare_for_fit;
+use crate::diagnose::objectives::held_curvature_std;
+use crate::diagnose::objectives::objective_at;
+use crate::diagnose::objectives::shared_curvature_std_along;
+use crate::diagnose::objectives::Objectives;
+use crate::diagnose::runout::RunoutForm;
+use crate::diagnose::search::coupling_from_off_point;
+use crate::diagnose::search::minimise;
+use crate::diagnose::search::std_with_other_free;
+use crate::diagnose::search::SearchOptions;
+use crate::diagnose::search::SearchResult;
+use crate::scenario::effects::Effect;
+use std::cell::RefCell;
 
 /// Share of the marker-centre residual a runout form must take before the runout candidate takes
 /// it (order, phase, and its amplitude as the search's start). Below it the residual is mostly

@@ -2,7 +2,11 @@
 //! amplitude and phase from the residual's sinusoid at that frequency matched to the footage's
 //! through a gain measured on the fit seeds and placements derived from them.
 
-use super::*;
+use super::{FitError, Fitter};
+use crate::diagnose::plan;
+use crate::diagnose::spectrum;
+use crate::diagnose::trials::trial_theta_residuals;
+use crate::scenario::effects::Effect;
 
 /// The frequency a disc-vibration fit starts from: the peak of the angle residual after the
 /// aligned nominal motion (`residual_peak_hz`, clamped to the search range `search_hz`), or,

@@ -1,7 +1,10 @@
 //! The camera tilt: its search starts at the pose the marker corners show, and the pose fit
 //! is the value reported when the moments cannot tell it from their minimum.
 
-use super::*;
+use super::{Fitter, LensCells};
+use crate::diagnose::gap::compare_with_slow_shape;
+use crate::diagnose::pose_tilt::PoseTilt;
+use crate::scenario::effects::Effect;
 
 /// Δ Σ z² of χ² with 2 degrees of freedom at 95 %: two tilts the moments cannot tell apart.
 pub const POSE_DELTA_CHI2: f64 = 5.99;
