@@ -22,6 +22,8 @@
 use super::bands;
 use serde::Serialize;
 
+pub mod judge;
+
 /// Largest share of the waveform gap an explanation may leave. A right effect whose value is
 /// fitted 30 % off leaves 0.09 of it; a crank-speed variation fitted to a creeping marker's cells
 /// left more than half.

@@ -8,13 +8,14 @@
 use super::outlook::Outlook;
 use super::shards::StoredFit;
 use super::{
-    candidate_name, fitting, from_nominal, held_out, plan, ranked, report, sort_ranking, to_front,
-    verdict, Bootstrap, BootstrapPlan, DiagnoseError, DiagnoseOptions, NotDistinct, Progress,
-    Ranked, Refit, RefitPlan, SecondLook, SkipReason, SkippedPair, CONCURRENT_FITS,
-    MAX_DISTINCT_TRIES, MAX_SECOND_EFFECTS,
+    candidate_name, fitting, from_nominal, plan, ranked, report, sort_ranking, to_front, verdict,
+    Bootstrap, BootstrapPlan, DiagnoseError, DiagnoseOptions, NotDistinct, Progress, Ranked, Refit,
+    RefitPlan, SecondLook, SkipReason, SkippedPair, CONCURRENT_FITS, MAX_DISTINCT_TRIES,
+    MAX_SECOND_EFFECTS,
 };
 use crate::diagnose::fit::{Evaluated, FitError, Fitted, Fitter};
 use crate::diagnose::gap::GapMap;
+use crate::diagnose::holdout::judge;
 use crate::diagnose::simulator::SimMeter;
 use crate::diagnose::verdict::{Outcome, Verdict};
 use crate::scenario::effects::Effect;
@@ -413,7 +414,7 @@ pub(super) struct Chosen {
     pub best: Option<usize>,
     pub verdict: Verdict,
     pub not_distinct: Vec<NotDistinct>,
-    pub held_out: Option<held_out::HeldOut>,
+    pub held_out: Option<judge::HeldOut>,
     pub simulations: usize,
 }
 
@@ -436,7 +437,7 @@ pub(super) fn choose(
     st.plan_tail(0);
     let mut simulations = 0usize;
     let mut not_distinct = Vec::new();
-    let mut held_out = held_out::Judge::new(st.fitter, &st.fitter.eval_seeds);
+    let mut held_out = judge::Judge::new(st.fitter, &st.fitter.eval_seeds);
     let choice = {
         let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
         let mut judged = 0usize;
@@ -474,7 +475,7 @@ pub(super) fn choose(
                     0,
                     1,
                 );
-                match held_out.failed(i, &ranking[i]) {
+                match held_out.failed(i, &ranking[i].evaluated) {
                     Some(check) => {
                         judged.held_out = Some(check);
                         not_distinct.push(judged);

@@ -24,7 +24,6 @@
 mod candidates;
 #[cfg(test)]
 mod engine_tests;
-pub mod held_out;
 pub mod outlook;
 pub mod real;
 pub mod report;
@@ -474,7 +473,7 @@ pub struct NotDistinct {
     /// ([`verdict::undetermined_at_search_end`]).
     pub undetermined: Vec<Undetermined>,
     /// Its held-out check, when it failed it ([`held_out`]).
-    pub held_out: Option<held_out::HeldOut>,
+    pub held_out: Option<crate::diagnose::holdout::judge::HeldOut>,
 }
 
 impl NotDistinct {
@@ -621,7 +620,7 @@ pub struct Diagnosis {
     pub real_time_shift_s: f64,
     /// The held-out check of the candidate the verdict rests on, when it explained the gap
     /// otherwise ([`held_out`]).
-    pub held_out: Option<held_out::HeldOut>,
+    pub held_out: Option<crate::diagnose::holdout::judge::HeldOut>,
     pub elapsed_s: f64,
 }
 

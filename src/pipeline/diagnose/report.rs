@@ -3,7 +3,6 @@
 //! real and simulated residual curves; written into a staging folder that replaces the output
 //! folder only once everything is written.
 
-use super::held_out::HeldOut;
 use super::{
     candidate_name, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit, SecondLook,
     SkipReason, SkippedPair,
@@ -14,6 +13,7 @@ use crate::diagnose::fit::{Evaluated, Fitter};
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{fmt_sum_z2, CellGap, GapMap};
 use crate::diagnose::holdout;
+use crate::diagnose::holdout::judge::HeldOut;
 use crate::diagnose::nominal;
 use crate::diagnose::plan::SecondLookPair;
 use crate::diagnose::record::RealMeasurement;
@@ -1793,7 +1793,7 @@ mod tests {
         assert!(text.contains(NOT_PREDICTED_REASON), "{text}");
         assert_eq!(held_out_json(None), Value::Null);
         assert!(held_out_text(Some(&HeldOut::NotJudged(
-            super::super::held_out::PHASE_NOT_FITTED
+            crate::diagnose::holdout::judge::PHASE_NOT_FITTED
         )))
         .contains("states no phase"));
     }

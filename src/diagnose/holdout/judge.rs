@@ -1,10 +1,9 @@
-//! The held-out check of a candidate that explains the gap ([`crate::diagnose::holdout`]): its
-//! prediction of the slow angle residual, simulated on the evaluation seeds beside the nominal's,
-//! against the footage's.
+//! The held-out check run over a diagnosis's candidates ([`super`] compares): each
+//! candidate's prediction of the slow angle residual, simulated on the evaluation seeds beside
+//! the nominal's, against the footage's.
 
-use super::{DiagnoseError, Ranked};
-use crate::diagnose::fit::{applied, Fitter};
-use crate::diagnose::holdout::{slow_waveform_check, Series, WaveformCheck};
+use super::{slow_waveform_check, Series, WaveformCheck};
+use crate::diagnose::fit::{applied, Evaluated, FitError, Fitter};
 use crate::diagnose::trials::{trial_theta_residuals, FrameSeries};
 use std::cell::OnceCell;
 
@@ -38,7 +37,7 @@ pub struct Judge<'f, 'a> {
     nominal: OnceCell<Vec<FrameSeries>>,
     checked: Vec<(usize, HeldOut)>,
     simulations: usize,
-    error: Option<DiagnoseError>,
+    error: Option<FitError>,
 }
 
 impl<'f, 'a> Judge<'f, 'a> {
@@ -53,10 +52,10 @@ impl<'f, 'a> Judge<'f, 'a> {
         }
     }
 
-    /// Checks candidate `i` of the ranking, `r`, and returns its check when it failed (`None`:
-    /// passed, not judged, or a simulation failed, which [`Judge::finish`] reports; after an
-    /// error nothing more is simulated).
-    pub fn failed(&mut self, i: usize, r: &Ranked) -> Option<HeldOut> {
+    /// Checks candidate `i` of the ranking, `r` (its fitted values as judged), and returns its
+    /// check when it failed (`None`: passed, not judged, or a simulation failed, which
+    /// [`Judge::finish`] reports; after an error nothing more is simulated).
+    pub fn failed(&mut self, i: usize, r: &Evaluated) -> Option<HeldOut> {
         if self.error.is_some() {
             return None;
         }
@@ -75,7 +74,7 @@ impl<'f, 'a> Judge<'f, 'a> {
 
     /// The check of candidate `best` (when it was checked) and the simulations all checks ran,
     /// or the first error a check met.
-    pub fn finish(self, best: Option<usize>) -> Result<(Option<HeldOut>, usize), DiagnoseError> {
+    pub fn finish(self, best: Option<usize>) -> Result<(Option<HeldOut>, usize), FitError> {
         if let Some(e) = self.error {
             return Err(e);
         }
@@ -89,17 +88,12 @@ impl<'f, 'a> Judge<'f, 'a> {
     }
 
     /// The check of `r` (its fitted values as judged), and the simulations it ran.
-    fn check(&self, r: &Ranked) -> Result<(HeldOut, usize), DiagnoseError> {
-        if !r
-            .evaluated
-            .effects
-            .iter()
-            .all(|f| f.effect.predicts_slow_angle())
-        {
+    fn check(&self, r: &Evaluated) -> Result<(HeldOut, usize), FitError> {
+        if !r.effects.iter().all(|f| f.effect.predicts_slow_angle()) {
             return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
         }
         let f = self.fitter;
-        let trial = f.trial_with(&applied(&r.evaluated.effects))?;
+        let trial = f.trial_with(&applied(&r.effects))?;
         let candidate = trial_theta_residuals(&f.ctx, &trial, self.seeds)?;
         let mut simulations = self.seeds.len();
         if self.nominal.get().is_none() {
