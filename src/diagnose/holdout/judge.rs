@@ -33,7 +33,6 @@ pub const TOO_FEW_FRAMES: &str = "too few frames with the marker in the real and
 /// once, at the first check that needs them.
 pub struct Judge<'f, 'a> {
     fitter: &'f Fitter<'a>,
-    seeds: &'f [u64],
     nominal: OnceCell<Vec<FrameSeries>>,
     checked: Vec<(usize, HeldOut)>,
     simulations: usize,
@@ -41,10 +40,10 @@ pub struct Judge<'f, 'a> {
 }
 
 impl<'f, 'a> Judge<'f, 'a> {
-    pub fn new(fitter: &'f Fitter<'a>, seeds: &'f [u64]) -> Self {
+    /// A judge simulating on `fitter`'s evaluation seeds.
+    pub fn new(fitter: &'f Fitter<'a>) -> Self {
         Judge {
             fitter,
-            seeds,
             nominal: OnceCell::new(),
             checked: Vec::new(),
             simulations: 0,
@@ -93,12 +92,13 @@ impl<'f, 'a> Judge<'f, 'a> {
             return Ok((HeldOut::NotJudged(PHASE_NOT_FITTED), 0));
         }
         let f = self.fitter;
+        let seeds = &f.eval_seeds;
         let trial = f.trial_with(&applied(&r.effects))?;
-        let candidate = trial_theta_residuals(&f.ctx, &trial, self.seeds)?;
-        let mut simulations = self.seeds.len();
+        let candidate = trial_theta_residuals(&f.ctx, &trial, seeds)?;
+        let mut simulations = seeds.len();
         if self.nominal.get().is_none() {
-            let nominal = trial_theta_residuals(&f.ctx, &f.base, self.seeds)?;
-            simulations += self.seeds.len();
+            let nominal = trial_theta_residuals(&f.ctx, &f.base, seeds)?;
+            simulations += seeds.len();
             let _ = self.nominal.set(nominal);
         }
         let nominal = self.nominal.get().map(Vec::as_slice).unwrap_or_default();

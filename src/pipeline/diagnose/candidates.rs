@@ -437,7 +437,7 @@ pub(super) fn choose(
     st.plan_tail(0);
     let mut simulations = 0usize;
     let mut not_distinct = Vec::new();
-    let mut held_out = judge::Judge::new(st.fitter, &st.fitter.eval_seeds);
+    let mut held_out = judge::Judge::new(st.fitter);
     let choice = {
         let explains = |i: usize| verdict::explains(d0, &outcomes[i]);
         let mut judged = 0usize;
