@@ -22,6 +22,8 @@
 //!   ([`crate::imagestats::weak_texture_noise`]); where that cannot tell noise from texture or
 //!   from the camera's processing, the noise is reported not identifiable and the scenario
 //!   carries the base's;
+//! - the marker's appearance: its paper and ink as a texture mosaicked from the registered
+//!   frames, levels near the edges (`appearance`);
 //! - the re-render check: the calibrated scenario rendered at a footage frame, and the structure
 //!   left in footage − render (`rerender`, `residual`).
 //! - perspective tilt: the mean image-space metric of the marker's affine shape (aspect), with
@@ -30,6 +32,7 @@
 //! The frame timing is the footage's own timestamps, replayed exactly by the calibrated scenario,
 //! with the VFR model fitted by [`crate::timing::fit::fit_vfr`] reported beside them.
 
+pub mod appearance;
 mod blur_model;
 mod geometry;
 mod imaging;
@@ -214,6 +217,8 @@ pub struct Calibration {
     pub motion: Option<MotionFit>,
     pub imaging: ImagingFit,
     pub timing: Option<TimingFit>,
+    /// The marker texture measured from the footage, when one was written.
+    pub appearance: Option<appearance::AppearanceRecord>,
     /// Things the user should know (assumptions, effects that were not resolved).
     pub notes: Vec<String>,
 }
@@ -259,6 +264,7 @@ pub fn calibrate(
         motion,
         imaging,
         timing: stats.timing.clone(),
+        appearance: None,
         notes,
     })
 }

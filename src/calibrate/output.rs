@@ -662,6 +662,45 @@ pub fn scenario_toml(overrides: &[Override], ctx: &OutputContext, cal: &Calibrat
     s
 }
 
+/// The `## Appearance` section: what the marker texture holds and where it came from.
+fn appearance_markdown(s: &mut String, a: Option<&crate::calibrate::appearance::AppearanceRecord>) {
+    let _ = writeln!(s, "\n## Appearance\n");
+    let Some(a) = a else {
+        let _ = writeln!(
+            s,
+            "The marker is drawn with uniform ink and paper at the fitted levels (no texture was \
+             measured: the notes say why)."
+        );
+        return;
+    };
+    let total = (a.sampled_texels + a.level_texels).max(1);
+    let _ = writeln!(
+        s,
+        "The marker's paper and ink are drawn from `{}` ({} texels per cell, {:.1} px per cell in \
+         the footage): mosaicked from {} registered frame(s){}. {} of {} texels ({:.0} %) were \
+         sampled from the footage; the other {} lie within {:.1} px of an edge between ink and \
+         paper or of the paper's rim, where the footage holds its blur of both sides, and take \
+         their material's level from the nearest sampled texels, so that the render's edges stay \
+         sharp and are blurred once, by the fitted σ. Texture within that band of an edge is not \
+         reproduced. The disc around the paper and the background are drawn uniform.",
+        a.file,
+        a.texels_per_cell,
+        a.px_per_cell,
+        a.frames,
+        if a.check_frame_held_out {
+            ", the re-rendering check's frame left out"
+        } else {
+            ", the re-rendering check's frame among them (one frame cannot be left out of its \
+             own mosaic: the check then tests the levels, blur and pose, not the texture)"
+        },
+        a.sampled_texels,
+        total,
+        100.0 * a.sampled_texels as f64 / total as f64,
+        a.level_texels,
+        a.guard_px,
+    );
+}
+
 /// The calibration report (markdown).
 pub fn calibration_markdown(
     cal: &Calibration,
@@ -940,6 +979,7 @@ pub fn calibration_markdown(
             "its four sides".into(),
         );
     }
+    appearance_markdown(&mut s, cal.appearance.as_ref());
     if let Some(c) = check {
         let _ = writeln!(
             s,

@@ -10,6 +10,7 @@
 //! [`calibrate`] (and [`measure_footage`]) are the library entry points
 //! (`geneva diagnose` starts from them); nothing here is maths.
 
+use super::calibrate_appearance::{write_marker_appearance, MosaicFrame};
 use crate::calibrate::output::{
     calibration_markdown, dynamics_offset_rad, overrides, scenario_toml, OutputContext, Override,
     ReRenderCheck,
@@ -162,6 +163,8 @@ pub enum CalibrateJobError {
     },
     #[error(transparent)]
     Png(#[from] crate::io::png_out::PngError),
+    #[error(transparent)]
+    Texture(#[from] crate::io::texture_png::TextureError),
     #[error("{}: the overlay: {message}", file.display())]
     Overlay { file: PathBuf, message: String },
 }
@@ -204,7 +207,7 @@ impl Crop {
     }
 }
 
-type Corners = [[f64; 2]; 4];
+pub(crate) type Corners = [[f64; 2]; 4];
 
 fn centre(c: &Corners) -> [f64; 2] {
     [
@@ -448,7 +451,7 @@ impl Measurer {
     }
 
     /// Parallel edge fits, temporal noise, timing fit.
-    fn finish(mut self, times: &[f64]) -> (FootageStats, Option<(usize, Crop, Corners)>) {
+    fn finish(mut self, times: &[f64]) -> Measurements {
         self.close_run();
         let edge_opts = EdgeOptions {
             max_samples: 2500,
@@ -545,8 +548,49 @@ impl Measurer {
         } else {
             self.first.clone()
         };
-        (self.stats, overlay)
+        let mosaic = mosaic_frames(&self.stats, self.edge_jobs, &self.best_run);
+        Measurements {
+            stats: self.stats,
+            overlay,
+            mosaic,
+        }
     }
+}
+
+/// The frames the marker's texture is mosaicked from, each with the footage's frame number and
+/// its corners: the static poses only (a moving marker is smeared by its motion over the
+/// exposure, which no guard band of the blur's width keeps out), at their edge-fitted corners
+/// (OpenCV's sit about half a pixel inside the black square); the frames of the longest static
+/// run too, at the corners fitted on the run's own edge-fit frame (the pose does not change
+/// within a run), so that the texture averages the noise of many frames.
+fn mosaic_frames(
+    stats: &FootageStats,
+    edge_jobs: Vec<(usize, Crop, Corners, bool)>,
+    best_run: &[(usize, Crop, Corners)],
+) -> Vec<MosaicFrame> {
+    let mut out: Vec<MosaicFrame> = edge_jobs
+        .into_iter()
+        .filter(|j| j.3)
+        .filter_map(|(k, crop, detected, _)| {
+            let f = stats.frames.get(k)?;
+            Some((f.frame, crop, f.refined_px.unwrap_or(detected)))
+        })
+        .collect();
+    let (Some(first), Some(last)) = (best_run.first(), best_run.last()) else {
+        return out;
+    };
+    let run_pose = out
+        .iter()
+        .find(|m| (first.0..=last.0).contains(&m.0))
+        .map(|m| m.2);
+    if let Some(corners) = run_pose {
+        for (index, crop, _) in best_run {
+            if !out.iter().any(|m| m.0 == *index) {
+                out.push((*index, crop.clone(), corners));
+            }
+        }
+    }
+    out
 }
 
 /// Frames whose single-frame noise is measured when the footage has no static run.
@@ -732,10 +776,18 @@ pub fn measure_footage(
     single_frame: bool,
     progress: &dyn Fn(usize, usize),
 ) -> Result<FootageStats, CalibrateJobError> {
-    Ok(measure(footage, base, single_frame, progress)?.0)
+    Ok(measure(footage, base, single_frame, progress)?.0.stats)
 }
 
-type Measured = (FootageStats, Vec<f64>, Option<(usize, Crop, Corners)>);
+/// What the measuring pass keeps: the statistics, the re-render check's frame and the frames
+/// the marker's texture is mosaicked from.
+struct Measurements {
+    stats: FootageStats,
+    overlay: Option<(usize, Crop, Corners)>,
+    mosaic: Vec<MosaicFrame>,
+}
+
+type Measured = (Measurements, Vec<f64>);
 
 fn measure(
     footage: &Footage,
@@ -745,8 +797,7 @@ fn measure(
 ) -> Result<Measured, CalibrateJobError> {
     let mut m = Measurer::new(base, frames_hint(footage), single_frame)?;
     let times = read_footage(footage, &mut m, progress)?;
-    let (stats, overlay) = m.finish(&times);
-    Ok((stats, times, overlay))
+    Ok((m.finish(&times), times))
 }
 
 fn scenario_err(
@@ -773,16 +824,15 @@ pub fn calibrate(
     let base = load_base(base_spec)?;
     let single_frame = options.single_frame || matches!(footage, Footage::Image(_));
     let staged = OutputDir::create(out_dir)?;
-    let (stats, times, overlay) = measure(footage, &base, single_frame, progress)?;
-    let cal = fit_rig(&base, &stats, &CalibrateOptions { single_frame })?;
+    let (measured, times) = measure(footage, &base, single_frame, progress)?;
+    let cal = fit_rig(&base, &measured.stats, &CalibrateOptions { single_frame })?;
     let out = write_outputs(
         footage,
         base_spec,
         &base,
         staged.path(),
-        stats,
+        measured,
         &times,
-        overlay,
         cal,
     )?;
     let files = staged.commit()?;
@@ -804,11 +854,15 @@ fn write_outputs(
     base_spec: &str,
     base: &Scenario,
     out_dir: &Path,
-    stats: FootageStats,
+    measured: Measurements,
     times: &[f64],
-    overlay: Option<(usize, Crop, Corners)>,
     cal: Calibration,
 ) -> Result<CalibrateOutput, CalibrateJobError> {
+    let Measurements {
+        stats,
+        overlay,
+        mosaic,
+    } = measured;
     let single_frame = cal.motion.is_none();
     let mut files = Vec::new();
     let ts_name = "timestamps.csv";
@@ -921,6 +975,22 @@ fn write_outputs(
         match_by_simulation(
             &stats, *frame, crop, corners, &layout, &mut ovs, &mut cal, &typed,
         );
+        let blur_sigma_px = cal
+            .imaging
+            .blur_sigma_px
+            .map_or(base.effects.optical_blur.sigma_px, |b| b.value);
+        if let Some(p) = write_marker_appearance(
+            &mosaic,
+            Some(*frame),
+            &layout,
+            blur_sigma_px,
+            &mut ovs,
+            &mut cal,
+            base,
+            out_dir,
+        )? {
+            files.push(p);
+        }
     }
     let text = scenario_toml(&ovs, &ctx, &cal);
     std::fs::write(&scenario_path, &text).map_err(FileError::io(&scenario_path))?;

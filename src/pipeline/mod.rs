@@ -9,6 +9,8 @@ pub mod analyze;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate;
 #[cfg(feature = "opencv-detector")]
+mod calibrate_appearance;
+#[cfg(feature = "opencv-detector")]
 mod calibrate_overlay;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate_roundtrip;

@@ -1188,6 +1188,7 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
         ));
     }
     let a = &d.aligned;
+    s.push_str(&appearance_text(&a.scenario.scene.appearance));
     s.push_str("## Nuisance fitted first (not effects)\n\n| what | value |\n|---|---|\n");
     s.push_str(&format!(
         "| crank angle at t = 0 | {:.4} rad |\n| crank speed | {:.4} × nominal (mean {:.4} rad/s) |\n\
@@ -1574,11 +1575,49 @@ pub fn write(
     Ok(files)
 }
 
+/// Where the nominal's appearance comes from: the textures its scenario names, or uniform
+/// radiances.
+fn appearance_text(a: &crate::scene::AppearanceConfig) -> String {
+    let parts: Vec<String> = [
+        ("the disc", &a.disc_file),
+        ("the marker", &a.marker_file),
+        ("the background", &a.background_file),
+    ]
+    .iter()
+    .map(|(what, file)| match file {
+        Some(f) => format!("{what} from `{f}`"),
+        None => format!("{what} uniform"),
+    })
+    .collect();
+    format!(
+        "The nominal draws {} (`scene.appearance`; `geneva calibrate` writes the marker's texture \
+         when the footage shows one).\n\n",
+        parts.join(", ")
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::pipeline::diagnose::tests::{evaluated, fitted};
     use crate::pipeline::diagnose::RefitRun;
+
+    #[test]
+    fn the_report_says_which_textures_the_nominal_draws_and_which_parts_are_uniform() {
+        let mut a = crate::scene::AppearanceConfig::default();
+        assert_eq!(
+            appearance_text(&a),
+            "The nominal draws the disc uniform, the marker uniform, the background uniform \
+             (`scene.appearance`; `geneva calibrate` writes the marker's texture when the footage \
+             shows one).\n\n"
+        );
+        a.marker_file = Some("marker.png".into());
+        let t = appearance_text(&a);
+        assert!(
+            t.contains("the disc uniform, the marker from `marker.png`, the background uniform"),
+            "{t}"
+        );
+    }
 
     #[test]
     fn a_pair_set_aside_is_listed_with_its_second_effects_values_and_why() {

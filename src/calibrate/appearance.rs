@@ -1,0 +1,396 @@
+//! The marker's appearance measured from the footage (pure): its paper and ink as a texture in
+//! the marker's printed frame, the `scene.appearance.marker_file` a calibrated scenario carries,
+//! mosaicked from the frames where the marker was registered.
+//!
+//! Why: a real marker is no uniform ink on uniform paper. Print texture, toner density, paper
+//! fibre, a shadow or a glare across it are real and in no effect's vocabulary; rendered with
+//! uniform levels they stay in footage − render, where the re-render check rightly finds
+//! structure and a diagnosis would find a gap.
+//!
+//! Method: each texel's centre is mapped into every registered frame through the homography of
+//! that frame's four corners (grid → image, [`Homography`]) and the footage sampled there
+//! (bilinear), averaged over the frames. A texel within the blur's reach of a material boundary
+//! (an ink cell's edge, the paper's outer edge) sees both sides mixed by the camera's blur:
+//! sampled, the texture would hold that blur and the renderer would blur it a second time. Such
+//! a texel takes its material's local level instead (the mean of the sampled texels of the same
+//! material within about a cell), so the texture's edges stay sharp on the cell lattice and the
+//! renderer blurs them once, with the fitted σ. What lies closer to an edge than the guard band
+//! (texture at a cell's rim) is therefore not reproduced; the calibration says how many texels
+//! were measured and how many took a level.
+//!
+//! Grey levels map to radiance linearly through two anchors, the calibrated ink and paper
+//! levels and the radiances that render them (the calibrated tone curve is linear).
+
+use crate::detect::GrayView;
+use crate::imagestats::{pixel_at, Homography, MarkerLayout, Material, StatsError};
+use crate::render::texture::{value_of, Texture};
+
+/// Largest texels per cell a marker texture may have (the scenario's limit).
+pub const MAX_TEXELS_PER_CELL: u32 = 64;
+
+/// How many blur σ from a material boundary a texel must lie to be sampled.
+const GUARD_SIGMAS: f64 = 3.0;
+/// Added to the guard band, px: the bilinear sample's reach and the registration's error.
+const GUARD_EXTRA_PX: f64 = 1.5;
+
+/// One frame where the marker was registered: the footage around it and its four outer
+/// corners (OpenCV order: TL, TR, BR, BL as printed), px.
+#[derive(Debug, Clone, Copy)]
+pub struct RegisteredView<'a> {
+    pub image: GrayView<'a>,
+    pub corners_px: [[f64; 2]; 4],
+}
+
+/// Two points of the linear map from grey level (DN) to radiance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelAnchors {
+    pub ink_dn: f64,
+    pub ink_radiance: f64,
+    pub paper_dn: f64,
+    pub paper_radiance: f64,
+}
+
+impl LevelAnchors {
+    /// The radiance that renders as `dn`, in [0, 1].
+    pub fn radiance(&self, dn: f64) -> f64 {
+        let span = self.paper_dn - self.ink_dn;
+        let r = if span.abs() > 1e-9 {
+            self.ink_radiance
+                + (dn - self.ink_dn) * (self.paper_radiance - self.ink_radiance) / span
+        } else {
+            self.paper_radiance
+        };
+        r.clamp(0.0, 1.0)
+    }
+}
+
+/// The measured marker texture and how it was made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MarkerAppearance {
+    /// The paper (margin included) in the printed frame, row 0 at the printed top.
+    pub texture: Texture,
+    pub texels_per_cell: u32,
+    /// Frames mosaicked.
+    pub frames: usize,
+    /// Texels sampled from the footage, and texels that took their material's local level.
+    pub sampled_texels: usize,
+    pub level_texels: usize,
+    /// Per texel (row-major), whether it was sampled.
+    pub sampled_mask: Vec<bool>,
+    /// Mean image size of a cell, px, and the guard band around material boundaries, px.
+    pub px_per_cell: f64,
+    pub guard_px: f64,
+    /// The sampled texels' spread about their material's mean, DN (ink, paper): texture and
+    /// shading, plus what the footage's noise leaves after averaging over the frames.
+    pub spread_dn: [f64; 2],
+    /// The darkest and brightest sampled texel, DN.
+    pub range_dn: [f64; 2],
+}
+
+impl MarkerAppearance {
+    /// The spread of material `m` (0 ink, 1 paper) beyond what a noise of `noise_sd_dn` in
+    /// one frame leaves in a mean over the mosaic's frames, DN (0 when the noise explains it).
+    pub fn texture_sd_dn(&self, m: usize, noise_sd_dn: f64) -> f64 {
+        let noise_var = noise_sd_dn.powi(2) / self.frames.max(1) as f64;
+        (self.spread_dn[m].powi(2) - noise_var).max(0.0).sqrt()
+    }
+
+    /// Whether the footage shows the marker's appearance beyond its noise: the spread of the
+    /// ink or the paper exceeds the noise's by [`MIN_TEXTURE_SD_DN`] and by twice the noise
+    /// left in the mean. A marker the noise explains is better drawn uniform: a texture would
+    /// only freeze that noise into every render.
+    pub fn shows_texture(&self, noise_sd_dn: [f64; 2]) -> bool {
+        (0..2).any(|m| {
+            let left = noise_sd_dn[m] / (self.frames.max(1) as f64).sqrt();
+            let sd = self.texture_sd_dn(m, noise_sd_dn[m]);
+            sd >= MIN_TEXTURE_SD_DN && sd >= 2.0 * left
+        })
+    }
+}
+
+/// The least spread beyond the noise, DN, that makes a marker textured.
+pub const MIN_TEXTURE_SD_DN: f64 = 1.0;
+
+/// What a calibration records of the marker texture it wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AppearanceRecord {
+    /// The texture's file, beside the scenario.
+    pub file: String,
+    pub texels_per_cell: u32,
+    pub frames: usize,
+    /// Whether the re-render check's frame was left out of the mosaic (a single frame cannot
+    /// be).
+    pub check_frame_held_out: bool,
+    pub sampled_texels: usize,
+    pub level_texels: usize,
+    pub px_per_cell: f64,
+    pub guard_px: f64,
+}
+
+impl AppearanceRecord {
+    pub fn of(a: &MarkerAppearance, file: &str, check_frame_held_out: bool) -> AppearanceRecord {
+        AppearanceRecord {
+            file: file.to_string(),
+            texels_per_cell: a.texels_per_cell,
+            frames: a.frames,
+            check_frame_held_out,
+            sampled_texels: a.sampled_texels,
+            level_texels: a.level_texels,
+            px_per_cell: a.px_per_cell,
+            guard_px: a.guard_px,
+        }
+    }
+}
+
+/// Why no marker texture can be measured.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AppearanceError {
+    #[error(
+        "the marker is never at rest in the footage (a moving marker is smeared by its motion)"
+    )]
+    NoViews,
+    #[error("the marker's white margin is not known")]
+    NoMargin,
+    #[error(
+        "no texture of at most {MAX_TEXELS_PER_CELL} texels per cell puts the white margin \
+         ({margin_cells:.4} cells) on whole texels"
+    )]
+    MarginNotWhole { margin_cells: f64 },
+    #[error(transparent)]
+    Registration(#[from] StatsError),
+}
+
+/// Texels per cell for a marker whose cells are `px_per_cell` px across and whose margin is
+/// `margin_cells` cells: the fewest that make a texel at most a pixel and the margin a whole
+/// number of texels, else the most that keep the margin whole; `None` when none does.
+pub fn texels_per_cell(px_per_cell: f64, margin_cells: f64) -> Option<u32> {
+    let whole = |t: u32| {
+        let m = margin_cells * t as f64;
+        (m - m.round()).abs() < 1e-6
+    };
+    let fitting: Vec<u32> = (1..=MAX_TEXELS_PER_CELL).filter(|&t| whole(t)).collect();
+    fitting
+        .iter()
+        .copied()
+        .find(|&t| t as f64 >= px_per_cell)
+        .or_else(|| fitting.last().copied())
+}
+
+/// Bilinear grey level of `view` at (x, y) px (pixel centres at integers); `None` when a
+/// neighbour lies outside the view.
+fn bilinear(view: &GrayView<'_>, x: f64, y: f64) -> Option<f64> {
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (i, j) = (x0 as i64, y0 as i64);
+    let p = |a: i64, b: i64| pixel_at(view, a, b).map(f64::from);
+    let (a, b, c, d) = (p(i, j)?, p(i + 1, j)?, p(i, j + 1)?, p(i + 1, j + 1)?);
+    Some((a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy)
+}
+
+/// Mean length of the quadrilateral's sides over `cells`, px per cell.
+fn px_per_cell(corners: &[[f64; 2]; 4], cells: usize) -> f64 {
+    (0..4)
+        .map(|k| {
+            let (a, b) = (corners[k], corners[(k + 1) % 4]);
+            (a[0] - b[0]).hypot(a[1] - b[1])
+        })
+        .sum::<f64>()
+        / (4.0 * cells as f64)
+}
+
+/// Summed-area table of a texel grid (one row and column of zeros in front).
+struct Integral {
+    side: usize,
+    sums: Vec<f64>,
+    counts: Vec<u32>,
+}
+
+impl Integral {
+    fn new(side: usize, value: impl Fn(usize, usize) -> Option<f64>) -> Integral {
+        let w = side + 1;
+        let (mut sums, mut counts) = (vec![0.0; w * w], vec![0u32; w * w]);
+        for j in 0..side {
+            for i in 0..side {
+                let (s, c) = value(i, j).map_or((0.0, 0), |v| (v, 1));
+                let k = (j + 1) * w + i + 1;
+                sums[k] = s + sums[k - 1] + sums[k - w] - sums[k - w - 1];
+                counts[k] = c + counts[k - 1] + counts[k - w] - counts[k - w - 1];
+            }
+        }
+        Integral { side, sums, counts }
+    }
+
+    /// Mean over the square of half-width `r` texels about (i, j), `None` when empty.
+    fn mean(&self, i: usize, j: usize, r: usize) -> Option<f64> {
+        let w = self.side + 1;
+        let (a, b) = (i.saturating_sub(r), j.saturating_sub(r));
+        let (c, d) = ((i + r + 1).min(self.side), (j + r + 1).min(self.side));
+        let at = |x: usize, y: usize| (self.sums[y * w + x], self.counts[y * w + x]);
+        let (s1, n1) = at(c, d);
+        let (s2, n2) = at(a, d);
+        let (s3, n3) = at(c, b);
+        let (s4, n4) = at(a, b);
+        let n = n1 + n4 - n2 - n3;
+        (n > 0).then(|| (s1 + s4 - s2 - s3) / n as f64)
+    }
+}
+
+/// The marker texture of `layout` seen in `views` with a blur of `blur_sigma_px`, its levels
+/// mapped to radiance through `anchors`.
+pub fn marker_appearance(
+    views: &[RegisteredView<'_>],
+    layout: &MarkerLayout,
+    blur_sigma_px: f64,
+    anchors: &LevelAnchors,
+) -> Result<MarkerAppearance, AppearanceError> {
+    if views.is_empty() {
+        return Err(AppearanceError::NoViews);
+    }
+    let cells = layout.side_cells();
+    let margin_cells = layout.margin_cells().ok_or(AppearanceError::NoMargin)?;
+    let maps: Vec<Homography> = views
+        .iter()
+        .map(|v| Homography::from_corners(&v.corners_px, cells))
+        .collect::<Result<_, _>>()?;
+    let scale_px = views
+        .iter()
+        .map(|v| px_per_cell(&v.corners_px, cells))
+        .sum::<f64>()
+        / views.len() as f64;
+    let tpc = texels_per_cell(scale_px, margin_cells)
+        .ok_or(AppearanceError::MarginNotWhole { margin_cells })?;
+    let t = tpc as f64;
+    let margin_texels = (margin_cells * t).round() as usize;
+    let side = cells * tpc as usize + 2 * margin_texels;
+    let centre = |k: usize| (k as f64 + 0.5 - margin_texels as f64) / t;
+    // Material at every texel centre; a texel is sampled when every texel within the guard band
+    // has its material (outside the texture counts as another).
+    let material: Vec<Material> = (0..side * side)
+        .map(|k| layout.material(centre(k % side), centre(k / side)))
+        .collect();
+    let guard_px = GUARD_SIGMAS * blur_sigma_px.max(0.0) + GUARD_EXTRA_PX;
+    let reach = (guard_px / (scale_px / t)).ceil() as i64;
+    let interior = |i: usize, j: usize| -> bool {
+        let m = material[j * side + i];
+        (-reach..=reach).all(|dj| {
+            (-reach..=reach).all(|di| {
+                let (a, b) = (i as i64 + di, j as i64 + dj);
+                a >= 0
+                    && b >= 0
+                    && (a as usize) < side
+                    && (b as usize) < side
+                    && material[b as usize * side + a as usize] == m
+            })
+        })
+    };
+    let mut sampled: Vec<Option<f64>> = vec![None; side * side];
+    let mut sampled_dn: Vec<Option<f64>> = vec![None; side * side];
+    for j in 0..side {
+        for i in 0..side {
+            if !interior(i, j) {
+                continue;
+            }
+            let (gx, gy) = (centre(i), centre(j));
+            let (mut sum, mut n) = (0.0, 0usize);
+            for (v, h) in views.iter().zip(&maps) {
+                let [x, y] = h.map(gx, gy);
+                if let Some(dn) = bilinear(&v.image, x, y) {
+                    sum += dn;
+                    n += 1;
+                }
+            }
+            if n > 0 {
+                let dn = sum / n as f64;
+                sampled_dn[j * side + i] = Some(dn);
+                sampled[j * side + i] = Some(anchors.radiance(dn));
+            }
+        }
+    }
+    let values = fill_levels(&sampled, &material, side, tpc as usize, reach, anchors);
+    let sampled_texels = sampled.iter().filter(|v| v.is_some()).count();
+    let spread = |m: Material| -> f64 {
+        let v: Vec<f64> = sampled_dn
+            .iter()
+            .zip(&material)
+            .filter(|(_, &mm)| mm == m)
+            .filter_map(|(d, _)| *d)
+            .collect();
+        if v.len() < 2 {
+            return 0.0;
+        }
+        crate::numeric::robust::sample_sd(&v)
+    };
+    Ok(MarkerAppearance {
+        texture: Texture {
+            width: side,
+            height: side,
+            values,
+        },
+        texels_per_cell: tpc,
+        frames: views.len(),
+        sampled_texels,
+        level_texels: side * side - sampled_texels,
+        sampled_mask: sampled.iter().map(Option::is_some).collect(),
+        px_per_cell: scale_px,
+        guard_px,
+        spread_dn: [spread(Material::Ink), spread(Material::Paper)],
+        range_dn: sampled_dn
+            .iter()
+            .flatten()
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &d| {
+                [lo.min(d), hi.max(d)]
+            }),
+    })
+}
+
+/// Every texel's value: the sampled radiance, else the mean of the nearest sampled texels of
+/// its material (within the guard band's reach, then twice it, a cell, four cells), else that
+/// material's mean over the marker, else its anchor.
+fn fill_levels(
+    sampled: &[Option<f64>],
+    material: &[Material],
+    side: usize,
+    tpc: usize,
+    reach: i64,
+    anchors: &LevelAnchors,
+) -> Vec<u16> {
+    let tables: Vec<Integral> = [Material::Ink, Material::Paper]
+        .iter()
+        .map(|&m| {
+            Integral::new(side, |i, j| {
+                let k = j * side + i;
+                sampled[k].filter(|_| material[k] == m)
+            })
+        })
+        .collect();
+    // The nearest sampled texels first (a guard texel lies within the band's reach of them
+    // unless its cell is too narrow to hold any), then wider.
+    let near = reach.max(0) as usize + 1;
+    let radii = [
+        near,
+        2 * near,
+        tpc.max(2 * near),
+        4 * tpc.max(2 * near),
+        side,
+    ];
+    (0..side * side)
+        .map(|k| {
+            if let Some(r) = sampled[k] {
+                return value_of(r);
+            }
+            let (i, j) = (k % side, k / side);
+            let (table, anchor) = match material[k] {
+                Material::Ink => (&tables[0], anchors.ink_radiance),
+                _ => (&tables[1], anchors.paper_radiance),
+            };
+            let level = radii
+                .iter()
+                .find_map(|&r| table.mean(i, j, r))
+                .unwrap_or(anchor);
+            value_of(level)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

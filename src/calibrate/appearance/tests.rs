@@ -1,0 +1,254 @@
+use super::*;
+use crate::pipeline::rig::Rig;
+use crate::render::effects::EffectsConfig;
+use crate::render::texture::radiance_of;
+use crate::render::{render_frame, FrameRequest, PixelRect};
+use crate::scenario::Scenario;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Lighting off: DN = 255 × radiance.
+const ANCHORS: LevelAnchors = LevelAnchors {
+    ink_dn: 0.0,
+    ink_radiance: 0.0,
+    paper_dn: 255.0,
+    paper_radiance: 1.0,
+};
+
+/// The `fast` rig (a 64 px marker) with only an optical blur of `sigma_px`.
+fn rig_scenario(sigma_px: f64) -> Scenario {
+    let mut s = crate::scenario::from_str("extend = \"fast\"\n", Path::new("t.toml")).unwrap();
+    s.effects = EffectsConfig::none();
+    s.effects.optical_blur.enabled = true;
+    s.effects.optical_blur.sigma_px = sigma_px;
+    s
+}
+
+fn layout_of(s: &Scenario) -> MarkerLayout {
+    crate::diagnose::image::marker_layout(s).unwrap()
+}
+
+/// A marker texture of `tpc` texels per cell whose ink and paper vary slowly (a shading across
+/// the paper and a blotch), as a printed marker under a lamp does.
+fn printed_texture(s: &Scenario, tpc: u32) -> Texture {
+    let layout = layout_of(s);
+    let cells = layout.side_cells();
+    let m = (layout.margin_cells().unwrap() * tpc as f64).round() as usize;
+    let side = cells * tpc as usize + 2 * m;
+    let values = (0..side * side)
+        .map(|k| {
+            let (i, j) = ((k % side) as f64, (k / side) as f64);
+            let g = |v: f64| (v + 0.5 - m as f64) / tpc as f64;
+            let (gx, gy) = (g(i), g(j));
+            let shade = 0.06 * (gx / cells as f64) - 0.04 * (gy / cells as f64);
+            let blotch = 0.08 * (-((gx - 2.0).powi(2) + (gy - 4.0).powi(2)) / 4.5).exp();
+            let base = match layout.material(gx, gy) {
+                Material::Ink => 0.15,
+                _ => 0.75,
+            };
+            value_of(base + shade - blotch)
+        })
+        .collect();
+    Texture {
+        width: side,
+        height: side,
+        values,
+    }
+}
+
+/// Renders `s` at t = 0 over the marker's window; the window and its true corners.
+fn render_marker(s: &Scenario) -> (crate::render::GrayImage, [[f64; 2]; 4]) {
+    let rig = Rig::new(s).unwrap();
+    let scene = rig.animated();
+    let corners = scene.marker_corners_px(0.0);
+    let (x0, y0) = (
+        corners.iter().map(|c| c[0]).fold(f64::INFINITY, f64::min),
+        corners.iter().map(|c| c[1]).fold(f64::INFINITY, f64::min),
+    );
+    let window = PixelRect::new(x0 as i64 - 30, y0 as i64 - 30, 130, 130);
+    let req = FrameRequest {
+        index: 0,
+        t_s: 0.0,
+        window,
+    };
+    (render_frame(&scene, &rig.settings, &req), corners)
+}
+
+fn view(img: &crate::render::GrayImage) -> GrayView<'_> {
+    GrayView {
+        data: &img.data,
+        width: img.window.width,
+        height: img.window.height,
+        origin_px: (img.window.x0 as i32, img.window.y0 as i32),
+    }
+}
+
+fn with_marker_texture(mut s: Scenario, t: Texture, tpc: u32) -> Scenario {
+    let a = &mut s.scene.appearance;
+    a.marker_file = Some("marker.png".into());
+    a.marker_texels_per_cell = tpc;
+    a.loaded.marker = Some(Arc::new(t));
+    s
+}
+
+/// A printed marker rendered by the renderer and measured back: the sampled texels hold the
+/// texture that drew it (to the 8-bit footage's rounding and the blur of a slow shading), the
+/// guard band takes the local level, and a render of the measured texture reproduces the
+/// footage to a DN.
+#[test]
+fn a_rendered_marker_texture_is_measured_back_and_renders_the_footage_again() {
+    let sigma = 0.8;
+    let s = rig_scenario(sigma);
+    let layout = layout_of(&s);
+    let tpc = texels_per_cell(10.7, layout.margin_cells().unwrap()).unwrap();
+    let truth = printed_texture(&s, tpc);
+    let footage_scenario = with_marker_texture(s.clone(), truth.clone(), tpc);
+    let (footage, corners) = render_marker(&footage_scenario);
+    let views = [RegisteredView {
+        image: view(&footage),
+        corners_px: corners,
+    }];
+    let got = marker_appearance(&views, &layout, sigma, &ANCHORS).unwrap();
+    assert_eq!(got.texels_per_cell, tpc);
+    assert_eq!(
+        (got.texture.width, got.texture.height),
+        (truth.width, truth.height)
+    );
+    assert!(
+        got.sampled_texels > got.texture.values.len() / 5,
+        "{} of {} sampled",
+        got.sampled_texels,
+        got.texture.values.len()
+    );
+    // Sampled texels hold the truth to the footage's rounding and the blur of the shading;
+    // the guard band its material's level nearby (the blotch changes it by up to 0.04 there).
+    let (mut worst_sampled, mut worst_level) = (0.0f32, 0.0f32);
+    for (k, &sampled) in got.sampled_mask.iter().enumerate() {
+        let d = (radiance_of(got.texture.values[k]) - radiance_of(truth.values[k])).abs();
+        if sampled {
+            worst_sampled = worst_sampled.max(d);
+        } else {
+            worst_level = worst_level.max(d);
+        }
+    }
+    assert!(
+        worst_sampled < 3.0 / 255.0,
+        "worst sampled texel {worst_sampled}"
+    );
+    assert!(worst_level < 0.04, "worst level texel {worst_level}");
+    // The measured texture renders the footage again.
+    let again = with_marker_texture(s, got.texture.clone(), got.texels_per_cell);
+    let (render, _) = render_marker(&again);
+    let diffs: Vec<f64> = footage
+        .data
+        .iter()
+        .zip(&render.data)
+        .map(|(a, b)| *a as f64 - *b as f64)
+        .collect();
+    let rms = (diffs.iter().map(|d| d * d).sum::<f64>() / diffs.len() as f64).sqrt();
+    let max = diffs.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    // At most the guard band's level error (0.04 × 255 DN), a DN on average.
+    assert!(rms < 1.0 && max <= 10.0, "rms {rms} DN, max {max} DN");
+    // A uniform marker renders it far worse: the test can tell.
+    let (plain, _) = render_marker(&rig_scenario(sigma));
+    let plain_rms = (footage
+        .data
+        .iter()
+        .zip(&plain.data)
+        .map(|(a, b)| (*a as f64 - *b as f64).powi(2))
+        .sum::<f64>()
+        / diffs.len() as f64)
+        .sqrt();
+    assert!(
+        plain_rms > 5.0 * rms.max(0.2),
+        "uniform {plain_rms} DN, measured {rms} DN"
+    );
+}
+
+#[test]
+fn sampled_texels_are_those_clear_of_every_edge_by_the_guard_band() {
+    let sigma = 1.5;
+    let s = rig_scenario(sigma);
+    let layout = layout_of(&s);
+    let (footage, corners) = render_marker(&s);
+    let views = [RegisteredView {
+        image: view(&footage),
+        corners_px: corners,
+    }];
+    let sharp = marker_appearance(&views, &layout, 0.3, &ANCHORS).unwrap();
+    let blurred = marker_appearance(&views, &layout, sigma, &ANCHORS).unwrap();
+    // A wider blur leaves fewer texels clear of the edges.
+    assert!(blurred.guard_px > sharp.guard_px);
+    assert!(blurred.sampled_texels < sharp.sampled_texels);
+    assert_eq!(
+        blurred.sampled_texels + blurred.level_texels,
+        blurred.texture.values.len()
+    );
+    // The uniform marker comes back uniform: every texel at its material's level.
+    let t = &blurred.texture;
+    let m = (layout.margin_cells().unwrap() * blurred.texels_per_cell as f64).round();
+    for j in 0..t.height {
+        for i in 0..t.width {
+            let g = |v: usize| (v as f64 + 0.5 - m) / blurred.texels_per_cell as f64;
+            let want = match layout.material(g(i), g(j)) {
+                Material::Ink => s.scene.ink_radiance,
+                _ => s.scene.paper_radiance,
+            };
+            let r = radiance_of(t.values[j * t.width + i]) as f64;
+            assert!(
+                (r - want).abs() < 2.5 / 255.0,
+                "texel ({i}, {j}) {r} vs {want}"
+            );
+        }
+    }
+}
+
+#[test]
+fn texels_per_cell_put_the_margin_on_whole_texels_and_a_texel_within_a_pixel() {
+    // A margin of 15/16 cell: multiples of 16 only.
+    assert_eq!(texels_per_cell(10.7, 0.9375), Some(16));
+    assert_eq!(texels_per_cell(20.0, 0.9375), Some(32));
+    assert_eq!(texels_per_cell(100.0, 0.9375), Some(64));
+    // A margin of one cell: any; the fewest at least a pixel.
+    assert_eq!(texels_per_cell(3.2, 1.0), Some(4));
+    assert_eq!(texels_per_cell(0.5, 1.0), Some(1));
+    // No count up to 64 makes a margin of 1/3·1/67 whole.
+    assert_eq!(texels_per_cell(5.0, 1.0 / 201.0), None);
+}
+
+#[test]
+fn level_anchors_map_linearly_and_clamp() {
+    let a = LevelAnchors {
+        ink_dn: 50.0,
+        ink_radiance: 0.1,
+        paper_dn: 200.0,
+        paper_radiance: 0.7,
+    };
+    assert!((a.radiance(125.0) - 0.4).abs() < 1e-12);
+    assert_eq!(a.radiance(0.0), 0.0);
+    assert!((a.radiance(255.0) - 0.92).abs() < 1e-12);
+    assert_eq!(a.radiance(400.0), 1.0);
+}
+
+#[test]
+fn no_views_or_no_margin_is_an_error_not_a_texture() {
+    let s = rig_scenario(0.5);
+    let layout = layout_of(&s);
+    assert_eq!(
+        marker_appearance(&[], &layout, 0.5, &ANCHORS),
+        Err(AppearanceError::NoViews)
+    );
+    let no_margin = MarkerLayout {
+        margin_frac: None,
+        ..layout
+    };
+    let (footage, corners) = render_marker(&s);
+    let views = [RegisteredView {
+        image: view(&footage),
+        corners_px: corners,
+    }];
+    assert_eq!(
+        marker_appearance(&views, &no_margin, 0.5, &ANCHORS),
+        Err(AppearanceError::NoMargin)
+    );
+}
