@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::{geneva, stderr};
+use common::{geneva, render_printed_marker, stderr};
 
 /// `geneva calibrate --frames FRAMES --timestamps TIMES --base base.toml --out cal EXTRA…` in `dir`.
 fn calibrate_frames(dir: &Path, frames: &str, times: &str, extra: &[&str]) -> Output {
@@ -421,47 +421,12 @@ fn calibrate_reads_a_video_and_warns_when_the_base_does_not_fit_it() {
 #[test]
 fn a_printed_marker_s_texture_is_measured_from_the_footage_and_leaves_no_wide_structure_on_a_held_out_frame(
 ) {
-    use geneva_vision::calibrate::appearance::texels_per_cell;
     use geneva_vision::calibrate::CalibrateOptions;
-    use geneva_vision::imagestats::Material;
     use geneva_vision::pipeline::calibrate::{calibrate, Footage};
-    use geneva_vision::render::texture::value_of;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // The `fast` rig: the wheel rests in its dwell, where the texture is measured.
-    std::fs::write(d.join("truth.toml"), "extend = \"fast\"\n").unwrap();
+    render_printed_marker(d);
     let o = geneva(d, &["render", "truth.toml", "--out", "frames"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::write(d.join("base.toml"), BASE.replace("external", "internal")).unwrap();
-    let truth = geneva_vision::scenario::load(&d.join("truth.toml")).unwrap();
-    let layout = geneva_vision::diagnose::image::marker_layout(&truth).unwrap();
-    let cells = layout.side_cells();
-    let tpc = texels_per_cell(8.0, layout.margin_cells().unwrap()).unwrap();
-    let margin = (layout.margin_cells().unwrap() * tpc as f64).round() as usize;
-    let side = cells * tpc as usize + 2 * margin;
-    let values: Vec<u16> = (0..side * side)
-        .map(|k| {
-            let g = |v: usize| (v as f64 + 0.5 - margin as f64) / tpc as f64;
-            let (gx, gy) = (g(k % side), g(k / side));
-            let shade = (gx - gy) / cells as f64;
-            let blotch = (-((gx - 2.0).powi(2) + (gy - 4.0).powi(2)) / 4.5).exp();
-            value_of(match layout.material(gx, gy) {
-                Material::Ink => 0.12 + 0.04 * shade - 0.04 * blotch,
-                _ => 0.7 + 0.12 * shade - 0.1 * blotch,
-            })
-        })
-        .collect();
-    geneva_vision::io::texture_png::write_texture(&d.join("marker.png"), side, side, &values)
-        .unwrap();
-    std::fs::write(
-        d.join("printed.toml"),
-        format!(
-            "extend = \"truth.toml\"\n[scene.appearance]\nmarker_file = \"marker.png\"\n\
-             marker_texels_per_cell = {tpc}\n"
-        ),
-    )
-    .unwrap();
-    let o = geneva(d, &["render", "printed.toml", "--out", "printed"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let run = |frames: &str| {
         let base = d.join("base.toml").display().to_string();

@@ -2,7 +2,8 @@
 //! the rig from the footage, and its scenario is the nominal of `geneva diagnose`. Footage drawn
 //! by the independent renderer (`render::independent`) with nothing withheld must leave no gap
 //! against its own calibration, and an effect the calibration does not model (axis runout) must
-//! not be absorbed by one it does (a perspective tilt the poses do not agree on).
+//! not be absorbed by one it does (a perspective tilt the poses do not agree on). On this
+//! renderer's footage of a printed marker, the texture the calibration carries leaves no gap.
 
 #![cfg(feature = "opencv-detector")]
 
@@ -11,10 +12,12 @@ use geneva_vision::pipeline::calibrate::{calibrate, CalibrateOutput, Footage};
 use geneva_vision::pipeline::diagnose::selfcheck::{
     cases, render_case, suite_base, Case, SuitePlan,
 };
-use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseOptions};
+use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use geneva_vision::pipeline::render_job::Renderer;
 use geneva_vision::scenario::effects::Effect;
 use std::path::Path;
+
+mod common;
 
 fn frames_of(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let frames = dir.join("frames");
@@ -48,7 +51,22 @@ fn verdict(
     nominal: &geneva_vision::scenario::Scenario,
     effects: Option<Vec<Effect>>,
 ) -> String {
-    let (frames, timestamps) = frames_of(dir);
+    let (frames, _) = frames_of(dir);
+    diagnosis_of(dir, &frames, nominal, effects)
+        .verdict
+        .as_str()
+        .to_string()
+}
+
+/// The diagnosis of the frames in `frames` (with their `timestamps.csv`) against `nominal`,
+/// written under `dir`.
+fn diagnosis_of(
+    dir: &Path,
+    frames: &Path,
+    nominal: &geneva_vision::scenario::Scenario,
+    effects: Option<Vec<Effect>>,
+) -> Diagnosis {
+    let (frames, timestamps) = (frames.to_path_buf(), frames.join("timestamps.csv"));
     let options = DiagnoseOptions {
         seeds: 4,
         fit_seeds: 2,
@@ -58,19 +76,16 @@ fn verdict(
         effects,
         ..Default::default()
     };
+    let out = dir.join(format!(
+        "diagnosis-{}",
+        frames.file_name().unwrap().to_string_lossy()
+    ));
     let source = geneva_vision::pipeline::analyze::Source::Frames {
         dir: frames,
         timestamps,
     };
-    let (d, _) = diagnose(
-        nominal,
-        &source,
-        &dir.join("diagnosis"),
-        &options,
-        &|_, _, _| {},
-    )
-    .unwrap();
-    d.verdict.as_str().to_string()
+    let (d, _) = diagnose(nominal, &source, &out, &options, &|_, _, _| {}).unwrap();
+    d
 }
 
 fn independent(effects: Vec<Effect>, null_cases: usize, duration_s: f64) -> Vec<Case> {
@@ -139,4 +154,51 @@ fn a_tilted_camera_is_calibrated_and_leaves_no_gap() {
     // The calibrated nominal moves the marker's radius, angle and orientation through the
     // geometry alignment; the disc must keep holding the marker's paper all along.
     assert_eq!(verdict(tmp.path(), &out.scenario, None), "no_gap");
+}
+
+/// A printed marker (a shading across it and a blotch: real, and in no effect's vocabulary) is
+/// no gap against the scenario `geneva calibrate` fits to it, which carries the marker's
+/// texture; the same nominal with the marker drawn uniform leaves significant cells (the
+/// texture would otherwise pass for an effect).
+#[test]
+fn a_printed_marker_is_no_gap_against_its_calibrated_texture_and_a_gap_drawn_uniform() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    common::render_printed_marker(d);
+    let printed = d.join("printed");
+    let out = calibrate(
+        &Footage::Frames {
+            dir: printed.clone(),
+            timestamps: printed.join("timestamps.csv"),
+        },
+        &d.join("base.toml").display().to_string(),
+        &d.join("calibrated"),
+        &CalibrateOptions {
+            single_frame: false,
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    assert!(
+        out.scenario.scene.appearance.marker_file.is_some(),
+        "{:?}",
+        out.calibration.notes
+    );
+    let with_texture = diagnosis_of(d, &printed, &out.scenario, None);
+    assert_eq!(with_texture.verdict.as_str(), "no_gap");
+    let mut uniform = out.scenario.clone();
+    uniform.scene.appearance = Default::default();
+    // The gap map is what this is about: one candidate keeps the search short.
+    std::fs::create_dir_all(d.join("uniform")).unwrap();
+    let without = diagnosis_of(
+        &d.join("uniform"),
+        &printed,
+        &uniform,
+        Some(vec![Effect::PixelNoise]),
+    );
+    assert!(
+        without.nominal_gap.n_significant() >= 1,
+        "{:?}",
+        without.nominal_gap.significant().collect::<Vec<_>>()
+    );
 }

@@ -309,3 +309,49 @@ pub fn check_ci95(entry: &serde_json::Value) -> Result<usize, String> {
     }
     Ok(estimated_any)
 }
+
+/// Renders the `fast` rig with a printed marker into `dir/printed` (frames and timestamps): the
+/// marker's paper and ink drawn from a texture (`dir/marker.png`) with a shading across it and
+/// a blotch, as a printed marker under a lamp looks; writes `dir/base.toml`, a base that states
+/// the mechanism and the marker's side, and `dir/truth.toml` (the rig uniform).
+pub fn render_printed_marker(dir: &Path) {
+    use geneva_vision::calibrate::appearance::texels_per_cell;
+    use geneva_vision::imagestats::Material;
+    use geneva_vision::render::texture::value_of;
+    std::fs::write(dir.join("truth.toml"), "extend = \"fast\"\n").unwrap();
+    std::fs::write(
+        dir.join("base.toml"),
+        "extend = \"fast\"\n[mechanism]\nkind = \"internal\"\nslots = 4\n[scene.marker]\nsize_mm = 32.0\n",
+    )
+    .unwrap();
+    let truth = geneva_vision::scenario::load(&dir.join("truth.toml")).unwrap();
+    let layout = geneva_vision::diagnose::image::marker_layout(&truth).unwrap();
+    let cells = layout.side_cells();
+    let tpc = texels_per_cell(8.0, layout.margin_cells().unwrap()).unwrap();
+    let margin = (layout.margin_cells().unwrap() * tpc as f64).round() as usize;
+    let side = cells * tpc as usize + 2 * margin;
+    let values: Vec<u16> = (0..side * side)
+        .map(|k| {
+            let g = |v: usize| (v as f64 + 0.5 - margin as f64) / tpc as f64;
+            let (gx, gy) = (g(k % side), g(k / side));
+            let shade = (gx - gy) / cells as f64;
+            let blotch = (-((gx - 2.0).powi(2) + (gy - 4.0).powi(2)) / 4.5).exp();
+            value_of(match layout.material(gx, gy) {
+                Material::Ink => 0.12 + 0.04 * shade - 0.04 * blotch,
+                _ => 0.7 + 0.12 * shade - 0.1 * blotch,
+            })
+        })
+        .collect();
+    geneva_vision::io::texture_png::write_texture(&dir.join("marker.png"), side, side, &values)
+        .unwrap();
+    std::fs::write(
+        dir.join("printed.toml"),
+        format!(
+            "extend = \"truth.toml\"\n[scene.appearance]\nmarker_file = \"marker.png\"\n\
+             marker_texels_per_cell = {tpc}\n"
+        ),
+    )
+    .unwrap();
+    let o = geneva(dir, &["render", "printed.toml", "--out", "printed"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
