@@ -12,9 +12,12 @@
 //! the test only guards against a regression (within 35 %); likewise the re-render residual,
 //! wanted ≤ 1.2 × the fitted noise and not so on every case, is guarded at ≤ 1.5 ×. The
 //! re-render residual holds no structure that the noise model's own residual does not, on every
-//! case (`calibrate::residual`: the check that fails on the real frame must pass here).
+//! case (`calibrate::residual`: the check that fails on the real frame must pass here), and no
+//! texture is written for these uniform markers. Two printed markers (`calibrate_printed`):
+//! their texture is measured and the held-out frame renders with no wide structure left.
 #![cfg(feature = "opencv-detector")]
 
+use geneva_vision::pipeline::calibrate_printed::run_printed_case;
 use geneva_vision::pipeline::calibrate_roundtrip::{
     case_toml, criteria_table, render_and_calibrate, run_case, summary,
 };
@@ -76,6 +79,11 @@ fn calibrate_recovers_random_rendered_scenarios() {
                 );
             }
         }
+        assert!(
+            !r.texture_written,
+            "case {}: a texture written on a uniform marker",
+            r.index
+        );
         assert_eq!(
             r.compression_found,
             r.compressed,
@@ -156,4 +164,39 @@ fn calibrate_recovers_a_per_engagement_speed_variation() {
         "mid − end {d} against {}",
         mid - end
     );
+}
+
+/// Printed markers (the round trip's rigs with a shaded, blotched print; `reports/calibration/`
+/// has ten): `calibrate` measures the texture, mosaicked without the re-render check's frame,
+/// and the calibrated scenario renders that frame with no structure wider than a few pixels
+/// left. Two cases here.
+#[test]
+fn a_printed_marker_s_texture_is_measured_and_renders_the_held_out_frame() {
+    for i in 0..2 {
+        let dir = tempfile::tempdir().unwrap();
+        let r =
+            run_printed_case(20261123, i, dir.path()).unwrap_or_else(|e| panic!("case {i}: {e}"));
+        let k = r.check.as_ref().expect("the re-render check ran");
+        eprintln!(
+            "printed case {i}: paper spread {:.3}, texture {}, held out {}, ratio {:.3}, smoothed {:.3}, edge energy {:.2} (model {:.2}), failures {:?}",
+            r.paper_spread,
+            r.texture_written,
+            r.check_frame_held_out,
+            k.ratio(),
+            k.structure.footage.smoothed_retention,
+            k.structure.footage.edge_energy_ratio,
+            k.structure.model.edge_energy_ratio,
+            k.failures()
+        );
+        assert!(
+            r.texture_written && r.check_frame_held_out,
+            "case {i}: {r:?}"
+        );
+        assert!(
+            k.structure.footage.smoothed_retention
+                <= geneva_vision::calibrate::residual::MAX_SMOOTHED_RETENTION,
+            "case {i}: {:?}",
+            k.failures()
+        );
+    }
 }

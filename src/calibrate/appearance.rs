@@ -96,14 +96,14 @@ impl MarkerAppearance {
     }
 
     /// Whether the footage shows the marker's appearance beyond its noise: the spread of the
-    /// ink or the paper exceeds the noise's by [`MIN_TEXTURE_SD_DN`] and by twice the noise
-    /// left in the mean. A marker the noise explains is better drawn uniform: a texture would
-    /// only freeze that noise into every render.
+    /// ink or the paper beyond the noise's is at least [`MIN_TEXTURE_SD_DN`] and at least the
+    /// noise left in the mean. A texture also freezes that mean's noise into every render: it
+    /// pays only where the appearance it draws is larger than the noise it adds.
     pub fn shows_texture(&self, noise_sd_dn: [f64; 2]) -> bool {
         (0..2).any(|m| {
             let left = noise_sd_dn[m] / (self.frames.max(1) as f64).sqrt();
             let sd = self.texture_sd_dn(m, noise_sd_dn[m]);
-            sd >= MIN_TEXTURE_SD_DN && sd >= 2.0 * left
+            sd >= MIN_TEXTURE_SD_DN && sd >= left
         })
     }
 }

@@ -84,7 +84,7 @@ pub(crate) fn write_marker_appearance(
         cal.notes.push(format!(
             "appearance: the marker is drawn uniform: over {} registered frame(s) its ink and \
              paper vary by {:.2} / {:.2} DN, {:.2} / {:.2} DN beyond what their noise leaves \
-             (a texture needs {} DN and twice the noise left)",
+             (a texture needs {} DN and at least the noise left)",
             measured.frames,
             measured.spread_dn[0],
             measured.spread_dn[1],

@@ -3,9 +3,11 @@
 //! tilt, phase, speed, compression) is calibrated, and every fitted value is compared with the
 //! truth: inside its reported 95 % interval or not, and its error against the accuracy targets
 //! (scale 0.5 %, rotation centre 0.5 px, blur σ and noise σ 10 %). The test suite runs a few
-//! cases, `cargo xtask reports` many ([`calibration_report`], `reports/calibration/`).
+//! cases, `cargo xtask reports` many ([`calibration_report`], `reports/calibration/`), with the
+//! printed markers of [`super::calibrate_printed`] beside them.
 
 use super::calibrate::{calibrate, CalibrateJobError, CalibrateOutput, Footage};
+use super::calibrate_printed::{printed_section, run_printed_case, PRINTED_CASES};
 use super::render_job::{render_job, RenderJob};
 use crate::calibrate::output::ReRenderCheck;
 use crate::calibrate::CalibrateOptions;
@@ -53,6 +55,8 @@ pub struct CaseResult {
     pub paper_clipped: bool,
     /// The calibration found a JPEG quantiser (and so switched compression on).
     pub compression_found: bool,
+    /// The calibration wrote a marker texture (the marker is uniform here: it should not).
+    pub texture_written: bool,
 }
 
 impl CaseResult {
@@ -181,11 +185,15 @@ pub fn render_and_calibrate(
     )
 }
 
-/// Renders case `index` into `dir`, calibrates it and compares.
-pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, CalibrateJobError> {
-    // Redraw until the scenario is valid and the marker stays in the frame.
+/// Case `index` under `seed` as text and scenario, written to `dir/truth.toml`: redrawn until
+/// the scenario is valid and the marker stays in the frame.
+pub(crate) fn draw_case(
+    seed: u64,
+    index: usize,
+    dir: &Path,
+) -> Result<(String, Scenario), CalibrateJobError> {
     let mut k = 0;
-    let (text, truth) = loop {
+    loop {
         let text = case_toml(seed, index * 100 + k);
         k += 1;
         let path = dir.join("truth.toml");
@@ -195,13 +203,18 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         })?;
         if let Ok(s) = crate::scenario::load(&path) {
             if super::rig::Rig::new(&s).is_ok() {
-                break (text, s);
+                return Ok((text, s));
             }
         }
         if k > 50 {
             return Err(CalibrateJobError::RoundTripNoCase { attempts: k });
         }
-    };
+    }
+}
+
+/// Renders case `index` into `dir`, calibrates it and compares.
+pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, CalibrateJobError> {
+    let (text, truth) = draw_case(seed, index, dir)?;
     let out = render_and_calibrate(&truth, dir)?;
     let cal = &out.calibration;
     let g = &cal.geometry;
@@ -375,6 +388,7 @@ pub fn run_case(seed: u64, index: usize, dir: &Path) -> Result<CaseResult, Calib
         compressed: truth.effects.compression.enabled,
         paper_clipped: truth.scene.paper_radiance >= 1.0,
         compression_found: im.jpeg_quality.is_some(),
+        texture_written: cal.appearance.is_some(),
     })
 }
 
@@ -621,15 +635,31 @@ pub fn calibration_report(
         file: dir.to_path_buf(),
         source,
     };
+    let total = cases + PRINTED_CASES;
+    // Each case in a scratch folder that goes once it is measured.
+    let scratch = |name: String| -> Result<std::path::PathBuf, CalibrateJobError> {
+        let work = dir.join(name);
+        std::fs::create_dir_all(&work).map_err(io)?;
+        Ok(work)
+    };
     let mut results = Vec::new();
     for i in 0..cases {
-        let work = dir.join(format!(".case-{i}"));
-        std::fs::create_dir_all(&work).map_err(io)?;
+        let work = scratch(format!(".case-{i}"))?;
         let r = run_case(seed, i, &work);
         std::fs::remove_dir_all(&work).map_err(io)?;
         results.push(r?);
-        progress(i + 1, cases);
+        progress(i + 1, total);
     }
+    let mut printed = Vec::new();
+    for i in 0..PRINTED_CASES {
+        let work = scratch(format!(".printed-{i}"))?;
+        let r = run_printed_case(seed, i, &work);
+        std::fs::remove_dir_all(&work).map_err(io)?;
+        printed.push(r?);
+        progress(cases + i + 1, total);
+    }
+    let (printed_md, printed_csv) = printed_section(&results, &printed);
+    std::fs::write(dir.join("printed.csv"), printed_csv).map_err(io)?;
     let mut csv = String::from(
         "case,compressed,paper_clipped,parameter,truth,fitted,u95,error,within,target_met,not_identifiable\n",
     );
@@ -710,9 +740,10 @@ pub fn calibration_report(
          codec): `calibrate::blur_model`.\n\n\
          ## Per parameter\n\n{}\n\
          Every comparison is in `checks.csv`; per case, whether compression was found and the \
-         re-render ratio, in `cases.csv`. Regenerate with `cargo xtask reports`.\n",
+         re-render ratio, in `cases.csv`. Regenerate with `cargo xtask reports`.\n\n{}",
         criteria_table(&results),
-        summary(&results)
+        summary(&results),
+        printed_md
     );
     std::fs::write(dir.join("README.md"), md).map_err(io)?;
     Ok(results)

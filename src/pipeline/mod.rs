@@ -13,6 +13,8 @@ mod calibrate_appearance;
 #[cfg(feature = "opencv-detector")]
 mod calibrate_overlay;
 #[cfg(feature = "opencv-detector")]
+pub mod calibrate_printed;
+#[cfg(feature = "opencv-detector")]
 pub mod calibrate_roundtrip;
 #[cfg(feature = "opencv-detector")]
 pub mod decompose;
