@@ -1187,7 +1187,7 @@ fn set_override(ovs: &mut [Override], path: &str, value: Value) {
     }
 }
 
-fn float_of(ovs: &[Override], path: &str) -> Option<f64> {
+pub(crate) fn float_of(ovs: &[Override], path: &str) -> Option<f64> {
     ovs.iter()
         .find(|o| o.path == path)
         .and_then(|o| o.value.as_float())
@@ -1405,7 +1405,7 @@ fn match_by_simulation(
     }
 }
 
-fn round6(v: f64) -> f64 {
+pub(crate) fn round6(v: f64) -> f64 {
     (v * 1e6).round() / 1e6
 }
 

@@ -1,7 +1,7 @@
 //! The marker texture a calibration writes (`marker.png`, named by the calibrated scenario's
 //! `[scene.appearance]`): the frames kept for it, mosaicked by [`crate::calibrate::appearance`].
 
-use super::calibrate::{CalibrateJobError, Corners, Crop};
+use super::calibrate::{float_of, round6, CalibrateJobError, Corners, Crop};
 use crate::calibrate::appearance::{
     marker_appearance, AppearanceRecord, LevelAnchors, RegisteredView,
 };
@@ -18,12 +18,6 @@ pub(crate) const MARKER_FILE: &str = "marker.png";
 /// A frame kept for the mosaic: its frame number in the footage, the window around the marker
 /// and the marker's corners there.
 pub(crate) type MosaicFrame = (usize, Crop, Corners);
-
-fn float_of(ovs: &[Override], path: &str) -> Option<f64> {
-    ovs.iter()
-        .find(|o| o.path == path)
-        .and_then(|o| o.value.as_float())
-}
 
 /// Measures the marker's texture on `frames` (the re-render check's frame `check_frame` left
 /// out when others remain), writes it into `out_dir` and names it in `ovs`. When no texture
@@ -145,7 +139,6 @@ fn raise_white_level(
     new_white: f64,
 ) {
     let k = (new_white - black) / (white - black);
-    let round6 = |v: f64| (v * 1e6).round() / 1e6;
     for o in ovs.iter_mut() {
         let scaled = match o.path.as_str() {
             "effects.lighting.white_level_dn" => Some(new_white),
