@@ -78,6 +78,15 @@ fn calibrate_writes_a_scenario_that_extends_the_base_with_its_uncertainties() {
             .unwrap_or_else(|| panic!("{field} not in {toml}"));
         assert!(line.contains('±'), "{line}");
     }
+    // Steady light: no drift is claimed, and the scenario says so.
+    let drift = toml
+        .lines()
+        .find(|l| l.trim_start().starts_with("gain_drift_per_s"))
+        .unwrap_or_else(|| panic!("no drift line in {toml}"));
+    assert!(
+        drift.contains("= 0.0") && drift.contains("steady: no drift beyond ±"),
+        "{drift}"
+    );
     // The calibrated scenario is a valid scenario, runnable from its folder.
     let o = geneva(d, &["scenario", "check", "cal/scenario.toml"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -379,6 +388,63 @@ fn the_real_4k_frame_s_disc_marker_gives_no_texture_for_noise_and_fails_the_re_r
 
 /// From a video (ffmpeg decode, ffprobe timestamps); a base naming the wrong mechanism is not
 /// taken silently: the misfit is reported.
+/// Footage whose light rises by 4 % per second up to its last frame (an auto-exposure at work)
+/// calibrates into a scenario with that drift, referred to the footage's median time where its
+/// levels are taken, inside its stated 95 % interval, and the calibrated scenario's render of a
+/// frame far from that time passes the re-render check.
+#[test]
+fn a_light_that_drifts_over_the_footage_is_measured_and_written_with_its_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let drift_per_s = 0.04;
+    let text = case_toml(20261123, 5).replace(
+        "[effects.lighting]\n",
+        &format!("[effects.lighting]\ngain_drift_per_s = {drift_per_s}\ngain_reference_s = 3.0\n"),
+    );
+    assert!(text.contains("gain_drift_per_s"), "{text}");
+    std::fs::write(d.join("truth.toml"), text).unwrap();
+    let o = geneva(d, &["render", "truth.toml", "--out", "frames"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The case's mechanism: an internal drive of five slots.
+    let base = BASE
+        .replace("external", "internal")
+        .replace("slots = 4", "slots = 5");
+    std::fs::write(d.join("base.toml"), base).unwrap();
+    let o = calibrate_frames(d, "frames", "frames/timestamps.csv", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let toml = std::fs::read_to_string(d.join("cal/scenario.toml")).unwrap();
+    let value_of = |field: &str| -> (f64, String) {
+        let line = toml
+            .lines()
+            .find(|l| l.trim_start().starts_with(field))
+            .unwrap_or_else(|| panic!("{field} not in {toml}"));
+        let v = line.split('=').nth(1).unwrap().split('#').next().unwrap();
+        (v.trim().parse().unwrap(), line.to_string())
+    };
+    let (fitted, line) = value_of("gain_drift_per_s");
+    let (reference_s, _) = value_of("gain_reference_s");
+    let u95: f64 = line
+        .split('±')
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|u| u.parse().ok())
+        .unwrap_or_else(|| panic!("no interval in {line}"));
+    // The truth's gain is 1 + 0.04·(t − 3); about t_ref it changes by 0.04/(1 + 0.04·(t_ref − 3))
+    // per s.
+    let truth = drift_per_s / (1.0 + drift_per_s * (reference_s - 3.0));
+    assert!((reference_s - 1.5).abs() < 0.1, "{reference_s}");
+    assert!((fitted - truth).abs() <= u95, "{line}: truth {truth}");
+    assert!(
+        u95 < 0.1 * truth,
+        "{line}: the interval must show the drift"
+    );
+    let md = std::fs::read_to_string(d.join("cal/calibration.md")).unwrap();
+    assert!(md.contains("light's drift over the footage"), "{md}");
+    assert!(md.contains("the light drifts over the footage"), "{md}");
+    // The render at a frame 1.3 s before the reference time, in its light, is the footage's.
+    assert!(md.contains("## Re-rendering check: passed"), "{md}");
+}
+
 #[test]
 fn calibrate_reads_a_video_and_warns_when_the_base_does_not_fit_it() {
     let dir = tempfile::tempdir().unwrap();

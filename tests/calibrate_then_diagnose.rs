@@ -3,7 +3,8 @@
 //! by the independent renderer (`render::independent`) with nothing withheld must leave no gap
 //! against its own calibration, and an effect the calibration does not model (axis runout) must
 //! not be absorbed by one it does (a perspective tilt the poses do not agree on). On this
-//! renderer's footage of a printed marker, the texture the calibration carries leaves no gap.
+//! renderer's footage of a printed marker, the texture the calibration carries leaves no gap, and so
+//! does the drift it measures on footage whose light fades.
 
 #![cfg(feature = "opencv-detector")]
 
@@ -25,25 +26,31 @@ fn frames_of(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     (frames, timestamps)
 }
 
-/// Renders `case`, calibrates it with the case's nominal as the base.
-fn render_and_calibrate(case: &Case, dir: &Path) -> CalibrateOutput {
-    let (frames, timestamps) = frames_of(dir);
-    render_case(case, &frames).unwrap();
-    let base = dir.join("base.toml");
-    std::fs::write(&base, toml::to_string(&case.nominal).unwrap()).unwrap();
+/// `calibrate` of the frames in `frames` (with their `timestamps.csv`) on the base file `base`,
+/// into `out`.
+fn calibrate_frames(frames: &Path, base: &Path, out: &Path) -> CalibrateOutput {
     calibrate(
         &Footage::Frames {
-            dir: frames,
-            timestamps,
+            dir: frames.to_path_buf(),
+            timestamps: frames.join("timestamps.csv"),
         },
         &base.display().to_string(),
-        &dir.join("calibrated"),
+        out,
         &CalibrateOptions {
             single_frame: false,
         },
         &|_, _| {},
     )
     .unwrap()
+}
+
+/// Renders `case`, calibrates it with the case's nominal as the base.
+fn render_and_calibrate(case: &Case, dir: &Path) -> CalibrateOutput {
+    let (frames, _) = frames_of(dir);
+    render_case(case, &frames).unwrap();
+    let base = dir.join("base.toml");
+    std::fs::write(&base, toml::to_string(&case.nominal).unwrap()).unwrap();
+    calibrate_frames(&frames, &base, &dir.join("calibrated"))
 }
 
 fn verdict(
@@ -166,19 +173,7 @@ fn a_printed_marker_is_no_gap_against_its_calibrated_texture_and_a_gap_drawn_uni
     let d = tmp.path();
     common::render_printed_marker(d);
     let printed = d.join("printed");
-    let out = calibrate(
-        &Footage::Frames {
-            dir: printed.clone(),
-            timestamps: printed.join("timestamps.csv"),
-        },
-        &d.join("base.toml").display().to_string(),
-        &d.join("calibrated"),
-        &CalibrateOptions {
-            single_frame: false,
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    let out = calibrate_frames(&printed, &d.join("base.toml"), &d.join("calibrated"));
     assert!(
         out.scenario.scene.appearance.marker_file.is_some(),
         "{:?}",
@@ -201,4 +196,36 @@ fn a_printed_marker_is_no_gap_against_its_calibrated_texture_and_a_gap_drawn_uni
         "{:?}",
         without.nominal_gap.significant().collect::<Vec<_>>()
     );
+}
+
+/// Footage whose light fades by 5 % per second (an auto-exposure at work) calibrates into a
+/// scenario that carries the drift, and the diagnosis against it, with every candidate, finds no
+/// gap.
+#[test]
+fn a_drifting_light_is_calibrated_and_leaves_no_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(
+        d.join("truth.toml"),
+        "extend = \"fast\"\n[effects.lighting]\ngain_drift_per_s = -0.05\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("base.toml"),
+        "extend = \"fast\"\n[mechanism]\nkind = \"internal\"\nslots = 4\n[scene.marker]\nsize_mm = 32.0\n",
+    )
+    .unwrap();
+    let o = common::geneva(d, &["render", "truth.toml", "--out", "frames"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let (frames, _) = frames_of(d);
+    let out = calibrate_frames(&frames, &d.join("base.toml"), &d.join("calibrated"));
+    let light = &out.scenario.effects.lighting;
+    assert!(
+        light.gain_drift_per_s < -0.04,
+        "{} {:?}",
+        light.gain_drift_per_s,
+        out.calibration.notes
+    );
+    let with_drift = diagnosis_of(d, &frames, &out.scenario, None);
+    assert_eq!(with_drift.verdict.as_str(), "no_gap");
 }

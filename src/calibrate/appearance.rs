@@ -34,11 +34,14 @@ const GUARD_SIGMAS: f64 = 3.0;
 const GUARD_EXTRA_PX: f64 = 1.5;
 
 /// One frame where the marker was registered: the footage around it and its four outer
-/// corners (OpenCV order: TL, TR, BR, BL as printed), px.
+/// corners (OpenCV order: TL, TR, BR, BL as printed), px, and the light's gain on it relative to
+/// the anchors' (a drifting exposure: each view's levels are brought to the anchors' light
+/// before they are averaged).
 #[derive(Debug, Clone, Copy)]
 pub struct RegisteredView<'a> {
     pub image: GrayView<'a>,
     pub corners_px: [[f64; 2]; 4],
+    pub light_gain: f64,
 }
 
 /// Two points of the linear map from grey level (DN) to radiance.
@@ -61,6 +64,17 @@ impl LevelAnchors {
             self.paper_radiance
         };
         r.clamp(0.0, 1.0)
+    }
+
+    /// The grey level `dn`, seen under a light of gain `gain`, under the anchors' light: the
+    /// radiance scales with the gain about the level of radiance 0.
+    pub fn under_unit_gain(&self, dn: f64, gain: f64) -> f64 {
+        let dr = self.paper_radiance - self.ink_radiance;
+        if gain == 1.0 || gain.is_nan() || gain <= 0.0 || dr.abs() < 1e-12 {
+            return dn;
+        }
+        let zero_dn = self.ink_dn - self.ink_radiance * (self.paper_dn - self.ink_dn) / dr;
+        zero_dn + (dn - zero_dn) / gain
     }
 }
 
@@ -295,7 +309,7 @@ pub fn marker_appearance(
             for (v, h) in views.iter().zip(&maps) {
                 let [x, y] = h.map(gx, gy);
                 if let Some(dn) = bilinear(&v.image, x, y) {
-                    sum += dn;
+                    sum += anchors.under_unit_gain(dn, v.light_gain);
                     n += 1;
                 }
             }

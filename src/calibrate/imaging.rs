@@ -2,6 +2,7 @@
 //! pixel noise (shot + read) and JPEG compression, and their mapping onto the renderer's
 //! parameters (levels and radiances, `optical_blur.sigma_px`, `pixel_noise` electrons).
 
+use super::exposure::{fit_drift, ContrastSample, ExposureDrift};
 use super::{blur_model, CalibrateError, Fitted, FootageStats};
 use crate::imagestats::{EdgeProfile, RegionStats};
 use crate::numeric::robust::{median_in_place as median, sample_sd};
@@ -126,6 +127,9 @@ pub struct ImagingFit {
     pub reference_ink_dn: Option<Fitted>,
     pub reference_paper_dn: Option<Fitted>,
     pub reference_blur_sigma_px: Option<Fitted>,
+    /// The light's drift over the footage (`exposure`); the levels above hold at its
+    /// reference time, and the black and white levels leave room for its whole range.
+    pub exposure: ExposureDrift,
 }
 
 /// Median over frames with U = 2·1.2533·sd/√n (the median's standard error), floored.
@@ -583,14 +587,22 @@ pub fn fit_imaging(
         source.push_str("; one-sided σ where clipped");
     }
     // Levels with room for 5σ of noise on both sides (the tone curve clips at 0 and 1), unless
-    // the footage is clipped there itself.
+    // the footage is clipped there itself, at the darkest and brightest light of a drift: the
+    // ink at gain g_lo sits at black + (ink − black)·g_lo, the paper at g_hi likewise.
+    let exposure = exposure_drift(stats, notes);
+    let (g_lo, g_hi) = exposure.gain_range();
     let black = match ink_clip {
         Some(c) => c.0.value,
-        None => (ink_dn.value - 5.0 * ink_sigma.value - 1.0).max(0.0),
+        None => (ink_dn.value - 5.0 * ink_sigma.value / g_lo - 1.0 / g_lo).max(0.0),
     };
     let white = match paper_clip {
         Some(c) => c.0.value,
-        None => (paper_dn.value + 5.0 * paper_sigma.value + 1.0).min(255.0),
+        // Written so that steady light (g_hi = 1) gives the same bits as paper + 5σ + 1.
+        None => (paper_dn.value
+            + (paper_dn.value - black) * (g_hi - 1.0)
+            + 5.0 * paper_sigma.value
+            + 1.0)
+            .min(255.0),
     }
     .max(black + 10.0);
     let span = white - black;
@@ -767,5 +779,49 @@ pub fn fit_imaging(
         reference_ink_dn: ref_level(|l| l.ink.trimmed_mean_dn),
         reference_paper_dn: ref_level(|l| l.paper.trimmed_mean_dn),
         reference_blur_sigma_px: blur_of(&ref_edges),
+        exposure,
     })
+}
+
+/// The light's drift from the marker's contrast frame by frame (`exposure`), with a note when
+/// one is found or when a clipped level hides it.
+fn exposure_drift(stats: &FootageStats, notes: &mut Vec<String>) -> ExposureDrift {
+    let samples: Vec<ContrastSample> = stats
+        .frames
+        .iter()
+        .filter_map(|f| {
+            let (l, c) = (f.levels.as_ref()?, f.corners_px?);
+            // A region with a clipped tail follows the light by its censored normal's mean; one
+            // clipped through its middle does not follow it at all.
+            let level = |r: &RegionStats| match &r.clipping {
+                None => Some(r.trimmed_mean_dn),
+                Some(c) if c.fraction < 0.5 => Some(c.mean_dn),
+                Some(_) => None,
+            };
+            Some(ContrastSample {
+                t_s: f.t_s,
+                contrast_dn: level(&l.paper)? - level(&l.ink)?,
+                centre_px: [
+                    c.iter().map(|p| p[0]).sum::<f64>() / 4.0,
+                    c.iter().map(|p| p[1]).sum::<f64>() / 4.0,
+                ],
+            })
+        })
+        .collect();
+    let drift = fit_drift(&samples, stats.width_px, stats.height_px);
+    if let Some(f) = drift.significant() {
+        let (lo, hi) = f.gain_range();
+        notes.push(format!(
+            "the light drifts over the footage: the marker's contrast changes by {} %/s (95 %) \
+             about t = {:.2} s, {:.1} % to {:+.1} % over the footage, with an illumination \
+             gradient across the marker's path fitted beside it; written as \
+             effects.lighting.gain_drift_per_s, the levels hold at t = {:.2} s",
+            f.drift_per_s.map(|d| 100.0 * d),
+            f.reference_s,
+            100.0 * (lo - 1.0),
+            100.0 * (hi - 1.0),
+            f.reference_s
+        ));
+    }
+    drift
 }

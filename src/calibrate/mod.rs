@@ -24,6 +24,9 @@
 //!   carries the base's;
 //! - the marker's appearance: its paper and ink as a texture mosaicked from the registered
 //!   frames, levels near the edges (`appearance`);
+//! - the light's drift over the footage (an auto-exposure, a lamp warming up): the marker's
+//!   contrast over time, with an illumination gradient across its path fitted beside it
+//!   (`exposure`);
 //! - the re-render check: the calibrated scenario rendered at a footage frame, and the structure
 //!   left in footage − render (`rerender`, `residual`).
 //! - perspective tilt: the mean image-space metric of the marker's affine shape (aspect), with
@@ -34,6 +37,7 @@
 
 pub mod appearance;
 mod blur_model;
+pub mod exposure;
 mod geometry;
 mod imaging;
 mod motion;

@@ -2,6 +2,7 @@
 //! comment) and the calibration report, as text. One list of [`Override`]s feeds both the file
 //! and the typed scenario (`scenario::with_overrides`), so they cannot disagree.
 
+use super::exposure::ExposureDrift;
 use super::residual::{self, StructureCheck};
 use super::{significant_decimals, Calibration, Fitted};
 use crate::mechanism::Mechanism;
@@ -486,6 +487,7 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
         num(1.0, 1),
         "levels are mapped linearly",
     ));
+    o.extend(exposure_overrides(&im.exposure));
     o.push(ov(
         "scene.ink_radiance",
         num(im.ink_radiance, 5),
@@ -568,6 +570,80 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
 }
 
 /// The compression fields, appended to `o`.
+/// `effects.lighting.gain_drift_per_s` and `gain_reference_s`: the drift when the footage shows
+/// one, else steady light, saying why.
+fn exposure_overrides(e: &ExposureDrift) -> Vec<Override> {
+    match e {
+        ExposureDrift::Fitted(f) if f.significant() => vec![
+            ov(
+                "effects.lighting.gain_drift_per_s",
+                num(f.drift_per_s.value, 7),
+                format!(
+                    "± {:.*} per s (95 %): the marker's contrast over {} stretches of the footage",
+                    significant_decimals(f.drift_per_s.u95),
+                    f.drift_per_s.u95,
+                    f.blocks
+                ),
+            ),
+            ov(
+                "effects.lighting.gain_reference_s",
+                num(f.reference_s, 4),
+                "the footage's median time: the levels hold there",
+            ),
+        ],
+        ExposureDrift::Fitted(f) => vec![ov(
+            "effects.lighting.gain_drift_per_s",
+            num(0.0, 1),
+            format!(
+                "steady: no drift beyond ± {:.*} per s (95 %, {} stretches of the footage)",
+                significant_decimals(f.drift_per_s.u95),
+                f.drift_per_s.u95,
+                f.blocks
+            ),
+        )],
+        ExposureDrift::NotIdentifiable(why) => vec![ov(
+            "effects.lighting.gain_drift_per_s",
+            num(0.0, 1),
+            format!("NOT IDENTIFIABLE ({why}): steady light assumed"),
+        )],
+    }
+}
+
+/// The calibration.md row of the light's drift: (value, how).
+fn exposure_row(e: &ExposureDrift) -> (String, String) {
+    match e {
+        ExposureDrift::Fitted(f) => (
+            format!(
+                "{}{}",
+                f.drift_per_s.map(|d| 100.0 * d),
+                if f.significant() {
+                    ""
+                } else {
+                    " (steady: not written)"
+                }
+            ),
+            format!(
+                "the marker's contrast (paper − ink) over {} stretches of {} frames, fitted as \
+                 c₀·(1 + d·(t − {:.2} s)) times an illumination gradient across the marker's \
+                 path{}; residual {:.2} DN",
+                f.blocks,
+                f.frames,
+                f.reference_s,
+                match f.gradient_fitted {
+                    [true, true] => "",
+                    [false, false] => " (not fitted: the marker stays put)",
+                    _ => " (along the one axis it travels)",
+                },
+                f.residual_rms_dn
+            ),
+        ),
+        ExposureDrift::NotIdentifiable(why) => (
+            "not identifiable".into(),
+            format!("{why}; steady light assumed"),
+        ),
+    }
+}
+
 fn compression_overrides(im: &super::ImagingFit, mut o: Vec<Override>) -> Vec<Override> {
     match im.jpeg_quality {
         Some((q, (lo, hi), k)) => {
@@ -954,6 +1030,10 @@ pub fn calibration_markdown(
             format!("maximum likelihood of the IJG table on block-DCT coefficients (Fan & de Queiroz 2003), {k} of {} frames", im.compression_frames),
         ),
         None => row("JPEG quality", "none found".into(), "–", format!("{} frames examined", im.compression_frames)),
+    }
+    {
+        let (value, how) = exposure_row(&im.exposure);
+        row("light's drift over the footage", value, "%/s", how);
     }
     if let Some(b) = im.blockiness {
         row(

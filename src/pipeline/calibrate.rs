@@ -981,6 +981,7 @@ fn write_outputs(
             .map_or(base.effects.optical_blur.sigma_px, |b| b.value);
         if let Some(p) = write_marker_appearance(
             &mosaic,
+            times,
             Some(*frame),
             &layout,
             blur_sigma_px,
@@ -1131,7 +1132,14 @@ fn simulated_stats(
     kinds: [SigmaStat; 2],
 ) -> Option<([f64; 3], [f64; 2])> {
     let temporal = kinds[0] == SigmaStat::Temporal;
-    let rig = crate::pipeline::rig::Rig::new(scenario).ok()?;
+    // The footage's levels are medians over its frames, which hold at the drift's reference
+    // time: the match renders that light, steady.
+    let mut steady = scenario.clone();
+    let light = &mut steady.effects.lighting;
+    light.gain_drift_per_s = 0.0;
+    light.gain_steps.clear();
+    light.flicker_frac = 0.0;
+    let rig = crate::pipeline::rig::Rig::new(&steady).ok()?;
     let times = rig.frame_times.as_slice();
     let k = frame.min(times.len().checked_sub(1)?);
     let scene = rig.animated();

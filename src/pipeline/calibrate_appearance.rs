@@ -20,11 +20,13 @@ pub(crate) const MARKER_FILE: &str = "marker.png";
 pub(crate) type MosaicFrame = (usize, Crop, Corners);
 
 /// Measures the marker's texture on `frames` (the re-render check's frame `check_frame` left
-/// out when others remain), writes it into `out_dir` and names it in `ovs`. When no texture
+/// out when others remain; each frame's levels brought to the calibrated light by its gain at
+/// `times_s[frame]`), writes it into `out_dir` and names it in `ovs`. When no texture
 /// can be measured the marker stays uniform and a note says why. Returns the file written.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn write_marker_appearance(
     frames: &[MosaicFrame],
+    times_s: &[f64],
     check_frame: Option<usize>,
     layout: &MarkerLayout,
     blur_sigma_px: f64,
@@ -47,9 +49,12 @@ pub(crate) fn write_marker_appearance(
     };
     let views: Vec<RegisteredView<'_>> = chosen
         .iter()
-        .map(|(_, crop, corners)| RegisteredView {
+        .map(|(frame, crop, corners)| RegisteredView {
             image: crop.view(),
             corners_px: *corners,
+            light_gain: times_s
+                .get(*frame)
+                .map_or(1.0, |&t| cal.imaging.exposure.gain_at(t)),
         })
         .collect();
     // The calibrated tone curve is linear (gamma 1): black is radiance 0, white 1.

@@ -137,7 +137,7 @@ pub fn render_frame_with(
         let tone = ToneMap::new(
             fx,
             settings.seed,
-            frame.index,
+            (frame.index, frame.t_s),
             settings.width_px,
             settings.height_px,
         );

@@ -119,7 +119,9 @@ pub fn render_frame_independent(
     let mut data = Vec::with_capacity(w * h);
     for (i, &d) in display.iter().enumerate() {
         let (x, y) = ((i % w) as i64, (i / w) as i64);
-        let mut s = linear_signal(&tone, d) * fx.lighting.gain(x, y, w, h);
+        let t_row = t_s + fx.rolling_shutter.row_delay_s(y, h);
+        let g_t = fx.lighting.temporal_gain(t_row, exposure_s);
+        let mut s = linear_signal(&tone, d) * fx.lighting.gain_with(x, y, w, h, g_t);
         if let Some(c) = noise {
             let e = s.max(0.0) as f64 * c.full_well_e;
             let sigma_e = (e + c.read_noise_e * c.read_noise_e).sqrt();

@@ -107,6 +107,7 @@ fn a_rendered_marker_texture_is_measured_back_and_renders_the_footage_again() {
     let views = [RegisteredView {
         image: view(&footage),
         corners_px: corners,
+        light_gain: 1.0,
     }];
     let got = marker_appearance(&views, &layout, sigma, &ANCHORS).unwrap();
     assert_eq!(got.texels_per_cell, tpc);
@@ -174,6 +175,7 @@ fn sampled_texels_are_those_clear_of_every_edge_by_the_guard_band() {
     let views = [RegisteredView {
         image: view(&footage),
         corners_px: corners,
+        light_gain: 1.0,
     }];
     let sharp = marker_appearance(&views, &layout, 0.3, &ANCHORS).unwrap();
     let blurred = marker_appearance(&views, &layout, sigma, &ANCHORS).unwrap();
@@ -246,9 +248,87 @@ fn no_views_or_no_margin_is_an_error_not_a_texture() {
     let views = [RegisteredView {
         image: view(&footage),
         corners_px: corners,
+        light_gain: 1.0,
     }];
     assert_eq!(
         marker_appearance(&views, &no_margin, 0.5, &ANCHORS),
         Err(AppearanceError::NoMargin)
     );
+}
+
+/// Views under a drifting light are brought to the anchors' light before they are averaged: a
+/// frame seen at 80 % of the light mosaics, with its gain stated, into the texture of the frame
+/// at full light (to the 8-bit rounding), and without it into a texture 10 % darker on average.
+#[test]
+fn a_view_under_a_dimmer_light_mosaics_into_the_same_texture_once_its_gain_is_stated() {
+    let sigma = 0.8;
+    let s = rig_scenario(sigma);
+    let layout = layout_of(&s);
+    let tpc = texels_per_cell(10.7, layout.margin_cells().unwrap()).unwrap();
+    let footage_scenario = with_marker_texture(s.clone(), printed_texture(&s, tpc), tpc);
+    let (footage, corners) = render_marker(&footage_scenario);
+    let dim = crate::render::GrayImage {
+        window: footage.window,
+        data: footage
+            .data
+            .iter()
+            .map(|&v| (v as f64 * 0.8).round() as u8)
+            .collect(),
+    };
+    fn at(
+        img: &crate::render::GrayImage,
+        corners_px: [[f64; 2]; 4],
+        light_gain: f64,
+    ) -> RegisteredView<'_> {
+        RegisteredView {
+            image: view(img),
+            corners_px,
+            light_gain,
+        }
+    }
+    let alone = marker_appearance(&[at(&footage, corners, 1.0)], &layout, sigma, &ANCHORS).unwrap();
+    let stated = marker_appearance(
+        &[at(&footage, corners, 1.0), at(&dim, corners, 0.8)],
+        &layout,
+        sigma,
+        &ANCHORS,
+    )
+    .unwrap();
+    let unstated = marker_appearance(
+        &[at(&footage, corners, 1.0), at(&dim, corners, 1.0)],
+        &layout,
+        sigma,
+        &ANCHORS,
+    )
+    .unwrap();
+    let diff = |m: &MarkerAppearance| -> (f64, f64) {
+        let d: Vec<f64> = (0..m.texture.values.len())
+            .filter(|&k| alone.sampled_mask[k])
+            .map(|k| {
+                (radiance_of(m.texture.values[k]) - radiance_of(alone.texture.values[k])) as f64
+            })
+            .collect();
+        let worst = d.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        (d.iter().sum::<f64>() / d.len() as f64, worst)
+    };
+    let (mean, worst) = diff(&stated);
+    assert!(
+        mean.abs() < 0.5 / 255.0 && worst < 1.5 / 255.0,
+        "{mean} {worst}"
+    );
+    let (mean, _) = diff(&unstated);
+    assert!(mean < -0.03, "unstated: {mean}");
+    assert_eq!(
+        ANCHORS.under_unit_gain(100.0, 0.8),
+        125.0,
+        "about radiance 0's level"
+    );
+    let offset = LevelAnchors {
+        ink_dn: 40.0,
+        ink_radiance: 0.1,
+        paper_dn: 200.0,
+        paper_radiance: 0.9,
+    };
+    // Radiance 0 sits at 20 DN: 120 DN (radiance 0.5) at gain 2 is 70 DN (0.25) at gain 1.
+    assert!((offset.under_unit_gain(120.0, 2.0) - 70.0).abs() < 1e-12);
 }

@@ -55,6 +55,9 @@ fn all_effects() -> EffectsConfig {
     fx.lighting.gradient_x_frac = -0.2;
     fx.lighting.vignetting_frac = 0.3;
     fx.lighting.gamma = 1.4;
+    fx.lighting.gain_drift_per_s = 0.05;
+    fx.lighting.flicker_frac = 0.08;
+    fx.lighting.flicker_hz = 100.0;
     fx.compression.enabled = true;
     fx.compression.quality = 70;
     fx
@@ -83,6 +86,67 @@ fn region_of_interest_is_bit_identical_to_the_full_frame_with_all_effects_on() {
         assert_eq!(roi.window, window.intersect(&s.frame_rect()));
         assert_eq!(roi, full.crop(&window), "window {window:?}");
     }
+}
+
+#[test]
+fn region_of_interest_is_bit_identical_under_even_light_that_flickers_and_steps() {
+    let mut fx = all_effects();
+    fx.lighting.gradient_x_frac = 0.0;
+    fx.lighting.vignetting_frac = 0.0;
+    fx.lighting.gain_steps = vec![crate::render::effects::lighting::GainStep {
+        at_s: 0.212,
+        gain: 1.15,
+    }];
+    let s = settings(161, 117, fx);
+    let scene = spinning();
+    let full = render_frame(&scene, &s, &request(3, 0.21, s.frame_rect()));
+    let mut rng = crate::rng::stream(6, crate::rng::Stream::MonteCarlo, 0);
+    for _ in 0..12 {
+        let x0 = rng.gen_range(-10..160);
+        let y0 = rng.gen_range(-10..116);
+        let window = PixelRect::new(x0, y0, rng.gen_range(1..60), rng.gen_range(1..50));
+        if window.intersect(&s.frame_rect()).is_empty() {
+            continue;
+        }
+        let roi = render_frame(&scene, &s, &request(3, 0.21, window));
+        assert_eq!(roi, full.crop(&window), "window {window:?}");
+    }
+}
+
+#[test]
+fn a_flickering_light_under_a_rolling_shutter_draws_bands_row_by_row() {
+    let mut fx = EffectsConfig::none();
+    fx.lighting.enabled = true;
+    fx.lighting.black_level_dn = 0.0;
+    fx.lighting.white_level_dn = 250.0;
+    fx.lighting.flicker_frac = 0.2;
+    fx.lighting.flicker_hz = 100.0;
+    fx.rolling_shutter.enabled = true;
+    fx.rolling_shutter.readout_s = 0.03;
+    let scene = Moving {
+        base: single_layer(vec![], 0.0, 0.6),
+        velocity_px_s: DVec2::ZERO,
+    };
+    let s = settings(16, 120, fx.clone());
+    let img = render_frame(&scene, &s, &request(0, 0.0, s.frame_rect()));
+    for y in 0..120usize {
+        let t = fx.rolling_shutter.row_delay_s(y as i64, 120);
+        let want = quantise_f64(250.0 * 0.6 * fx.lighting.temporal_gain(t, 0.0));
+        assert!(
+            img.data[y * 16..(y + 1) * 16].iter().all(|&v| v == want),
+            "row {y}: want {want}"
+        );
+    }
+    // Three periods over the readout: the brightest and darkest rows 0.2 · 150 DN off the mean.
+    let (lo, hi) = (
+        img.data.iter().min().unwrap(),
+        img.data.iter().max().unwrap(),
+    );
+    assert!((*hi as f64 - 180.0).abs() <= 1.0 && (*lo as f64 - 120.0).abs() <= 1.0);
+}
+
+fn quantise_f64(dn: f64) -> u8 {
+    (dn + 0.5).clamp(0.0, 255.0) as u8
 }
 
 #[test]

@@ -2,9 +2,10 @@
 //! tone curve and quantisation, per pixel at its absolute position.
 //!
 //! Every pixel goes through exactly the operations of the reference per-pixel formula
-//! `quantise(tone.dn(noise.apply(v · gain(x, y), normal_at(key, x, y))))`; the loops only hoist
-//! what is constant along a run (gain under even light, the electron count of a flat run) and
-//! work in small chunks so the arithmetic vectorises.
+//! `quantise(tone.dn(noise.apply(v · gain(x, y, g_t(y)), normal_at(key, x, y))))`, where g_t(y)
+//! is the light's gain over time at row y's exposure (1 under steady light); the loops only
+//! hoist what is constant along a run (gain under even light, the electron count of a flat
+//! run) and work in small chunks so the arithmetic vectorises.
 
 use crate::render::effects::lighting::{quantise, LightingConfig, Tone};
 use crate::render::effects::pixel_noise::{self, NoiseModel};
@@ -22,17 +23,33 @@ pub(super) struct ToneMap<'a> {
     key: u64,
     width_px: usize,
     height_px: usize,
+    /// The frame's clock when the light changes over time.
+    clock: Option<RowClock<'a>>,
+}
+
+/// When each row is exposed: the light's gain over time is taken at the row's exposure.
+struct RowClock<'a> {
+    fx: &'a EffectsConfig,
+    /// Centre of row 0's exposure, s.
+    t_s: f64,
+    exposure_s: f64,
 }
 
 impl<'a> ToneMap<'a> {
+    /// The conversion of frame `frame_index`, whose row 0 is exposed around `t_s`.
     pub(super) fn new(
         fx: &'a EffectsConfig,
         seed: u64,
-        frame_index: u64,
+        (frame_index, t_s): (u64, f64),
         width_px: usize,
         height_px: usize,
     ) -> Self {
         Self {
+            clock: fx.lighting.varies_in_time().then(|| RowClock {
+                fx,
+                t_s,
+                exposure_s: fx.motion_blur.exposure_or_zero_s(),
+            }),
             lighting: &fx.lighting,
             uneven: fx.lighting.uneven(),
             tone: fx.lighting.tone(),
@@ -46,6 +63,14 @@ impl<'a> ToneMap<'a> {
         }
     }
 
+    /// The light's gain over time at row `y` (1 under steady light).
+    fn row_gain(&self, y: i64) -> f64 {
+        self.clock.as_ref().map_or(1.0, |c| {
+            let t = c.t_s + c.fx.rolling_shutter.row_delay_s(y, self.height_px);
+            c.fx.lighting.temporal_gain(t, c.exposure_s)
+        })
+    }
+
     /// Pixels `x0 .. x0 + out.len()` of row `y`, all of linear radiance `v`.
     pub(super) fn constant_run(&self, v: f32, x0: i64, y: i64, out: &mut [u8]) {
         if self.uneven {
@@ -57,7 +82,7 @@ impl<'a> ToneMap<'a> {
             }
             return;
         }
-        let s = v * 1.0; // the even-light gain, kept so the bits match the general path
+        let s = v * self.row_gain(y) as f32; // as the general path: the same bits
         let Some(noise) = self.noise else {
             out.fill(quantise(self.tone.dn(s)));
             return;
@@ -75,19 +100,25 @@ impl<'a> ToneMap<'a> {
     pub(super) fn run(&self, values: &[f32], x0: i64, y: i64, out: &mut [u8]) {
         let mut s = [0.0f32; CHUNK];
         let mut z = [0.0f32; CHUNK];
+        let g_t = self.row_gain(y);
         for (i, (v, o)) in values.chunks(CHUNK).zip(out.chunks_mut(CHUNK)).enumerate() {
             let xc = x0 + (i * CHUNK) as i64;
             let s = &mut s[..v.len()];
             if self.uneven {
                 for (j, (s, &v)) in s.iter_mut().zip(v).enumerate() {
-                    let g = self
-                        .lighting
-                        .gain(xc + j as i64, y, self.width_px, self.height_px);
+                    let g = self.lighting.gain_with(
+                        xc + j as i64,
+                        y,
+                        self.width_px,
+                        self.height_px,
+                        g_t,
+                    );
                     *s = v * g;
                 }
             } else {
+                let g = g_t as f32;
                 for (s, &v) in s.iter_mut().zip(v) {
-                    *s = v * 1.0;
+                    *s = v * g;
                 }
             }
             let Some(noise) = self.noise else {
