@@ -5,7 +5,9 @@
 //! few σ of it a tail. A real camera's ink and paper usually sit inside its range, and
 //! `geneva calibrate` writes them so (the black level 5σ + 1 DN below the ink, the white level as
 //! far above the paper, unless the footage itself shows the pile). `geneva scenario check`
-//! prints these warnings with the statement that keeps the levels and frees the noise.
+//! prints these warnings with the statement that keeps the levels and frees the noise, and warns
+//! when the light's gain over time (`effects.lighting` drift, steps, flicker) drives the paper
+//! past the white level.
 
 use super::Scenario;
 use crate::render::effects::lighting::LightingConfig;
@@ -67,8 +69,70 @@ fn beyond(z: f64) -> f64 {
     crate::numeric::dist::normal_cdf(-z)
 }
 
-/// The warnings of `s` (none when its pixel noise is off).
+/// The warnings of `s`: levels that clip their noise (none when its pixel noise is off) and a
+/// light over time that drives the paper past the white level.
 pub fn warnings(s: &Scenario) -> Vec<Warning> {
+    let mut out = noise_warnings(s);
+    out.extend(light_warning(s));
+    out
+}
+
+/// The lowest and highest gain of the light over the scenario's duration (exposures taken as
+/// instants, which bounds every exposure's mean): at the ends, at every step and on a grid of
+/// 4,000 instants (the flicker's extremes to within its amplitude × (π/4,000 per period)²/2).
+pub fn light_range(s: &Scenario) -> (f64, f64) {
+    let l = &s.effects.lighting;
+    if !l.varies_in_time() {
+        return (1.0, 1.0);
+    }
+    let d = s.duration_s.max(0.0);
+    let steps = l
+        .gain_steps
+        .iter()
+        .map(|g| g.at_s)
+        .filter(|&t| (0.0..=d).contains(&t));
+    let grid = (0..=4000).map(|i| d * i as f64 / 4000.0);
+    let flicker_peaks = if l.flicker_frac > 0.0 {
+        // The sinusoid's crests and troughs inside the span.
+        let period = 1.0 / l.flicker_hz;
+        let first = -l.flicker_phase_rad / std::f64::consts::TAU * period + period / 4.0;
+        let k0 = ((0.0 - first) / (period / 2.0)).ceil() as i64;
+        let k1 = ((d - first) / (period / 2.0)).floor() as i64;
+        let n = (k1 - k0 + 1).clamp(0, 200_000);
+        (0..n)
+            .map(|k| first + (k0 + k) as f64 * period / 2.0)
+            .collect::<Vec<_>>()
+    } else {
+        Vec::new()
+    };
+    grid.chain(steps)
+        .chain(flicker_peaks)
+        .map(|t| l.temporal_gain(t, 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), g| {
+            (lo.min(g), hi.max(g))
+        })
+}
+
+/// The paper driven past the white level by the light's gain over time.
+fn light_warning(s: &Scenario) -> Option<Warning> {
+    let (_, g_hi) = light_range(s);
+    let paper = s.scene.paper_radiance * g_hi;
+    (g_hi > 1.0 && paper > 1.0).then(|| Warning {
+        field: "effects.lighting",
+        message: format!(
+            "the light's gain over time reaches {g_hi:.3} (its drift, steps or flicker): the \
+             paper (scene.paper_radiance = {:.4}) then lies past the white level ({:.3} of it), \
+             and rendered frames clip it flat; state a paper radiance at most {:.4} or a white \
+             level with room for the brightest light",
+            s.scene.paper_radiance,
+            paper,
+            1.0 / g_hi
+        ),
+    })
+}
+
+/// The levels that clip their noise (none when the pixel noise is off).
+fn noise_warnings(s: &Scenario) -> Vec<Warning> {
     let noise = &s.effects.pixel_noise;
     if !noise.enabled {
         return Vec::new();
@@ -251,5 +315,41 @@ mod tests {
             );
             assert!(warnings(&s).is_empty(), "γ {gamma}: {:?}", warnings(&s));
         }
+    }
+
+    #[test]
+    fn a_light_that_rises_past_the_paper_s_room_is_warned_about_and_a_steady_one_not() {
+        let mut s = scenario(0.05, 0.9, 30.0, 220.0);
+        s.effects.pixel_noise.enabled = false;
+        s.duration_s = 4.0;
+        assert!(warnings(&s).is_empty());
+        assert_eq!(light_range(&s), (1.0, 1.0));
+        // 1 + 0.05·4 = 1.2 at the end: the paper at 0.9·1.2 = 1.08 of the white level.
+        s.effects.lighting.gain_drift_per_s = 0.05;
+        let (lo, hi) = light_range(&s);
+        assert!(
+            (lo - 1.0).abs() < 1e-12 && (hi - 1.2).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        let w = warnings(&s);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].message.contains("reaches 1.200"), "{}", w[0].message);
+        assert!(w[0].message.contains("at most 0.8333"), "{}", w[0].message);
+        // A flicker's crest is found between grid instants; a fading light is no warning.
+        s.effects.lighting.gain_drift_per_s = -0.05;
+        assert!(warnings(&s).is_empty());
+        s.effects.lighting.gain_drift_per_s = 0.0;
+        s.effects.lighting.flicker_frac = 0.1;
+        s.effects.lighting.flicker_hz = 100.0;
+        s.effects.lighting.flicker_phase_rad = 0.3;
+        let (lo, hi) = light_range(&s);
+        assert!(
+            (hi - 1.1).abs() < 1e-12 && (lo - 0.9).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        // 0.9 · 1.1 stays inside; 0.95 · 1.1 does not.
+        assert!(warnings(&s).is_empty());
+        s.scene.paper_radiance = 0.95;
+        assert_eq!(warnings(&s).len(), 1);
     }
 }
