@@ -73,6 +73,15 @@ impl DriftFit {
         self.drift_per_s.value.abs() > self.drift_per_s.u95
     }
 
+    /// How the illumination gradient entered the fit, for the reports.
+    pub fn gradient_phrase(&self) -> &'static str {
+        match self.gradient_fitted {
+            [true, true] => "with an illumination gradient across the marker's path fitted beside it",
+            [false, false] => "without a gradient term (the marker stays put)",
+            _ => "with an illumination gradient along the one axis the marker travels fitted beside it",
+        }
+    }
+
     /// The drift's lowest and highest gain over the footage when it is significant ((1, 1)
     /// otherwise): the levels must have room for both.
     pub fn gain_range(&self) -> (f64, f64) {

@@ -784,7 +784,7 @@ pub fn fit_imaging(
 }
 
 /// The light's drift from the marker's contrast frame by frame (`exposure`), with a note when
-/// one is found or when a clipped level hides it.
+/// one is found.
 fn exposure_drift(stats: &FootageStats, notes: &mut Vec<String>) -> ExposureDrift {
     let samples: Vec<ContrastSample> = stats
         .frames
@@ -813,13 +813,13 @@ fn exposure_drift(stats: &FootageStats, notes: &mut Vec<String>) -> ExposureDrif
         let (lo, hi) = f.gain_range();
         notes.push(format!(
             "the light drifts over the footage: the marker's contrast changes by {} %/s (95 %) \
-             about t = {:.2} s, {:.1} % to {:+.1} % over the footage, with an illumination \
-             gradient across the marker's path fitted beside it; written as \
+             about t = {:.2} s, {:.1} % to {:+.1} % over the footage, {}; written as \
              effects.lighting.gain_drift_per_s, the levels hold at t = {:.2} s",
             f.drift_per_s.map(|d| 100.0 * d),
             f.reference_s,
             100.0 * (lo - 1.0),
             100.0 * (hi - 1.0),
+            f.gradient_phrase(),
             f.reference_s
         ));
     }

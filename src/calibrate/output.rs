@@ -624,16 +624,11 @@ fn exposure_row(e: &ExposureDrift) -> (String, String) {
             ),
             format!(
                 "the marker's contrast (paper − ink) over {} stretches of {} frames, fitted as \
-                 c₀·(1 + d·(t − {:.2} s)) times an illumination gradient across the marker's \
-                 path{}; residual {:.2} DN",
+                 c₀·(1 + d·(t − {:.2} s)) {}; residual {:.2} DN",
                 f.blocks,
                 f.frames,
                 f.reference_s,
-                match f.gradient_fitted {
-                    [true, true] => "",
-                    [false, false] => " (not fitted: the marker stays put)",
-                    _ => " (along the one axis it travels)",
-                },
+                f.gradient_phrase(),
                 f.residual_rms_dn
             ),
         ),
