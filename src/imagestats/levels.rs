@@ -2,11 +2,10 @@
 //! the surround beyond the paper, from pixels at least a guard distance from every material
 //! boundary; and noise from the variation of static pixels over frames.
 
+use super::censored::censored_normal_fit;
 use super::grid::{Homography, MarkerLayout, Material};
 use super::{check_view, pixel, view_bounds, StatsError};
 use crate::detect::GrayView;
-use crate::numeric::dist::normal_cdf;
-use crate::numeric::minimize::golden_section_min;
 
 /// Which pixels count as "well inside" a region.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,72 +78,6 @@ pub struct Clipping {
 /// the values spread over four levels or more: an unclipped normal's extreme level holds a few
 /// pixels and fewer than the level inside it.
 pub const MIN_PILE_FRACTION: f64 = 0.02;
-
-/// Maximum-likelihood mean and σ (DN, without quantisation) of a normal seen through 8-bit
-/// rounding, with the lowest observed level standing for everything below it when `low` is
-/// censored and the highest for everything above when `high` is: the Tobit model on a
-/// histogram. A level v holds P(v − ½ < x < v + ½); a censored end level c holds P(x < c + ½)
-/// (or P(x > c − ½)). `None` for fewer than two occupied levels.
-pub fn censored_normal_fit(hist: &[usize; 256], low: bool, high: bool) -> Option<(f64, f64)> {
-    let lo = hist.iter().position(|&c| c > 0)?;
-    let hi = hist.iter().rposition(|&c| c > 0)?;
-    if hi == lo {
-        return None;
-    }
-    let n: usize = hist[lo..=hi].iter().sum();
-    let mean = hist[lo..=hi]
-        .iter()
-        .enumerate()
-        .map(|(k, &c)| (lo + k) as f64 * c as f64)
-        .sum::<f64>()
-        / n as f64;
-    let sd = (hist[lo..=hi]
-        .iter()
-        .enumerate()
-        .map(|(k, &c)| ((lo + k) as f64 - mean).powi(2) * c as f64)
-        .sum::<f64>()
-        / n as f64)
-        .sqrt();
-    // Upper-tail cells from the mirrored CDF: both ends near 1 would cancel.
-    let log_p = |a: f64, b: f64| {
-        let p = if a > 0.0 {
-            normal_cdf(-a) - normal_cdf(-b)
-        } else {
-            normal_cdf(b) - normal_cdf(a)
-        };
-        p.max(1e-300).ln()
-    };
-    let nll = |mu: f64, sigma: f64| -> f64 {
-        let z = |v: f64| (v - mu) / sigma;
-        (lo..=hi)
-            .filter(|&v| hist[v] > 0)
-            .map(|v| {
-                let a = if low && v == lo {
-                    f64::NEG_INFINITY
-                } else {
-                    z(v as f64 - 0.5)
-                };
-                let b = if high && v == hi {
-                    f64::INFINITY
-                } else {
-                    z(v as f64 + 0.5)
-                };
-                -(hist[v] as f64) * log_p(a, b)
-            })
-            .sum()
-    };
-    let reach = 4.0 * sd + 2.0;
-    let best_mu = |sigma: f64| {
-        golden_section_min(
-            |mu| nll(mu, sigma),
-            lo as f64 - reach,
-            hi as f64 + reach,
-            60,
-        )
-    };
-    let sigma = golden_section_min(|s| nll(best_mu(s), s), 0.02, 3.0 * sd + 2.0, 50);
-    Some((best_mu(sigma), sigma))
-}
 
 /// Levels of the three materials around one marker.
 #[derive(Debug, Clone, PartialEq)]

@@ -35,6 +35,7 @@
 //! uniform on (−½, ½), in closed form (see `edge::step_response`). This is exactly what the
 //! renderer produces for a straight edge with optical blur, so a rendered frame recovers its σ.
 
+mod censored;
 mod edge;
 mod grid;
 mod jpeg;
@@ -45,6 +46,7 @@ mod shape;
 #[cfg(test)]
 mod tests;
 
+pub use censored::censored_normal_fit;
 pub(crate) use edge::step_response;
 pub use edge::{
     fit_grid_edge, inner_edge_profiles, outer_edge_profiles, refined_corners, EdgeOptions,
@@ -55,9 +57,8 @@ pub use jpeg::{
     blockiness, flat_region_blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality,
 };
 pub use levels::{
-    censored_normal_fit, marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise,
-    Clipping, LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise,
-    MIN_PILE_FRACTION,
+    marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise, Clipping,
+    LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise, MIN_PILE_FRACTION,
 };
 pub use noise::{
     texture_threshold, weak_texture_noise, WeakTextureNoise, WeakTextureOptions,
