@@ -185,6 +185,9 @@ fn newton(cells: &[Cell], mu0: f64, sigma0: f64) -> Option<(f64, f64)> {
         }
         let da = -(h[2] * g[0] - h[1] * g[1]) / det;
         let db = -(h[0] * g[1] - h[1] * g[0]) / det;
+        if !(da.is_finite() && db.is_finite()) {
+            return None;
+        }
         // The Newton decrement: half of it bounds how far the value is above the minimum.
         let decrement = -(g[0] * da + g[1] * db);
         if decrement < 1e-20 * (1.0 + f.abs()) {
