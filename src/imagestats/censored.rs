@@ -174,11 +174,11 @@ fn nll_newton_terms(cells: &[Cell], alpha: f64, beta: f64) -> (f64, [f64; 2], [f
 
 /// The maximum by damped Newton steps from (μ₀, σ₀); `None` when it does not settle (a
 /// singular Hessian, a step that no backtracking makes descend before convergence, or 100
-/// steps).
+/// steps). The terms at the point a line search accepts are the next step's.
 fn newton(cells: &[Cell], mu0: f64, sigma0: f64) -> Option<(f64, f64)> {
     let (mut alpha, mut beta) = (mu0 / sigma0, 1.0 / sigma0);
+    let (mut f, mut g, mut h) = nll_newton_terms(cells, alpha, beta);
     for _ in 0..100 {
-        let (f, g, h) = nll_newton_terms(cells, alpha, beta);
         let det = h[0] * h[2] - h[1] * h[1];
         if !(f.is_finite() && det.is_finite() && det > 0.0 && h[0] > 0.0) {
             return None;
@@ -188,7 +188,7 @@ fn newton(cells: &[Cell], mu0: f64, sigma0: f64) -> Option<(f64, f64)> {
         if !(da.is_finite() && db.is_finite()) {
             return None;
         }
-        // The Newton decrement: half of it bounds how far the value is above the minimum.
+        // The Newton decrement: about twice how far the value is above the minimum.
         let decrement = -(g[0] * da + g[1] * db);
         if decrement < 1e-20 * (1.0 + f.abs()) {
             return Some((alpha / beta, 1.0 / beta));
@@ -197,8 +197,13 @@ fn newton(cells: &[Cell], mu0: f64, sigma0: f64) -> Option<(f64, f64)> {
         while beta + t * db <= 0.0 {
             t *= 0.5;
         }
-        let value_at = |t: f64| nll_newton_terms(cells, alpha + t * da, beta + t * db).0;
-        while value_at(t) > f - 1e-4 * t * decrement {
+        loop {
+            let trial = nll_newton_terms(cells, alpha + t * da, beta + t * db);
+            // (A value that is not a number is taken: the next step then ends the fit.)
+            if trial.0.is_nan() || trial.0 <= f - 1e-4 * t * decrement {
+                (f, g, h) = trial;
+                break;
+            }
             t *= 0.5;
             if t < 1e-12 {
                 // No descent left at double precision: settled if the step is already tiny.
