@@ -449,53 +449,6 @@ fn clipped_sigma(values: &[f64]) -> Option<f64> {
     Some(sigma)
 }
 
-/// Evidence of motion between two frames of a static-looking marker: the mean absolute
-/// difference of the pixels on strong edges of `a` (gradient above half its maximum) over that
-/// of its flat pixels (gradient below a twentieth). Noise alone gives ≈ 1; a shift of a few
-/// hundredths of a pixel raises it, long before a quantised corner moves. `None` when the
-/// overlap of the views has too few pixels of either kind.
-pub fn motion_ratio(a: &GrayView<'_>, b: &GrayView<'_>) -> Option<f64> {
-    let (ax0, ay0, ax1, ay1) = view_bounds(a);
-    let (bx0, by0, bx1, by1) = view_bounds(b);
-    let (x0, y0, x1, y1) = (
-        ax0.max(bx0) + 1,
-        ay0.max(by0) + 1,
-        ax1.min(bx1) - 1,
-        ay1.min(by1) - 1,
-    );
-    if x1 <= x0 || y1 <= y0 {
-        return None;
-    }
-    let at = |v: &GrayView<'_>, x: i64, y: i64| pixel(v, x, y).map_or(0.0, f64::from);
-    let mut grads = Vec::new();
-    let mut max_g: f64 = 0.0;
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let gx = at(a, x + 1, y) - at(a, x - 1, y);
-            let gy = at(a, x, y + 1) - at(a, x, y - 1);
-            let g = gx.hypot(gy);
-            max_g = max_g.max(g);
-            grads.push((x, y, g));
-        }
-    }
-    let (mut edge, mut ne, mut flat, mut nf) = (0.0, 0usize, 0.0, 0usize);
-    for (x, y, g) in grads {
-        let d = (at(a, x, y) - at(b, x, y)).abs();
-        if g > 0.5 * max_g {
-            edge += d;
-            ne += 1;
-        } else if g < 0.05 * max_g {
-            flat += d;
-            nf += 1;
-        }
-    }
-    if ne < 20 || nf < 20 {
-        return None;
-    }
-    let flat = flat / nf as f64;
-    Some((edge / ne as f64) / flat.max(0.25))
-}
-
 /// Temporal noise of `pixels` (absolute coordinates, static in the scene) over `frames`: the
 /// pooled per-pixel variance after removing each frame's mean offset of the set (flicker).
 /// Every frame must contain every pixel.

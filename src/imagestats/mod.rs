@@ -9,7 +9,7 @@
 //! | [`marker_levels`] | ink, paper and surround grey levels (median, trimmed mean) and per-frame noise σ of each, from pixels well inside each region |
 //! | [`marker_regions`] | the absolute pixels of those regions (for [`temporal_noise`] across frames) |
 //! | [`region_stats`] | level and noise of any list of pixels |
-//! | [`motion_ratio`] | evidence of sub-pixel motion between two frames (edge over flat frame differences) |
+//! | [`rigid_motion`] | the image's sub-pixel shift and turn between two frames (a still marker told from one moving by a tenth of a pixel) |
 //! | [`temporal_noise`] | noise σ of a static set of pixels from its variation over frames |
 //! | [`weak_texture_noise`] | noise σ of one frame's region from its weak-texture patches (Liu, Tanaka & Okutomi 2013; Chen, Zhu & Heng 2015), and whether it is the sensor's white noise or texture |
 //! | [`outer_edge_profiles`] | blur σ of each outer side of the black square (erf-type edge model with free levels) with the side's unit normal, fitted edge line and standard errors |
@@ -40,6 +40,7 @@ mod edge;
 mod grid;
 mod jpeg;
 mod levels;
+mod motion;
 mod noise;
 mod shape;
 
@@ -57,9 +58,10 @@ pub use jpeg::{
     blockiness, flat_region_blockiness, ijg_luma_table, jpeg_quality, Blockiness, JpegQuality,
 };
 pub use levels::{
-    marker_levels, marker_regions, motion_ratio, region_stats, temporal_noise, Clipping,
-    LevelOptions, MarkerLevels, MarkerRegions, RegionStats, TemporalNoise, MIN_PILE_FRACTION,
+    marker_levels, marker_regions, region_stats, temporal_noise, Clipping, LevelOptions,
+    MarkerLevels, MarkerRegions, RegionStats, TemporalNoise, MIN_PILE_FRACTION,
 };
+pub use motion::{rigid_motion, RigidMotion};
 pub use noise::{
     texture_threshold, weak_texture_noise, WeakTextureNoise, WeakTextureOptions,
     MIN_NOISE_DIMS_SHARE, MIN_SELECTED_PER_DIM, WHITE_CONSISTENCY,

@@ -24,8 +24,8 @@ use crate::calibrate::{
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
 use crate::errors::FileError;
 use crate::imagestats::{
-    blockiness, jpeg_quality, marker_levels, marker_regions, motion_ratio, outer_edge_profiles,
-    refined_corners, temporal_noise, weak_texture_noise, EdgeOptions, EdgeProfile, LevelOptions,
+    blockiness, jpeg_quality, marker_levels, marker_regions, outer_edge_profiles, refined_corners,
+    rigid_motion, temporal_noise, weak_texture_noise, EdgeOptions, EdgeProfile, LevelOptions,
     MarkerLayout, MarkerLevels, WeakTextureOptions,
 };
 use crate::io::output_dir::OutputDir;
@@ -44,10 +44,17 @@ pub const EDGE_FRAMES: usize = 96;
 const MISFIT_RATIO: f64 = 2.5;
 /// Frames of the longest static run kept for the temporal noise and the overlay.
 const RUN_FRAMES: usize = 12;
-/// A marker whose centre moves less than this between frames may be static, px.
-const STATIC_PX: f64 = 0.6;
-/// …and is when its edges change no more than its flat regions (noise alone: ≈ 1).
-const MOTION_RATIO: f64 = 1.25;
+/// A marker whose detected centre moves less than this between frames may be static, px:
+/// OpenCV's corners jitter by up to about ¾ px on a still marker under a codec's noise, and
+/// beyond a pixel or so the linearised motion fit below no longer measures the motion.
+const COARSE_STATIC_PX: f64 = 1.5;
+/// …and is when no pixel of its window moved more than this since the static run's first
+/// frame, px ([`rigid_motion`]): the regions whose noise is measured over the run keep 3 px
+/// from every edge ([`LevelOptions::guard_px`]), so a fifth of a pixel leaves them as they
+/// were, and a texture mosaicked from the run is registered to a fifth of a pixel. Codec and
+/// demosaicking noise on a still marker reads as at most about a tenth of a pixel (path-traced
+/// footage through a phone model with H.264, `tools/pbr/`).
+const STILL_PX: f64 = 0.2;
 
 /// Where the footage comes from.
 #[derive(Debug, Clone)]
@@ -349,14 +356,22 @@ impl Measurer {
                     (a[0] - b[0]).hypot(a[1] - b[1])
                 })
                 .unwrap_or(f64::INFINITY);
-            // Static: OpenCV's (quantised) corners did not move, and neither did the image at
-            // the marker's edges (sub-pixel motion shows there first).
+            // Static: OpenCV's (quantised) corners did not jump, and the image at the marker
+            // moved by less than a fifth of a pixel since the static run's first frame (since
+            // the previous frame when no run is open), so that a slow creep cannot build up
+            // along a run.
             let crop_now = Crop::of(data, w, h, window(&c, &self.layout));
-            obs.static_pose = moved < STATIC_PX
-                && self.prev_crop.as_ref().is_some_and(|p| {
-                    p.0 + 1 == index
-                        && motion_ratio(&p.1.view(), &crop_now.view())
-                            .is_some_and(|r| r < MOTION_RATIO)
+            let anchor = if self.prev_static {
+                self.run.first()
+            } else {
+                self.prev_crop.as_ref()
+            };
+            let consecutive = self.prev_crop.as_ref().is_some_and(|p| p.0 + 1 == index);
+            obs.static_pose = moved < COARSE_STATIC_PX
+                && consecutive
+                && anchor.is_some_and(|p| {
+                    rigid_motion(&p.1.view(), &crop_now.view())
+                        .is_ok_and(|m| m.max_displacement_px() < STILL_PX)
                 });
             obs.levels = marker_levels(&view, &c, &self.layout, &self.level_opts).ok();
             let crop = crop_now;

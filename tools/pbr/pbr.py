@@ -38,7 +38,11 @@ def tools_from(args):
     blender = args.blender or shutil.which("blender")
     if blender is None:
         raise SystemExit("pbr: Blender is not installed (Debian: apt-get install blender)")
-    return render.Tools(args.geneva or default_geneva(), blender,
+    geneva = args.geneva or default_geneva()
+    # A path given relative to where the suite was started stays valid in any working folder.
+    if os.sep in geneva:
+        geneva = os.path.abspath(geneva)
+    return render.Tools(geneva, blender,
                         args.threads or max(1, len(os.sched_getaffinity(0))))
 
 

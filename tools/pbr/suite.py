@@ -341,7 +341,9 @@ def run(args, tools_from):
         for name, folder in BESIDE:
             summary = os.path.join(REPO, "reports", folder, "summary.json")
             if os.path.exists(summary):
-                score += ["--beside", f"{name} (`reports/{folder}/`)={summary}"]
-        subprocess.run(score, check=True)
+                # Relative to the repository, so that the report names no machine's paths.
+                score += ["--beside",
+                          f"{name} (`reports/{folder}/`)={os.path.relpath(summary, REPO)}"]
+        subprocess.run(score, check=True, cwd=REPO)
     if failed:
         raise SystemExit(f"pbr suite: {len(failed)} case(s) failed: {', '.join(failed)}")
