@@ -200,3 +200,25 @@ fn a_printed_marker_s_texture_is_measured_and_renders_the_held_out_frame() {
         );
     }
 }
+
+/// A still uniform marker under JPEG (round-trip case 20: quality 80, noise measured over 10
+/// still frames) shows the codec's fixed block pattern in the mean of its frames, 1–2 DN beyond
+/// what the noise leaves there. That is the codec's, not the print's: the texture is judged
+/// against renders of the calibrated uniform marker at the same frames, which draw the same
+/// pattern, and none is written.
+#[test]
+fn a_jpeg_s_block_pattern_on_a_still_uniform_marker_is_not_taken_for_a_texture() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = run_case(20261123, 20, dir.path()).unwrap();
+    assert!(r.compressed, "case 20 is the JPEG case this test is about");
+    assert!(!r.texture_written, "a texture written on a uniform marker");
+    let md = std::fs::read_to_string(dir.path().join("out/calibration.md")).unwrap();
+    assert!(
+        md.contains("temporal σ of static pixels"),
+        "the noise is measured over still frames: {md}"
+    );
+    assert!(
+        md.contains("beyond what the calibrated uniform marker gives"),
+        "{md}"
+    );
+}

@@ -102,24 +102,27 @@ pub struct MarkerAppearance {
 }
 
 impl MarkerAppearance {
-    /// The spread of material `m` (0 ink, 1 paper) beyond what a noise of `noise_sd_dn` in
-    /// one frame leaves in a mean over the mosaic's frames, DN (0 when the noise explains it).
-    pub fn texture_sd_dn(&self, m: usize, noise_sd_dn: f64) -> f64 {
-        let noise_var = noise_sd_dn.powi(2) / self.frames.max(1) as f64;
-        (self.spread_dn[m].powi(2) - noise_var).max(0.0).sqrt()
+    /// What a noise of `noise_sd_dn` in one frame leaves in a mean over the mosaic's frames, DN.
+    pub fn noise_left_dn(&self, noise_sd_dn: f64) -> f64 {
+        noise_sd_dn / (self.frames.max(1) as f64).sqrt()
     }
 
-    /// Whether the footage shows the marker's appearance beyond its noise: the spread of the
-    /// ink or the paper beyond the noise's is at least [`MIN_TEXTURE_SD_DN`] and at least the
-    /// noise left in the mean. A texture also freezes that mean's noise into every render: it
-    /// pays only where the appearance it draws is larger than the noise it adds.
-    pub fn shows_texture(&self, noise_sd_dn: [f64; 2]) -> bool {
-        (0..2).any(|m| {
-            let left = noise_sd_dn[m] / (self.frames.max(1) as f64).sqrt();
-            let sd = self.texture_sd_dn(m, noise_sd_dn[m]);
-            sd >= MIN_TEXTURE_SD_DN && sd >= left
-        })
+    /// The spread of material `m` (0 ink, 1 paper) beyond a null's spread `null_sd_dn` (what
+    /// noise alone leaves, [`Self::noise_left_dn`], or the same mosaic of a uniform marker),
+    /// DN (0 when the null explains it).
+    pub fn texture_sd_dn(&self, m: usize, null_sd_dn: f64) -> f64 {
+        (self.spread_dn[m].powi(2) - null_sd_dn.powi(2))
+            .max(0.0)
+            .sqrt()
     }
+}
+
+/// Whether the footage shows the marker's appearance: the spread of the ink or the paper
+/// beyond its null, `texture_sd_dn`, is at least [`MIN_TEXTURE_SD_DN`] and at least the null's
+/// own spread `null_sd_dn`. A texture also freezes the mean's noise into every render: it pays
+/// only where the appearance it draws is larger than what it adds.
+pub fn shows_texture(texture_sd_dn: [f64; 2], null_sd_dn: [f64; 2]) -> bool {
+    (0..2).any(|m| texture_sd_dn[m] >= MIN_TEXTURE_SD_DN && texture_sd_dn[m] >= null_sd_dn[m])
 }
 
 /// The least spread beyond the noise, DN, that makes a marker textured.

@@ -1003,6 +1003,7 @@ fn write_outputs(
             &mut ovs,
             &mut cal,
             base,
+            &typed,
             out_dir,
         )? {
             files.push(p);

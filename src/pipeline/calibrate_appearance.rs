@@ -3,12 +3,14 @@
 
 use super::calibrate::{float_of, round6, CalibrateJobError, Corners, Crop};
 use crate::calibrate::appearance::{
-    marker_appearance, AppearanceRecord, LevelAnchors, RegisteredView,
+    marker_appearance, shows_texture, AppearanceRecord, LevelAnchors, RegisteredView,
 };
 use crate::calibrate::output::Override;
 use crate::calibrate::Calibration;
 use crate::imagestats::MarkerLayout;
+use crate::render::{render_frame, FrameRequest};
 use crate::scenario::Scenario;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use toml::Value;
 
@@ -21,8 +23,10 @@ pub(crate) type MosaicFrame = (usize, Crop, Corners);
 
 /// Measures the marker's texture on `frames` (the re-render check's frame `check_frame` left
 /// out when others remain; each frame's levels brought to the calibrated light by its gain at
-/// `times_s[frame]`), writes it into `out_dir` and names it in `ovs`. When no texture
-/// can be measured the marker stays uniform and a note says why. Returns the file written.
+/// `times_s[frame]`), writes it into `out_dir` and names it in `ovs`. A texture is written
+/// only where the footage's mosaic varies beyond that of renders of the calibrated uniform
+/// marker (`typed(ovs)`) at the same frames. When no texture can be measured the marker stays
+/// uniform and a note says why. Returns the file written.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn write_marker_appearance(
     frames: &[MosaicFrame],
@@ -33,6 +37,7 @@ pub(crate) fn write_marker_appearance(
     ovs: &mut Vec<Override>,
     cal: &mut Calibration,
     base: &Scenario,
+    typed: &dyn Fn(&[Override]) -> Result<Scenario, CalibrateJobError>,
     out_dir: &Path,
 ) -> Result<Option<PathBuf>, CalibrateJobError> {
     let (Some(black), Some(white)) = (
@@ -58,15 +63,16 @@ pub(crate) fn write_marker_appearance(
         })
         .collect();
     // The calibrated tone curve is linear (gamma 1): black is radiance 0, white 1.
-    let measure = |white: f64| {
+    let measure_views = |views: &[RegisteredView<'_>], white: f64| {
         let anchors = LevelAnchors {
             ink_dn: black,
             ink_radiance: 0.0,
             paper_dn: white,
             paper_radiance: 1.0,
         };
-        marker_appearance(&views, layout, blur_sigma_px, &anchors)
+        marker_appearance(views, layout, blur_sigma_px, &anchors)
     };
+    let measure = |white: f64| measure_views(&views, white);
     let mut measured = match measure(white) {
         Ok(m) => m,
         Err(e) => {
@@ -78,18 +84,45 @@ pub(crate) fn write_marker_appearance(
     };
     let n = &cal.imaging.noise;
     let noise_sd_dn = [n.ink_sigma_dn.value, n.paper_sigma_dn.value];
-    let texture_sd = [0, 1].map(|m| measured.texture_sd_dn(m, noise_sd_dn[m]));
-    if !measured.shows_texture(noise_sd_dn) {
+    // What the calibrated uniform marker shows when mosaicked the same way: the noise left in
+    // the mean, and the fixed pattern a codec draws on a still marker (a JPEG quantises the
+    // same blocks alike in every frame, which the mean keeps).
+    let null = typed(ovs).ok().and_then(|s| {
+        let renders = render_like(&s, &chosen)?;
+        let views: Vec<RegisteredView<'_>> = renders
+            .iter()
+            .zip(&views)
+            .map(|(r, v)| RegisteredView {
+                image: r.view(),
+                ..*v
+            })
+            .collect();
+        measure_views(&views, white).ok()
+    });
+    let left = [0, 1].map(|m| match &null {
+        Some(u) => u.spread_dn[m],
+        None => measured.noise_left_dn(noise_sd_dn[m]),
+    });
+    let texture_sd = [0, 1].map(|m| measured.texture_sd_dn(m, left[m]));
+    if !shows_texture(texture_sd, left) {
+        let beyond = if null.is_some() {
+            "what the calibrated uniform marker gives when rendered at the same frames and \
+             mosaicked the same way"
+        } else {
+            "what their noise leaves"
+        };
         cal.notes.push(format!(
             "appearance: the marker is drawn uniform: over {} registered frame(s) its ink and \
-             paper vary by {:.2} / {:.2} DN, {:.2} / {:.2} DN beyond what their noise leaves \
-             (a texture needs {} DN and at least the noise left)",
+             paper vary by {:.2} / {:.2} DN, {:.2} / {:.2} DN beyond {beyond} (a texture needs \
+             {} DN and at least {:.2} / {:.2} DN)",
             measured.frames,
             measured.spread_dn[0],
             measured.spread_dn[1],
             texture_sd[0],
             texture_sd[1],
-            crate::calibrate::appearance::MIN_TEXTURE_SD_DN
+            crate::calibrate::appearance::MIN_TEXTURE_SD_DN,
+            left[0],
+            left[1],
         ));
         return Ok(None);
     }
@@ -129,6 +162,33 @@ pub(crate) fn write_marker_appearance(
     });
     cal.appearance = Some(record);
     Ok(Some(path))
+}
+
+/// Renders `scenario` over each mosaic frame's window at that frame (its time, and its index as
+/// the noise's seed), as the footage's frames were kept; `None` when the scenario has no rig or
+/// a frame has no time.
+fn render_like(scenario: &Scenario, frames: &[&MosaicFrame]) -> Option<Vec<Crop>> {
+    let rig = crate::pipeline::rig::Rig::new(scenario).ok()?;
+    let scene = rig.animated();
+    let times = rig.frame_times.as_slice();
+    frames
+        .par_iter()
+        .map(|(frame, crop, _)| {
+            let image = render_frame(
+                &scene,
+                &rig.settings,
+                &FrameRequest {
+                    index: *frame as u64,
+                    t_s: *times.get(*frame)?,
+                    window: crop.rect,
+                },
+            );
+            Some(Crop {
+                rect: image.window,
+                data: image.data,
+            })
+        })
+        .collect()
 }
 
 /// Moves the tone curve's white level from `white` to `new_white` DN with the black level kept,

@@ -332,3 +332,17 @@ fn a_view_under_a_dimmer_light_mosaics_into_the_same_texture_once_its_gain_is_st
     // Radiance 0 sits at 20 DN: 120 DN (radiance 0.5) at gain 2 is 70 DN (0.25) at gain 1.
     assert!((offset.under_unit_gain(120.0, 2.0) - 70.0).abs() < 1e-12);
 }
+
+/// A texture is drawn where the spread beyond the null is at least 1 DN and at least the null's
+/// own spread, in either material; the null is what noise alone leaves in the mean, or the same
+/// mosaic of renders of the uniform marker.
+#[test]
+fn a_texture_needs_a_dn_beyond_its_null_and_more_than_the_null_itself() {
+    assert!(shows_texture([1.5, 0.0], [0.5, 0.5]));
+    assert!(shows_texture([0.0, 1.0], [0.5, 1.0]));
+    assert!(!shows_texture([0.9, 0.9], [0.1, 0.1]), "under 1 DN");
+    assert!(
+        !shows_texture([1.2, 1.2], [1.5, 1.5]),
+        "under the null's own spread"
+    );
+}
