@@ -48,8 +48,9 @@ const RUN_FRAMES: usize = 12;
 /// OpenCV's corners jitter by up to about ¾ px on a still marker under a codec's noise, and
 /// beyond a pixel or so the linearised motion fit below no longer measures the motion.
 const COARSE_STATIC_PX: f64 = 1.5;
-/// …and is when no pixel of its window moved more than this since the static run's first
-/// frame, px ([`rigid_motion`]): the regions whose noise is measured over the run keep 3 px
+/// …and is when the marker's structure (its edges, where the window's gradients are) moved
+/// less than this since the static run's first frame, px ([`rigid_motion`]'s shift plus its
+/// turn at the structure's radius): the regions whose noise is measured over the run keep 3 px
 /// from every edge ([`LevelOptions::guard_px`]), so a fifth of a pixel leaves them as they
 /// were, and a texture mosaicked from the run is registered to a fifth of a pixel. Codec and
 /// demosaicking noise on a still marker reads as at most about a tenth of a pixel (path-traced
