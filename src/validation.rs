@@ -71,6 +71,27 @@ impl Problems {
         }
     }
 
+    /// `value` must follow `previous` (the list's entry before it) strictly, in `what` (`time`,
+    /// `angle`) with `unit` after each number.
+    pub fn increasing(
+        &mut self,
+        field: impl Into<String>,
+        value: f64,
+        previous: f64,
+        (what, unit): (&str, &str),
+    ) {
+        if value <= previous {
+            self.push(
+                field,
+                format!(
+                    "entries must be in increasing {what}: {}{unit} follows {}{unit}",
+                    short(value),
+                    short(previous)
+                ),
+            );
+        }
+    }
+
     /// `value` must be finite and strictly positive.
     pub fn positive(&mut self, field: impl Into<String>, value: f64) {
         if !value.is_finite() || value <= 0.0 {

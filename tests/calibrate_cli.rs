@@ -9,24 +9,7 @@ use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::{geneva, render_printed_marker, stderr};
-
-/// `geneva calibrate --frames FRAMES --timestamps TIMES --base base.toml --out cal EXTRA…` in `dir`.
-fn calibrate_frames(dir: &Path, frames: &str, times: &str, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "calibrate",
-        "--frames",
-        frames,
-        "--timestamps",
-        times,
-        "--base",
-        "base.toml",
-        "--out",
-        "cal",
-    ];
-    args.extend_from_slice(extra);
-    geneva(dir, &args)
-}
+use common::{calibrate_fast_frames, calibrate_frames, geneva, render_printed_marker, stderr};
 
 const BASE: &str = "extend = \"fast\"\n[mechanism]\nkind = \"external\"\nslots = 4\n[scene.marker]\nsize_mm = 32.0\n";
 
@@ -596,13 +579,7 @@ fn noise_on_the_edges_does_not_hide_the_dwell_from_calibrate() {
         }
         write_gray_png(p, w as u32, h as u32, &out).unwrap();
     }
-    std::fs::write(
-        d.join("base.toml"),
-        "extend = \"fast\"\n[scene.marker]\nsize_mm = 32.0\n",
-    )
-    .unwrap();
-    let o = calibrate_frames(d, "frames", "frames/timestamps.csv", &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = calibrate_fast_frames(d);
     let md = std::fs::read_to_string(d.join("cal/calibration.md")).unwrap();
     let ink = md
         .lines()

@@ -671,9 +671,6 @@ pub fn fit_imaging(
         white,
         u_diff,
     );
-    if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
-        eprintln!("imaging: ink {ink_dn} paper {paper_dn} σ {ink_sigma} {paper_sigma} vars {vi} {vp} black {black} white {white} u {u_diff} → {full_well_e} {read_noise_e} {shot_resolved}");
-    }
     if let Some(why) = &footage_not_identifiable {
         notes.push(format!(
             "pixel noise: not identifiable from this footage ({why}). One frame cannot tell a \

@@ -24,6 +24,8 @@
 //!   carries the base's;
 //! - the marker's appearance: its paper and ink as a texture mosaicked from the registered
 //!   frames, levels near the edges (`appearance`);
+//! - the marker's level by the wheel's angle (a glossy print reflecting the lamp), on the
+//!   frames where it is at rest or slow (`marker_levels`);
 //! - the light's drift over the footage (an auto-exposure, a lamp warming up): the marker's
 //!   contrast over time, with an illumination gradient across its path fitted beside it
 //!   (`exposure`);
@@ -40,6 +42,7 @@ mod blur_model;
 pub mod exposure;
 mod geometry;
 mod imaging;
+pub mod marker_levels;
 mod motion;
 pub mod output;
 pub mod rerender;
@@ -223,6 +226,8 @@ pub struct Calibration {
     pub timing: Option<TimingFit>,
     /// The marker texture measured from the footage, when one was written.
     pub appearance: Option<appearance::AppearanceRecord>,
+    /// The marker's level by wheel angle, when measured (written when it shows one).
+    pub marker_levels: Option<marker_levels::LevelTable>,
     /// Things the user should know (assumptions, effects that were not resolved).
     pub notes: Vec<String>,
 }
@@ -269,6 +274,7 @@ pub fn calibrate(
         imaging,
         timing: stats.timing.clone(),
         appearance: None,
+        marker_levels: None,
         notes,
     })
 }

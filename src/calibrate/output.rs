@@ -772,6 +772,39 @@ fn appearance_markdown(s: &mut String, a: Option<&crate::calibrate::appearance::
     );
 }
 
+/// The marker's level by wheel angle: the bins measured and whether the scenario draws them.
+fn marker_levels_markdown(s: &mut String, t: Option<&crate::calibrate::marker_levels::LevelTable>) {
+    let Some(t) = t else {
+        return;
+    };
+    let written = t.shows_levels();
+    let _ = writeln!(
+        s,
+        "\nThe marker's level by the wheel's angle, on {} slow frame(s) (no corner moving 1.5 px \
+         from a neighbouring frame), against {:.2} / {:.2} DN (ink / paper) drawn: {}\n",
+        t.frames,
+        t.reference_dn[0],
+        t.reference_dn[1],
+        if written {
+            "the scenario draws it (`scene.appearance.marker_levels`), interpolated in the angle \
+             between the bins"
+        } else {
+            "within the noise, not written"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "| θ2 (°) | frames | ink (DN, ± 1 s.e.) | paper (DN, ± 1 s.e.) |\n|---|---|---|---|"
+    );
+    for b in &t.bins {
+        let _ = writeln!(
+            s,
+            "| {:.1} | {} | {:.2} ± {:.2} | {:.2} ± {:.2} |",
+            b.angle_deg, b.frames, b.level_dn[0], b.se_dn[0], b.level_dn[1], b.se_dn[1]
+        );
+    }
+}
+
 /// The calibration report (markdown).
 pub fn calibration_markdown(
     cal: &Calibration,
@@ -1055,6 +1088,7 @@ pub fn calibration_markdown(
         );
     }
     appearance_markdown(&mut s, cal.appearance.as_ref());
+    marker_levels_markdown(&mut s, cal.marker_levels.as_ref());
     if let Some(c) = check {
         let _ = writeln!(
             s,

@@ -995,7 +995,8 @@ fn write_outputs(
             .imaging
             .blur_sigma_px
             .map_or(base.effects.optical_blur.sigma_px, |b| b.value);
-        if let Some(p) = write_marker_appearance(
+        super::calibrate_levels::make_room_for_darkest_ink(&stats, &mut ovs, &mut cal, base);
+        let texture = write_marker_appearance(
             &mosaic,
             times,
             Some(*frame),
@@ -1006,9 +1007,16 @@ fn write_outputs(
             base,
             &typed,
             out_dir,
-        )? {
-            files.push(p);
-        }
+        )?;
+        super::calibrate_levels::write_marker_levels(
+            &stats,
+            &mosaic,
+            texture.is_some(),
+            &mut ovs,
+            &mut cal,
+            base,
+        );
+        files.extend(texture);
     }
     let text = scenario_toml(&ovs, &ctx, &cal);
     std::fs::write(&scenario_path, &text).map_err(FileError::io(&scenario_path))?;
@@ -1291,9 +1299,6 @@ fn match_by_simulation(
             } else if let Some(l) = levels[m].as_mut() {
                 *l += d;
             }
-        }
-        if std::env::var("GENEVA_DEBUG_MATCH").is_ok() {
-            eprintln!("match: means {means:?} targets {target_means:?} sigmas {sigmas:?} targets {target_sigmas:?} kinds {kinds:?} pre {pre:?} black {black} white {white} fw {fw} read {read} resolvable {resolvable}");
         }
         // Secant steps on σ_pre → measured σ (JPEG and clipping make it far from the
         // identity); a ratio step first.

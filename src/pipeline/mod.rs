@@ -11,6 +11,8 @@ pub mod calibrate;
 #[cfg(feature = "opencv-detector")]
 mod calibrate_appearance;
 #[cfg(feature = "opencv-detector")]
+mod calibrate_levels;
+#[cfg(feature = "opencv-detector")]
 mod calibrate_overlay;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate_printed;

@@ -232,7 +232,7 @@ fn draw_textured(
         let Some(value) = tex
             .map
             .to_plane(centre)
-            .and_then(|p| tex.mesh.radiance_at(p, true))
+            .and_then(|p| tex.radiance_at(p, true))
         else {
             continue;
         };
@@ -242,7 +242,7 @@ fn draw_textured(
         *px = tiny_skia::ColorU8::from_rgba(mixed, mixed, mixed, 255).premultiply();
     }
     // A uniform paper is painted over it as a polygon (anti-aliased like any other).
-    if let (Some(core), Some(r)) = (&tex.core_px, tex.mesh.paper_radiance()) {
+    if let (Some(core), Some(r)) = (&tex.core_px, tex.paper_radiance()) {
         let core_px: Vec<glam::DVec2> = core
             .vertices_px
             .iter()

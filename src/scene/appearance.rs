@@ -15,6 +15,10 @@
 //! * **Background** (`background_file`): what the camera sees behind the disc, one texel per
 //!   camera pixel; it stays with the camera (camera vibration does not move it).
 //!
+//! * **Marker levels** (`marker_levels`): the marker's radiance as a function of the wheel's
+//!   angle (a glossy print reflecting the lamp), see [`super::marker_levels`]; with or without
+//!   a marker texture.
+//!
 //! Files are grey PNGs of 8 or 16 bits holding linear radiance (full scale = 1, the same
 //! radiance as `disc_radiance`), read once by the scenario loader into [`LoadedAppearance`].
 
@@ -47,6 +51,10 @@ pub struct AppearanceConfig {
     /// Grey PNG of the background, the camera's size. Default: none (`background_radiance`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub background_file: Option<String>,
+    /// The marker's level by wheel angle (`scene::marker_levels`). Default: none (the marker's
+    /// radiance at every angle as stated).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub marker_levels: Vec<super::MarkerLevelAt>,
     /// The textures, read by the scenario loader.
     #[serde(skip)]
     pub loaded: LoadedAppearance,
@@ -61,6 +69,7 @@ impl Default for AppearanceConfig {
             marker_file: None,
             marker_texels_per_cell: 0,
             background_file: None,
+            marker_levels: Vec::new(),
             loaded: LoadedAppearance::default(),
         }
     }
@@ -147,6 +156,7 @@ impl AppearanceConfig {
                 problems.push(join(path, name), "must name a file (or be left out)");
             }
         }
+        super::marker_levels::validate(&self.marker_levels, &join(path, "marker_levels"), problems);
         if self.disc_file.is_some() {
             let s = self.disc_mm_per_texel;
             if !(s.is_finite() && s > 0.0 && s <= 100.0) {

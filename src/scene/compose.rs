@@ -12,7 +12,8 @@ use crate::camera::Camera;
 use crate::marker::cells;
 use crate::render::shapes::{Layer, Polygon, SceneAt, SceneSnapshot};
 use crate::render::texture::{
-    value_of, BackgroundTexture, GridSpec, LayerContent, PlaneMap, TextureMesh, TexturedFill,
+    value_of, BackgroundTexture, GridSpec, LayerContent, LevelMap, PlaneMap, TextureMesh,
+    TexturedFill,
 };
 use crate::validation::Problems;
 use std::sync::Arc;
@@ -371,8 +372,9 @@ impl Scene {
         let c = &self.config;
         let mut layers = Vec::new();
         if let Some((art, placed)) = &self.reference {
-            layers.extend(self.marker_layers(art, placed));
+            layers.extend(self.marker_layers(art, placed, None));
         }
+        let level = super::marker_levels::level_at(&c.appearance.marker_levels, pose.theta2_rad);
         match &self.textured {
             None => {
                 layers.push(Layer {
@@ -380,9 +382,13 @@ impl Scene {
                     radiance: c.disc_radiance as f32,
                     polygons: vec![self.disc_polygon(pose)],
                 });
-                layers.extend(self.marker_layers(&self.marker, &self.placed_marker(pose)));
+                layers.extend(self.marker_layers(
+                    &self.marker,
+                    &self.placed_marker(pose),
+                    level.as_ref(),
+                ));
             }
-            Some(t) => layers.extend(self.textured_layers(t, pose)),
+            Some(t) => layers.extend(self.textured_layers(t, pose, level)),
         }
         SceneSnapshot {
             background: self.background.clone(),
@@ -393,7 +399,12 @@ impl Scene {
 
     /// The textured disc (its marker's paper included), then the ink when the paper is
     /// uniform.
-    fn textured_layers(&self, t: &TexturedDisc, pose: &WheelPose) -> Vec<Layer> {
+    fn textured_layers(
+        &self,
+        t: &TexturedDisc,
+        pose: &WheelPose,
+        level: Option<LevelMap>,
+    ) -> Vec<Layer> {
         let map = self.wheel_map(t, pose);
         let outline = Polygon {
             vertices_px: t
@@ -405,7 +416,7 @@ impl Scene {
         };
         let placed = self.placed_marker(pose);
         let uniform_paper = t.mesh.paper_is_uniform();
-        let [paper, ink] = self.marker_layers(&self.marker, &placed);
+        let [paper, ink] = self.marker_layers(&self.marker, &placed, level.as_ref());
         let mut layers = vec![Layer {
             radiance: self.config.disc_radiance as f32,
             polygons: vec![outline],
@@ -413,6 +424,7 @@ impl Scene {
                 mesh: Arc::clone(&t.mesh),
                 map,
                 core_px: uniform_paper.then(|| paper.polygons[0].clone()),
+                paper_level: level,
             }),
         }];
         if uniform_paper {
@@ -503,7 +515,14 @@ impl Scene {
         }
     }
 
-    fn marker_layers(&self, art: &MarkerArt, placed: &PlacedMarker) -> [Layer; 2] {
+    /// The marker's paper and ink, their radiances mapped by `level` when one is given.
+    fn marker_layers(
+        &self,
+        art: &MarkerArt,
+        placed: &PlacedMarker,
+        level: Option<&LevelMap>,
+    ) -> [Layer; 2] {
+        let radiance = |r: f64| level.map_or(r, |l| l.radiance(r)) as f32;
         let paper_corners = self.paper_corners_m(art, placed);
         let paper = Polygon {
             vertices_px: projected_quad(&self.camera, &paper_corners, TOLERANCE_PX, self.distorted),
@@ -532,12 +551,12 @@ impl Scene {
         [
             Layer {
                 texture: None,
-                radiance: self.config.paper_radiance as f32,
+                radiance: radiance(self.config.paper_radiance),
                 polygons: vec![paper],
             },
             Layer {
                 texture: None,
-                radiance: self.config.ink_radiance as f32,
+                radiance: radiance(self.config.ink_radiance),
                 polygons,
             },
         ]

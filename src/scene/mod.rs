@@ -10,12 +10,14 @@ pub mod appearance;
 pub mod compose;
 pub mod config;
 pub mod geometry;
+pub mod marker_levels;
 pub mod tessellate;
 
 pub use appearance::{AppearanceConfig, LoadedAppearance, MarkerTexels};
 pub use compose::{AnimatedScene, BoundingBox, Scene, SceneError, WheelPose, TOLERANCE_PX};
 pub use config::{MarkerConfig, ReferenceMarkerConfig, SceneConfig};
 pub use geometry::{black_rectangles, CellRect, PlacedMarker};
+pub use marker_levels::MarkerLevelAt;
 
 #[cfg(test)]
 mod tests;

@@ -113,8 +113,9 @@ fn a_uniform_disc_texture_draws_what_the_uniform_disc_draws() {
 
 #[test]
 fn a_window_is_the_full_frame_bit_for_bit_with_every_texture_and_effect_on() {
-    for (disc, marker) in [(true, false), (false, true)] {
-        let s = with_textures(scenario(), disc, marker, true);
+    for (disc, marker) in [(true, false), (false, true), (false, false)] {
+        let mut s = with_textures(scenario(), disc, marker, true);
+        s.scene.appearance.marker_levels = glossy_levels();
         let rig = Rig::new(&s).unwrap();
         let scene = rig.animated();
         let full_rect = rig.frame_rect();
@@ -144,5 +145,106 @@ fn a_window_is_the_full_frame_bit_for_bit_with_every_texture_and_effect_on() {
                 );
             }
         }
+    }
+}
+
+/// A marker whose level changes with the wheel's angle: brighter ink at 0°, darker at 180°.
+fn glossy_levels() -> Vec<crate::scene::MarkerLevelAt> {
+    [(0.0, 0.8, 0.15), (90.0, 1.0, 0.0), (180.0, 1.1, -0.05)]
+        .map(|(angle_deg, gain, offset)| crate::scene::MarkerLevelAt {
+            angle_deg,
+            gain,
+            offset,
+        })
+        .to_vec()
+}
+
+/// Renders the whole frame `index` at `t_s`.
+fn whole_frame(s: &Scenario, index: u64, t_s: f64) -> crate::render::GrayImage {
+    let rig = Rig::new(s).unwrap();
+    let req = FrameRequest {
+        index,
+        t_s,
+        window: rig.frame_rect(),
+    };
+    let scene = rig.animated();
+    render_frame(&scene, &rig.settings, &req)
+}
+
+#[test]
+fn the_marker_drawn_at_a_level_is_the_marker_of_those_levels_bit_for_bit() {
+    // In a dwell the wheel stands still over the exposure and the readout (20 ms), so the
+    // level is one map over the frame.
+    // The reference marker stands beside the wheel: no level is applied to it, so the
+    // comparison with stated levels leaves it out.
+    let mut base = scenario();
+    base.scene.paper_radiance = 1.0;
+    base.scene.reference_marker.enabled = false;
+    base.detector.reference_marker_id = None;
+    let rig = Rig::new(&base).unwrap();
+    let scene = rig.animated();
+    let theta = |t: f64| scene.pose(t).theta2_rad;
+    let t_s = (1..400)
+        .map(|k| k as f64 * 0.01)
+        .find(|&t| theta(t - 0.03) == theta(t + 0.03))
+        .expect("a dwell");
+    let levels = crate::scene::marker_levels::level_at;
+    let level = levels(&glossy_levels(), theta(t_s)).unwrap();
+    assert!(
+        level.gain != 1.0,
+        "a dwell where the table changes the marker"
+    );
+    for (disc, marker) in [(false, false), (true, false), (false, true)] {
+        let plain = with_textures(base.clone(), disc, marker, false);
+        let mut glossy = plain.clone();
+        glossy.scene.appearance.marker_levels = glossy_levels();
+        let mut mapped = plain.clone();
+        let sc = &mut mapped.scene;
+        sc.paper_radiance = level.radiance(sc.paper_radiance);
+        sc.ink_radiance = level.radiance(sc.ink_radiance);
+        if let Some(t) = &sc.appearance.loaded.marker {
+            let values = t.values.iter().map(|&v| level.value(v)).collect();
+            sc.appearance.loaded.marker = Some(Arc::new(Texture {
+                values,
+                ..(**t).clone()
+            }));
+        }
+        let (g, m, p) = (
+            whole_frame(&glossy, 3, t_s),
+            whole_frame(&mapped, 3, t_s),
+            whole_frame(&plain, 3, t_s),
+        );
+        let differ = |a: &crate::render::GrayImage, b: &crate::render::GrayImage| {
+            a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count()
+        };
+        assert_eq!(
+            differ(&g, &m),
+            0,
+            "disc texture {disc}, marker texture {marker}"
+        );
+        assert!(
+            differ(&g, &p) > 100,
+            "the level changes the picture (disc {disc}, marker {marker})"
+        );
+        // The independent renderer samples textures bilinearly and maps the sample: the same
+        // picture as sampling the mapped texture, to the 16-bit rounding of the mapped values.
+        let independent = |s: &Scenario| {
+            let rig = Rig::new(s).unwrap();
+            let scene = rig.animated();
+            crate::render::independent::render_frame_independent(&scene, &rig.settings, 3, t_s)
+                .unwrap()
+        };
+        let (gi, mi) = (independent(&glossy), independent(&mapped));
+        let worst = gi
+            .data
+            .iter()
+            .zip(&mi.data)
+            .map(|(a, b)| a.abs_diff(*b))
+            .max();
+        assert!(worst <= Some(1), "independent renderer: {worst:?} DN apart");
+        assert!(
+            differ(&gi, &independent(&plain)) > 100,
+            "independent renderer draws the level"
+        );
     }
 }

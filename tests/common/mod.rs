@@ -355,3 +355,33 @@ pub fn render_printed_marker(dir: &Path) {
     let o = geneva(dir, &["render", "printed.toml", "--out", "printed"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// `geneva calibrate --frames FRAMES --timestamps TIMES --base base.toml --out cal EXTRA…` in `dir`.
+pub fn calibrate_frames(dir: &Path, frames: &str, times: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "calibrate",
+        "--frames",
+        frames,
+        "--timestamps",
+        times,
+        "--base",
+        "base.toml",
+        "--out",
+        "cal",
+    ];
+    args.extend_from_slice(extra);
+    geneva(dir, &args)
+}
+
+/// Calibrates `dir/frames` (rendered from the `fast` rig) against `fast` with its 32 mm marker
+/// stated (`base.toml`, written here) into `dir/cal`; the command must succeed.
+pub fn calibrate_fast_frames(dir: &Path) -> Output {
+    std::fs::write(
+        dir.join("base.toml"),
+        "extend = \"fast\"\n[scene.marker]\nsize_mm = 32.0\n",
+    )
+    .unwrap();
+    let o = calibrate_frames(dir, "frames", "frames/timestamps.csv", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    o
+}

@@ -116,7 +116,9 @@ def write_data_scenario(tools, spec, work, rng):
             if v["effect"] in MECHANISM_EFFECTS]
     resolved = os.path.join(work, "data_resolved.toml")
     with open(resolved, "w") as f:
-        f.write(tools.scenario_show(spec["base"], with_=mech))
+        # A case records its base relative to the repository.
+        base = os.path.join(os.path.dirname(os.path.dirname(HERE)), spec["base"])
+        f.write(tools.scenario_show(base, with_=mech))
     first = os.path.join(work, "data_first.toml")
     duration = float(spec["duration_s"])
     with open(first, "w") as f:

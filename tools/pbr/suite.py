@@ -79,7 +79,9 @@ def plan(tools, args):
     rig = tomllib.loads(tools.scenario_show(RIG))
     fps = float(rig["frame_timing"]["fps"])
     vocab = vocabulary(tools, fps)
-    common = {"base": RIG, "duration_s": args.duration_s, "samples": args.samples}
+    # Recorded relative to the repository, so that a case's record names no machine's folders.
+    common = {"base": os.path.relpath(RIG, REPO), "duration_s": args.duration_s,
+              "samples": args.samples}
     cases = []
     seed = args.seed
     for k in range(args.nulls):
@@ -183,10 +185,12 @@ def chain(spec, folder, frames, tools, args, log):
     if not os.path.exists(os.path.join(calibrated, "scenario.toml")):
         need_frames(frames, spec)
         t = step("calibrate", log)
-        cpu = run_logged(tools, ["calibrate", "--frames", frames, "--timestamps",
-                                 os.path.join(frames, "timestamps.csv"), "--base", RIG,
-                                 "--out", calibrated], os.path.join(folder, "calibrate.log"),
-                         "calibrate")
+        # Each step runs in the case's folder with relative paths: the outputs name the
+        # footage and files as `frames`, `calibrated/…`, not by this machine's folders.
+        cpu = run_logged(tools, ["calibrate", "--frames", "frames", "--timestamps",
+                                 "frames/timestamps.csv", "--base",
+                                 os.path.relpath(RIG, folder), "--out", "calibrated"],
+                         os.path.join(folder, "calibrate.log"), "calibrate", folder)
         seconds["calibrate_wall"] = time.time() - t
         seconds["calibrate_cpu"] = cpu
     # The nominal sits beside the calibrated scenario: the files it names (timestamps,
@@ -202,10 +206,10 @@ def chain(spec, folder, frames, tools, args, log):
     if not os.path.exists(os.path.join(diagnosis, "diagnosis.json")):
         need_frames(frames, spec)
         t = step("diagnose", log)
-        cpu = run_logged(tools, ["diagnose", "--scenario", nominal, "--frames", frames,
-                                 "--timestamps", os.path.join(frames, "timestamps.csv"),
-                                 "--out", diagnosis, "--yes"] + args.diagnose_arg,
-                         os.path.join(folder, "diagnose.log"), "diagnose")
+        cpu = run_logged(tools, ["diagnose", "--scenario", "calibrated/nominal.toml",
+                                 "--frames", "frames", "--timestamps", "frames/timestamps.csv",
+                                 "--out", "diagnosis", "--yes"] + args.diagnose_arg,
+                         os.path.join(folder, "diagnose.log"), "diagnose", folder)
         seconds["diagnose_wall"] = time.time() - t
         seconds["diagnose_cpu"] = cpu
     if seconds:
@@ -227,11 +231,12 @@ def need_frames(frames, spec):
                            "delete the case's folder to render it again")
 
 
-def run_logged(tools, args, log_file, step_name):
-    """Runs `geneva ARGS` into `log_file`; returns its CPU seconds."""
+def run_logged(tools, args, log_file, step_name, cwd):
+    """Runs `geneva ARGS` in `cwd` into `log_file`; returns its CPU seconds."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(log_file, "w") as f:
-        proc = subprocess.run([tools.geneva] + args, stdout=f, stderr=subprocess.STDOUT)
+        proc = subprocess.run([tools.geneva] + args, stdout=f, stderr=subprocess.STDOUT,
+                              cwd=cwd)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     if proc.returncode != 0:

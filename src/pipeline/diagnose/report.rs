@@ -1585,13 +1585,27 @@ fn appearance_text(a: &crate::scene::AppearanceConfig) -> String {
     ]
     .iter()
     .map(|(what, file)| match file {
-        Some(f) => format!("{what} from `{f}`"),
+        // The file's name: a shown scenario names it by an absolute path that says nothing
+        // about the diagnosis.
+        Some(f) => {
+            let name = std::path::Path::new(f)
+                .file_name()
+                .map_or_else(|| f.clone(), |n| n.to_string_lossy().into_owned());
+            format!("{what} from `{name}`")
+        }
         None => format!("{what} uniform"),
     })
     .collect();
+    let levels = match a.marker_levels.len() {
+        0 => String::new(),
+        n => format!(
+            ", the marker's level changing with the wheel's angle ({n} angle(s) in \
+             `marker_levels`)"
+        ),
+    };
     format!(
-        "The nominal draws {} (`scene.appearance`; `geneva calibrate` writes the marker's texture \
-         when the footage shows one).\n\n",
+        "The nominal draws {}{levels} (`scene.appearance`; `geneva calibrate` writes the \
+         marker's texture and levels when the footage shows them).\n\n",
         parts.join(", ")
     )
 }
@@ -1608,13 +1622,26 @@ mod tests {
         assert_eq!(
             appearance_text(&a),
             "The nominal draws the disc uniform, the marker uniform, the background uniform \
-             (`scene.appearance`; `geneva calibrate` writes the marker's texture when the footage \
-             shows one).\n\n"
+             (`scene.appearance`; `geneva calibrate` writes the marker's texture and levels when \
+             the footage shows them).\n\n"
         );
-        a.marker_file = Some("marker.png".into());
+        a.marker_file = Some("/home/user/rig/cal/marker.png".into());
         let t = appearance_text(&a);
         assert!(
             t.contains("the disc uniform, the marker from `marker.png`, the background uniform"),
+            "{t}"
+        );
+        a.marker_levels = vec![crate::scene::MarkerLevelAt {
+            angle_deg: 10.0,
+            gain: 1.0,
+            offset: 0.1,
+        }];
+        let t = appearance_text(&a);
+        assert!(
+            t.contains(
+                "the background uniform, the marker's level changing with the wheel's \
+                        angle (1 angle(s) in `marker_levels`)"
+            ),
             "{t}"
         );
     }

@@ -157,16 +157,7 @@ impl LightingConfig {
             let field = join(path, &format!("gain_steps[{i}]"));
             problems.range(join(&field, "at_s"), step.at_s, 0.0, 1e6);
             problems.range(join(&field, "gain"), step.gain, 1e-3, 10.0);
-            if step.at_s <= last_s {
-                problems.push(
-                    join(&field, "at_s"),
-                    format!(
-                        "steps must be in increasing time: {} s follows {} s",
-                        crate::validation::short(step.at_s),
-                        crate::validation::short(last_s)
-                    ),
-                );
-            }
+            problems.increasing(join(&field, "at_s"), step.at_s, last_s, ("time", " s"));
             last_s = step.at_s;
         }
     }

@@ -18,7 +18,7 @@
 
 use super::{to_fixed, Edge, PixelRect, RigidTransform};
 use crate::render::texture::build::{BlockClass, Side, Vertex, BLOCK};
-use crate::render::texture::{PlaneMap, TextureMesh, TexturedFill};
+use crate::render::texture::{LevelMap, PlaneMap, TextureMesh, TexturedFill};
 use glam::{DMat3, DVec2};
 use std::sync::Arc;
 
@@ -41,11 +41,15 @@ pub(super) struct PreparedFill {
     block_boxes: Vec<Vec<[f64; 4]>>,
     /// Per boundary polyline: the image rows its end points span, margin included.
     boundary_rows: Vec<(f64, f64)>,
+    /// The paper's level at this instant.
+    paper_level: Option<LevelMap>,
 }
 
 impl PartialEq for PreparedFill {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.mesh, &other.mesh) && self.map == other.map
+        Arc::ptr_eq(&self.mesh, &other.mesh)
+            && self.map == other.map
+            && self.paper_level == other.paper_level
     }
 }
 
@@ -131,7 +135,15 @@ impl PreparedFill {
             orientation,
             block_boxes,
             boundary_rows,
+            paper_level: fill.paper_level,
         }
+    }
+
+    /// The level map of grid `g`'s values: the paper's level on the paper's grid.
+    fn level_of_grid(&self, g: usize) -> Option<&LevelMap> {
+        self.paper_level
+            .as_ref()
+            .filter(|_| self.mesh.inner_grid == Some(g as u8))
     }
 
     /// The layer's outline in the image (the disc polygon), for its bounds.
@@ -187,6 +199,7 @@ impl PreparedFill {
         let gm = &self.grid_maps[g];
         let (w, h) = (grid.width() as i64, grid.height() as i64);
         let texture = &grid.spec.texture;
+        let level = self.level_of_grid(g);
         let FillScratch {
             selected, corners, ..
         } = scratch;
@@ -209,7 +222,8 @@ impl PreparedFill {
             {
                 return 0;
             }
-            texture.values[j as usize * texture.width + i as usize] as i64
+            let v = texture.values[j as usize * texture.width + i as usize];
+            level.map_or(v, |l| l.value(v)) as i64
         };
         let s = self.orientation;
         let skip_outer = grid.outer_lines_are_boundary;
@@ -330,12 +344,15 @@ impl PreparedFill {
         let value = |side: Side| -> i64 {
             match side {
                 Side::Uniform(w) => w as i64,
+                Side::Paper(w) => self.paper_level.map_or(w, |l| l.value(w)) as i64,
                 Side::Empty => 0,
                 Side::Texel { grid, i, j } => {
                     let g = &self.mesh.grids[grid as usize];
                     let (bx, by) = (i as usize / BLOCK, j as usize / BLOCK);
                     if selected[grid as usize][by * g.blocks_u + bx] {
-                        g.spec.texture.values[j as usize * g.spec.texture.width + i as usize] as i64
+                        let v =
+                            g.spec.texture.values[j as usize * g.spec.texture.width + i as usize];
+                        self.level_of_grid(grid as usize).map_or(v, |l| l.value(v)) as i64
                     } else {
                         0
                     }

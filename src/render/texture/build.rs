@@ -14,7 +14,7 @@
 //! the pieces meeting at an edge share its end points bit for bit after projection and the
 //! partition has no gap or overlap in the rasteriser's integers.
 
-use super::Texture;
+use super::{LevelMap, Texture};
 use glam::DVec2;
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -92,8 +92,14 @@ pub(crate) enum Vertex {
 /// The piece on one side of a boundary sub-segment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Side {
-    Texel { grid: u8, i: i32, j: i32 },
+    Texel {
+        grid: u8,
+        i: i32,
+        j: i32,
+    },
     Uniform(u16),
+    /// The uniform marker paper (the inner part), which a [`super::LevelMap`] maps.
+    Paper(u16),
     Empty,
 }
 
@@ -167,6 +173,8 @@ pub struct TextureMesh {
     paper: [DVec2; 4],
     outer: LayerContent,
     inner: LayerContent,
+    /// The paper's grid, when the paper is textured.
+    pub(crate) inner_grid: Option<u8>,
 }
 
 /// Relative tolerance (of a texel) within which a point counts as on a boundary or a grid line.
@@ -194,6 +202,7 @@ impl TextureMesh {
             paper,
             outer,
             inner,
+            inner_grid: None,
         };
         if matches!(
             (&mesh.outer, &mesh.inner),
@@ -206,6 +215,7 @@ impl TextureMesh {
         }
         let outer_grid = mesh.add_outer_grid()?;
         let inner_grid = mesh.add_inner_grid()?;
+        mesh.inner_grid = inner_grid;
         mesh.build_boundaries(outer_grid, inner_grid);
         if let Some(g) = outer_grid {
             mesh.build_line_intervals(g);
@@ -245,12 +255,25 @@ impl TextureMesh {
     /// sampling a texture bilinearly between texel centres (edge-clamped) when `bilinear`, else
     /// piecewise constant.
     pub fn radiance_at(&self, p: DVec2, bilinear: bool) -> Option<f32> {
-        let content = if self.paper_distance(p) >= 0.0 {
-            &self.inner
-        } else {
-            &self.outer
-        };
-        Some(match content {
+        self.radiance_with(p, bilinear, None)
+    }
+
+    /// As [`Self::radiance_at`], the paper's radiance mapped by `level` when one is given.
+    pub fn radiance_with(&self, p: DVec2, bilinear: bool, level: Option<&LevelMap>) -> Option<f32> {
+        let on_paper = self.paper_distance(p) >= 0.0;
+        let r = self.content_radiance(
+            if on_paper { &self.inner } else { &self.outer },
+            p,
+            bilinear,
+        );
+        Some(match level {
+            Some(l) if on_paper => l.radiance(r as f64) as f32,
+            _ => r,
+        })
+    }
+
+    fn content_radiance(&self, content: &LayerContent, p: DVec2, bilinear: bool) -> f32 {
+        match content {
             LayerContent::Uniform(w) => super::radiance_of(*w),
             LayerContent::Grid(g) => {
                 let q = g.grid_at(p);
@@ -269,7 +292,7 @@ impl TextureMesh {
                     a * (1.0 - fy) + b * fy
                 }
             }
-        })
+        }
     }
 
     fn disc_vertex(&self, k: usize) -> DVec2 {
@@ -613,10 +636,11 @@ impl TextureMesh {
                     } else {
                         0
                     };
-                    (
-                        self.side_of(&self.outer, og, outside),
-                        self.side_of(&self.inner, ig, inside),
-                    )
+                    let inside = match self.side_of(&self.inner, ig, inside) {
+                        Side::Uniform(w) => Side::Paper(w),
+                        side => side,
+                    };
+                    (self.side_of(&self.outer, og, outside), inside)
                 }
             })
             .collect();

@@ -65,6 +65,29 @@ pub fn value_of(radiance: f64) -> u16 {
     (radiance.clamp(0.0, 1.0) * RADIANCE_UNITS as f64).round() as u16
 }
 
+/// The marker's level at one instant (`scene.appearance.marker_levels`): its radiance r, paper
+/// and ink alike, textured or uniform, is drawn as gain·r + offset, clamped to [0, 1]. A glossy
+/// toner that reflects the lamp at some angles of the wheel changes the ink's level this way.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelMap {
+    pub gain: f64,
+    pub offset: f64,
+}
+
+impl LevelMap {
+    /// The mapped radiance.
+    #[inline]
+    pub fn radiance(&self, r: f64) -> f64 {
+        (self.gain * r + self.offset).clamp(0.0, 1.0)
+    }
+
+    /// The mapped 16-bit value (the weight the rasteriser deposits).
+    #[inline]
+    pub fn value(&self, v: u16) -> u16 {
+        value_of(self.radiance(v as f64 / RADIANCE_UNITS as f64))
+    }
+}
+
 /// The static background as a texture in the image: texel (x, y) is camera pixel (x, y);
 /// outside the frame (the optical blur's margin) the nearest edge pixel's value.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -99,11 +122,33 @@ pub struct TexturedFill {
     /// The uniform piece (the marker's paper) as an image polygon, when the layer has one: a
     /// later layer (the ink) drawn over the layer nests inside it (see `raster::nesting`).
     pub core_px: Option<crate::render::shapes::Polygon>,
+    /// The marker's level at this instant (applies to the paper part, texture or uniform).
+    pub paper_level: Option<LevelMap>,
+}
+
+impl TexturedFill {
+    /// The layer's radiance at plane point `p` (see [`TextureMesh::radiance_at`]), the paper's
+    /// level applied.
+    pub fn radiance_at(&self, p: glam::DVec2, bilinear: bool) -> Option<f32> {
+        self.mesh
+            .radiance_with(p, bilinear, self.paper_level.as_ref())
+    }
+
+    /// The uniform paper's radiance at this instant, when the paper is uniform.
+    pub fn paper_radiance(&self) -> Option<f32> {
+        let r = self.mesh.paper_radiance()?;
+        Some(match &self.paper_level {
+            Some(l) => l.radiance(r as f64) as f32,
+            None => r,
+        })
+    }
 }
 
 impl PartialEq for TexturedFill {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.mesh, &other.mesh) && self.map == other.map
+        Arc::ptr_eq(&self.mesh, &other.mesh)
+            && self.map == other.map
+            && self.paper_level == other.paper_level
     }
 }
 

@@ -83,6 +83,7 @@ fn layer(mesh: &Arc<TextureMesh>, map: &PlaneMap) -> Layer {
             mesh: Arc::clone(mesh),
             map: map.clone(),
             core_px: None,
+            paper_level: None,
         }),
     }
 }
