@@ -6,10 +6,9 @@
 
 use geneva_vision::scenario::Scenario;
 use geneva_vision::scene::marker_levels::level_at;
-use std::path::Path;
 
 mod common;
-use common::{calibrate_fast_frames, geneva, stderr};
+use common::render_and_calibrate_fast;
 
 /// The ink's level in DN that `s` draws where the marker's printed x axis points at `psi_deg`
 /// in the image (the wheel angle less the marker's angle on the disc and orientation).
@@ -20,21 +19,6 @@ fn ink_dn_at(s: &Scenario, psi_deg: f64) -> f64 {
     let r = level_at(&s.scene.appearance.marker_levels, theta2).map_or(r, |l| l.radiance(r));
     let l = &s.effects.lighting;
     l.black_level_dn + (l.white_level_dn - l.black_level_dn) * r
-}
-
-fn render_and_calibrate(d: &Path, levels: &str) -> (Scenario, Scenario, String) {
-    std::fs::write(
-        d.join("truth.toml"),
-        format!("extend = \"fast\"\nduration_s = 4.0\n{levels}"),
-    )
-    .unwrap();
-    let o = geneva(d, &["render", "truth.toml", "--out", "frames"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = calibrate_fast_frames(d);
-    let truth = geneva_vision::scenario::load(&d.join("truth.toml")).unwrap();
-    let cal = geneva_vision::scenario::load(&d.join("cal/scenario.toml")).unwrap();
-    let log = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
-    (truth, cal, log)
 }
 
 #[test]
@@ -50,7 +34,7 @@ fn a_level_that_changes_with_the_angle_is_calibrated_where_the_marker_was_seen()
             45 * k
         ));
     }
-    let (truth, cal, log) = render_and_calibrate(dir.path(), &table);
+    let (truth, cal, log) = render_and_calibrate_fast(dir.path(), &table);
     let levels = &cal.scene.appearance.marker_levels;
     assert!(levels.len() >= 2, "{log}");
     // At every measured angle the calibrated scenario draws the truth's ink level.
@@ -75,7 +59,7 @@ fn a_level_that_changes_with_the_angle_is_calibrated_where_the_marker_was_seen()
 #[test]
 fn a_marker_at_one_level_gets_no_table() {
     let dir = tempfile::tempdir().unwrap();
-    let (_, cal, log) = render_and_calibrate(dir.path(), "");
+    let (_, cal, log) = render_and_calibrate_fast(dir.path(), "");
     assert!(cal.scene.appearance.marker_levels.is_empty(), "{log}");
     assert!(
         log.contains("the marker's level does not change with the wheel's angle"),

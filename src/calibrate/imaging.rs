@@ -117,6 +117,8 @@ pub struct ImagingFit {
     pub blur_sigma_px: Option<Fitted>,
     pub blur_sigma_param_px: Option<Fitted>,
     pub blur_edges: usize,
+    /// The footage's unsharp mask as measured (drawn when `significant`).
+    pub sharpening: Option<super::sharpening::SharpeningFit>,
     pub noise: NoiseFit,
     /// Median 8-px blockiness ratio (Wang–Sheikh–Bovik B/A; ≈ 1 without block coding).
     pub blockiness: Option<f64>,
@@ -753,6 +755,7 @@ pub fn fit_imaging(
         blur_sigma_px,
         blur_sigma_param_px,
         blur_edges: edges.len(),
+        sharpening: stats.sharpening,
         noise: NoiseFit {
             ink_sigma_dn: ink_sigma,
             paper_sigma_dn: paper_sigma,

@@ -47,6 +47,7 @@ mod motion;
 pub mod output;
 pub mod rerender;
 pub mod residual;
+pub mod sharpening;
 
 #[cfg(test)]
 mod tests;
@@ -172,6 +173,9 @@ pub struct FootageStats {
     pub jpeg: Vec<Option<JpegQuality>>,
     /// The frame timing fit (≥ 5 frames).
     pub timing: Option<TimingFit>,
+    /// The unsharp mask measured on the marker's edges (the edge fits above assume it when it
+    /// is significant).
+    pub sharpening: Option<sharpening::SharpeningFit>,
 }
 
 impl FootageStats {

@@ -519,6 +519,21 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
             ),
         ));
     }
+    if let Some(m) = im.sharpening.filter(|m| m.significant) {
+        o.push(ov("effects.sharpening.enabled", Value::Boolean(true), ""));
+        o.push(ov(
+            "effects.sharpening.amount",
+            num(m.amount, 3),
+            format!(
+                "± {:.3} (95 %): the halo of {} edge fits (residual RMS {:.2} → {:.2} DN)",
+                1.96 * m.amount_se,
+                m.edges,
+                m.rms_without_dn,
+                m.rms_with_dn
+            ),
+        ));
+        o.push(ov("effects.sharpening.sigma_px", num(m.sigma_px, 2), ""));
+    }
     let n = &im.noise;
     if n.footage_not_identifiable.is_some() {
         // Not measured: the base's noise, as σ in DN at the footage's levels, flagged.
@@ -990,6 +1005,29 @@ pub fn calibration_markdown(
                 "erf edge-profile fits with free levels, median over {} edges of static frames; scenario sigma_px {}",
                 im.blur_edges,
                 im.blur_sigma_param_px.map_or("–".into(), |p| p.to_string())
+            ),
+        );
+    }
+    if let Some(m) = &im.sharpening {
+        row(
+            "sharpening (unsharp mask)",
+            format!(
+                "{:.3} ± {:.3}, σ {:.2}",
+                m.amount,
+                1.96 * m.amount_se,
+                m.sigma_px
+            ),
+            "–, px",
+            format!(
+                "edge fits under each mask, residual RMS {:.2} → {:.2} DN over {} edges; {}",
+                m.rms_without_dn,
+                m.rms_with_dn,
+                m.edges,
+                if m.significant {
+                    "drawn (the scenario's values are matched by rendering: see the notes)"
+                } else {
+                    "not drawn: too weak to tell from the edges' noise"
+                }
             ),
         );
     }

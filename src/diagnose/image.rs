@@ -15,6 +15,7 @@ const EDGE_OPTIONS: EdgeOptions = EdgeOptions {
     half_width_px: None,
     max_samples: 800,
     min_samples: 40,
+    sharpening: None,
 };
 
 /// Frames measured for image statistics: at most about [`IMAGE_FRAMES`] of them, every

@@ -29,6 +29,19 @@ pub struct EdgeOptions {
     pub max_samples: usize,
     /// Fewer usable pixels than this is an error. Default 40.
     pub min_samples: usize,
+    /// The unsharp mask the footage went through after its blur, when known: the profile is
+    /// then the mask applied to the blurred step. Default none.
+    pub sharpening: Option<EdgeSharpening>,
+}
+
+/// An unsharp mask `v + amount·(v − G ∗ v)` (G Gaussian of `sigma_px`) applied to the pixels
+/// across an edge. On a blurred, pixel-integrated step it gives (1 + amount)·R(σ) −
+/// amount·R(√(σ² + sigma_px²)), R the step response (the mask's blur of pixel values treated as
+/// a continuous Gaussian, exact to within the whole-pixel sampling of its taps).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeSharpening {
+    pub amount: f64,
+    pub sigma_px: f64,
 }
 
 impl Default for EdgeOptions {
@@ -38,6 +51,7 @@ impl Default for EdgeOptions {
             half_width_px: None,
             max_samples: 6000,
             min_samples: 40,
+            sharpening: None,
         }
     }
 }
@@ -117,6 +131,50 @@ pub struct EdgeProfile {
     pub samples: usize,
     /// Length of the segment in the image, px.
     pub length_px: f64,
+}
+
+/// [`step_response`] through the unsharp mask `sharpening`, if any.
+fn sharpened_response(
+    x: f64,
+    sigma: f64,
+    a: f64,
+    b: f64,
+    sharpening: Option<EdgeSharpening>,
+) -> f64 {
+    match sharpening {
+        None => step_response(x, sigma, a, b),
+        Some(m) => {
+            let wide = sigma.hypot(m.sigma_px);
+            (1.0 + m.amount) * step_response(x, sigma, a, b)
+                - m.amount * step_response(x, wide, a, b)
+        }
+    }
+}
+
+/// [`step_response_d`] through the unsharp mask `sharpening`, if any (d/dσ through σ_wide too).
+fn sharpened_response_d(
+    x: f64,
+    sigma: f64,
+    a: f64,
+    b: f64,
+    sharpening: Option<EdgeSharpening>,
+) -> [f64; 3] {
+    match sharpening {
+        None => step_response_d(x, sigma, a, b),
+        Some(m) => {
+            let wide = sigma.hypot(m.sigma_px);
+            let (n, w) = (
+                step_response_d(x, sigma, a, b),
+                step_response_d(x, wide, a, b),
+            );
+            let (k, g) = (1.0 + m.amount, m.amount);
+            [
+                k * n[0] - g * w[0],
+                k * n[1] - g * w[1],
+                k * n[2] - g * w[2] * sigma / wide,
+            ]
+        }
+    }
 }
 
 /// Response of a pixel centred at signed distance `x` (px) from an ideal 0 → 1 step, for a
@@ -513,6 +571,7 @@ pub fn fit_grid_edge(
         materials: &materials,
         box_a: wa,
         box_b: wb,
+        sharpening: options.sharpening,
         max_sigma: 3.0 * hint + 5.0,
         max_offset: 0.5 * band_px,
         rows: Some(&rows),
@@ -616,18 +675,20 @@ fn shared_or<T: Copy>(previous: &[(f64, T); 2], boundary: f64, compute: impl FnO
 /// Neighbouring intervals share a boundary (one's `hi` is the next one's `lo`, or the reverse
 /// where the normal runs against the grid order): its response, a pure function of the boundary
 /// here, is computed once and reused bit for bit. The responses are most of an edge fit's cost.
+#[allow(clippy::too_many_arguments)] // the model's fixed pieces
 fn add_material_weights(
     x: f64,
     intervals: &[Interval],
     sigma: f64,
     box_a: f64,
     box_b: f64,
+    sharpening: Option<EdgeSharpening>,
     slot: &[usize; 3],
     w: &mut [f64],
 ) {
     let response = |previous: &[(f64, f64); 2], boundary: f64| {
         shared_or(previous, boundary, || {
-            step_response(x - boundary, sigma, box_a, box_b)
+            sharpened_response(x - boundary, sigma, box_a, box_b, sharpening)
         })
     };
     let mut previous = [(f64::NAN, 0.0); 2];
@@ -659,6 +720,7 @@ fn add_material_weights_d(
     sigma: f64,
     box_a: f64,
     box_b: f64,
+    sharpening: Option<EdgeSharpening>,
     slot: &[usize; 3],
     w: &mut [f64],
     w_x: &mut [f64],
@@ -671,7 +733,7 @@ fn add_material_weights_d(
             return [unbounded, 0.0, 0.0];
         }
         shared_or(previous, boundary, || {
-            step_response_d(x - boundary, sigma, box_a, box_b)
+            sharpened_response_d(x - boundary, sigma, box_a, box_b, sharpening)
         })
     };
     let mut previous = [(f64::NAN, [0.0; 3]); 2];
@@ -704,6 +766,7 @@ struct EdgeModel<'a> {
     materials: &'a [usize],
     box_a: f64,
     box_b: f64,
+    sharpening: Option<EdgeSharpening>,
     max_sigma: f64,
     max_offset: f64,
     /// Where a residual pass leaves its weights' derivatives for the Jacobian at the same
@@ -754,9 +817,10 @@ impl EdgeModel<'_> {
                 Some(c) => {
                     let at = idx * k..(idx + 1) * k;
                     let (w_x, w_sigma) = (&mut c.w_x[at.clone()], &mut c.w_sigma[at]);
-                    add_material_weights_d(x, intervals, sigma, a, b, &slot, w, w_x, w_sigma);
+                    let m = self.sharpening;
+                    add_material_weights_d(x, intervals, sigma, a, b, m, &slot, w, w_x, w_sigma);
                 }
-                None => add_material_weights(x, intervals, sigma, a, b, &slot, w),
+                None => add_material_weights(x, intervals, sigma, a, b, self.sharpening, &slot, w),
             }
             for i in 0..k {
                 atb[i] += w[i] * s.value;
@@ -846,6 +910,7 @@ impl EdgeModel<'_> {
                     sigma,
                     self.box_a,
                     self.box_b,
+                    self.sharpening,
                     &slot,
                     &mut row,
                     &mut row_x,
@@ -1021,6 +1086,38 @@ mod tests {
         assert!((normal_cdf(1.959963984540054) - 0.975).abs() < 1e-7);
     }
 
+    /// Through a mask, the response is the mask's combination of two step responses, and its
+    /// derivatives (in σ through the wide one's √(σ² + σm²) too) match central differences.
+    #[test]
+    fn the_sharpened_response_and_its_derivatives_match_their_definition() {
+        let m = EdgeSharpening {
+            amount: 0.7,
+            sigma_px: 1.3,
+        };
+        let h = 1e-5;
+        for &(sigma, a, b) in &[(0.4, 1.0, 0.0), (1.1, 0.8, 0.6)] {
+            for &x in &[-2.5, -0.6, 0.0, 0.3, 1.7] {
+                let want = 1.7 * step_response(x, sigma, a, b)
+                    - 0.7 * step_response(x, sigma.hypot(1.3), a, b);
+                assert_eq!(sharpened_response(x, sigma, a, b, Some(m)), want);
+                let [r, r_x, r_s] = sharpened_response_d(x, sigma, a, b, Some(m));
+                assert!((r - want).abs() < 1e-12);
+                let f = |x: f64, s: f64| sharpened_response(x, s, a, b, Some(m));
+                let dx = (f(x + h, sigma) - f(x - h, sigma)) / (2.0 * h);
+                let ds = (f(x, sigma + h) - f(x, sigma - h)) / (2.0 * h);
+                assert!((r_x - dx).abs() < 1e-7, "x {x} σ {sigma}: {r_x} vs {dx}");
+                assert!((r_s - ds).abs() < 1e-7, "x {x} σ {sigma}: {r_s} vs {ds}");
+                assert_eq!(
+                    sharpened_response(x, sigma, a, b, None),
+                    step_response(x, sigma, a, b)
+                );
+            }
+        }
+        // The halo: past the step the sharpened response overshoots 1, before it undershoots 0.
+        assert!(sharpened_response(1.5, 0.4, 1.0, 0.0, Some(m)) > 1.01);
+        assert!(sharpened_response(-1.5, 0.4, 1.0, 0.0, Some(m)) < -0.01);
+    }
+
     /// The derivatives of the step response against central differences (step 1e-5: their
     /// truncation error is ~1e-10 here, far below the 1e-7 allowed), and the response itself
     /// bit for bit, on both branches (a narrow box, b < 0.1, and a wide one).
@@ -1084,7 +1181,7 @@ mod tests {
                 let mut w = [0.0; 3];
                 let x = s.d - (truth[0] + truth[1] * s.tau);
                 let iv = &intervals[s.first..s.first + s.count];
-                add_material_weights(x, iv, truth[2], box_a, box_b, &slot, &mut w);
+                add_material_weights(x, iv, truth[2], box_a, box_b, None, &slot, &mut w);
                 let ripple = 3.0 * ((i * 7919) % 13) as f64 / 13.0 - 1.5;
                 s.value = w.iter().zip(levels).map(|(w, l)| w * l).sum::<f64>() + ripple;
             }
@@ -1094,6 +1191,7 @@ mod tests {
                 materials: &[0, 1, 2],
                 box_a,
                 box_b,
+                sharpening: None,
                 max_sigma: 12.5,
                 max_offset: 5.0,
                 rows: None,
@@ -1177,7 +1275,7 @@ mod tests {
             for &(sigma, a, b) in &[(0.6, 0.9, 0.4), (1.3, 1.0, 0.02), (0.2, 0.8, 0.6)] {
                 for &x in &[-2.3, -0.7, 0.0, 0.31, 1.2, 2.8] {
                     let mut got = [0.0; 3];
-                    add_material_weights(x, intervals, sigma, a, b, &slot, &mut got);
+                    add_material_weights(x, intervals, sigma, a, b, None, &slot, &mut got);
                     // Every boundary's response computed afresh, in the same order.
                     let mut want = [0.0; 3];
                     for i in intervals {
@@ -1200,7 +1298,7 @@ mod tests {
                     // bits, its derivatives those of every boundary computed afresh.
                     let (mut w, mut w_x, mut w_s) = ([0.0; 3], [0.0; 3], [0.0; 3]);
                     add_material_weights_d(
-                        x, intervals, sigma, a, b, &slot, &mut w, &mut w_x, &mut w_s,
+                        x, intervals, sigma, a, b, None, &slot, &mut w, &mut w_x, &mut w_s,
                     );
                     let (mut want_x, mut want_s) = ([0.0; 3], [0.0; 3]);
                     for i in intervals {

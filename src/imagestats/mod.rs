@@ -51,7 +51,7 @@ pub use censored::censored_normal_fit;
 pub(crate) use edge::step_response;
 pub use edge::{
     fit_grid_edge, inner_edge_profiles, outer_edge_profiles, refined_corners, EdgeOptions,
-    EdgeProfile, GridEdge,
+    EdgeProfile, EdgeSharpening, GridEdge,
 };
 pub use grid::{Homography, MarkerLayout, Material};
 pub use jpeg::{

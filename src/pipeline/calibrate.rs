@@ -18,7 +18,7 @@ use crate::calibrate::output::{
 use crate::calibrate::rerender::{align, PixelResidual};
 use crate::calibrate::residual::{self, judge, Grid};
 use crate::calibrate::{
-    calibrate as fit_rig, noise_electrons, CalibrateError, CalibrateOptions, Calibration,
+    calibrate as fit_rig, noise_electrons, CalibrateError, CalibrateOptions, Calibration, Fitted,
     FootageStats, FrameObservation, SpatialNoiseSample, TemporalSample,
 };
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
@@ -469,12 +469,20 @@ impl Measurer {
     /// Parallel edge fits, temporal noise, timing fit.
     fn finish(mut self, times: &[f64]) -> Measurements {
         self.close_run();
-        let edge_opts = EdgeOptions {
+        let layout = &self.layout;
+        let mut edge_opts = EdgeOptions {
             max_samples: 2500,
             ..Default::default()
         };
+        // The footage's sharpening first: every edge fit below then models its halo.
+        self.stats.sharpening =
+            super::calibrate_sharpening::measure_sharpening(&self.edge_jobs, layout, &edge_opts);
+        edge_opts.sharpening = self
+            .stats
+            .sharpening
+            .filter(|m| m.significant)
+            .map(|m| m.mask());
         let jobs: Vec<&(usize, Crop, Corners, bool)> = self.edge_jobs.iter().collect();
-        let layout = &self.layout;
         let results: Vec<(usize, Vec<EdgeProfile>)> = jobs
             .par_iter()
             .map(|(k, crop, c, _)| {
@@ -988,6 +996,46 @@ fn write_outputs(
             base.scene.marker.size_mm,
             base.scene.marker.white_margin_mm,
         )?;
+        if cal.imaging.blur_sigma_px.is_some() {
+            let mask = cal.imaging.sharpening.filter(|m| m.significant);
+            let render = |o: &[Override]| typed(o).ok();
+            let got = super::calibrate_sharpening::match_edges_by_render(
+                mask.as_ref(),
+                *frame,
+                crop,
+                corners,
+                base,
+                &mut ovs,
+                &render,
+            );
+            if let Some(g) = &got {
+                // What the scenario draws is the matched σ. Its interval: the edge fits' (their
+                // spread across edges), widened by how far the edge model's reading of the same
+                // σ lies from it (a systematic difference no spread shows).
+                if let Some(p) = cal.imaging.blur_sigma_param_px {
+                    let u95 = p.u95 + (g.blur_px - p.value).abs();
+                    cal.imaging.blur_sigma_param_px = Some(Fitted::new(g.blur_px, u95));
+                    set_blur_comment(&mut ovs, cal.imaging.blur_sigma_px, u95, *frame);
+                }
+            }
+            if let Some(m) = mask {
+                cal.notes.push(match got {
+                    Some(g) => format!(
+                        "sharpening: {}; drawn as the mask ({:.3}, σ {:.2} px) and blur (σ {:.3} px) that reproduce the edges of frame {frame} best (footage − noiseless render {:.2} → {:.2} DN RMS)",
+                        m.describe(),
+                        g.amount.unwrap_or(f64::NAN),
+                        g.mask_sigma_px.unwrap_or(f64::NAN),
+                        g.blur_px,
+                        g.before_rms_dn,
+                        g.after_rms_dn
+                    ),
+                    None => format!(
+                        "sharpening: {}; drawn as the edge fits read it (rendering the calibrated scenario against frame {frame} does not improve on it)",
+                        m.describe()
+                    ),
+                });
+            }
+        }
         match_by_simulation(
             &stats, *frame, crop, corners, &layout, &mut ovs, &mut cal, &typed,
         );
@@ -1212,6 +1260,20 @@ fn simulated_stats(
         };
     }
     Some((means, sigmas))
+}
+
+/// The optical blur's comment once its σ is matched by rendering (`measured`: the edge fits'
+/// PSF σ).
+fn set_blur_comment(ovs: &mut [Override], measured: Option<Fitted>, u95: f64, frame: usize) {
+    if let Some(o) = ovs
+        .iter_mut()
+        .find(|o| o.path == "effects.optical_blur.sigma_px")
+    {
+        o.comment = format!(
+            "± {u95:.3} (95 %): matched by rendering frame {frame} against the footage; the edge fits read a PSF σ of {}",
+            measured.map_or("–".into(), |m| format!("{m} px"))
+        );
+    }
 }
 
 fn set_override(ovs: &mut [Override], path: &str, value: Value) {
@@ -1441,6 +1503,68 @@ pub(crate) fn round6(v: f64) -> f64 {
 
 /// Renders the calibrated scenario at the footage frame `frame` over the crop's window, writes
 /// the overlay and returns the residual check.
+/// The re-render comparison's window (the black square and half its white margin, inside the
+/// crop and the render), the marker's centre and its corners' distance from it, px.
+pub(crate) fn comparison_window(
+    corners: &Corners,
+    base: &Scenario,
+    crop: &Crop,
+    render: &crate::render::GrayImage,
+) -> (PixelRect, (f64, f64), f64) {
+    let m = &base.scene.marker;
+    let (x0, y0, x1, y1) = corners_bbox_px(corners);
+    let side = ((x1 - x0) + (y1 - y0)) / 2.0;
+    let grow = 0.5 * side * m.white_margin_mm / m.size_mm;
+    let win = PixelRect::new(
+        (x0 - grow).floor() as i64,
+        (y0 - grow).floor() as i64,
+        ((x1 - x0) + 2.0 * grow).ceil() as usize + 1,
+        ((y1 - y0) + 2.0 * grow).ceil() as usize + 1,
+    )
+    .intersect(&crop.rect)
+    .intersect(&render.window);
+    let centre = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (win, centre, 0.5 * (x1 - x0).hypot(y1 - y0))
+}
+
+/// Per pixel of `win` that both hold: footage − render, and the render's change per unit of
+/// each pose correction (shift x, shift y, rotation in rad and relative scale about `centre`),
+/// from its central differences.
+pub(crate) fn residual_rows(
+    crop: &Crop,
+    render: &crate::render::GrayImage,
+    win: &PixelRect,
+    (cx, cy): (f64, f64),
+) -> Vec<PixelResidual> {
+    let at = |x: i64, y: i64| render.get(x, y).map(f64::from);
+    window_pixels(crop, render, win)
+        .map(|(x, y, a, b)| {
+            let grad = match (at(x + 1, y), at(x - 1, y), at(x, y + 1), at(x, y - 1)) {
+                (Some(r), Some(l), Some(d), Some(u)) => Some((0.5 * (r - l), 0.5 * (d - u))),
+                _ => None,
+            };
+            let (gx, gy) = grad.unwrap_or((0.0, 0.0));
+            PixelResidual::new(a as f64 - b as f64, gx, gy, x as f64 - cx, y as f64 - cy)
+        })
+        .collect()
+}
+
+/// The pixels of `win` that both the footage `crop` and `render` hold, row by row: (x, y,
+/// footage, render).
+pub(crate) fn window_pixels<'a>(
+    crop: &'a Crop,
+    render: &'a crate::render::GrayImage,
+    win: &PixelRect,
+) -> impl Iterator<Item = (i64, i64, u8, u8)> + 'a {
+    let view = crop.view();
+    let (xs, ys) = (win.x0..win.x1(), win.y0..win.y1());
+    ys.flat_map(move |y| xs.clone().map(move |x| (x, y)))
+        .filter_map(move |(x, y)| {
+            let a = crate::imagestats::pixel_at(&view, x, y)?;
+            Some((x, y, a, render.get(x, y)?))
+        })
+}
+
 fn render_check(
     scenario: &Scenario,
     cal: &Calibration,
@@ -1477,19 +1601,7 @@ fn render_check(
         coded_settings.effects.pixel_noise.enabled = false;
         render_frame(&scene, &coded_settings, &req)
     });
-    // Compare over the black square and half its white margin.
-    let m = &base.scene.marker;
-    let (x0, y0, x1, y1) = corners_bbox_px(corners);
-    let side = ((x1 - x0) + (y1 - y0)) / 2.0;
-    let grow = 0.5 * side * m.white_margin_mm / m.size_mm;
-    let win = PixelRect::new(
-        (x0 - grow).floor() as i64,
-        (y0 - grow).floor() as i64,
-        ((x1 - x0) + 2.0 * grow).ceil() as usize + 1,
-        ((y1 - y0) + 2.0 * grow).ceil() as usize + 1,
-    )
-    .intersect(&crop.rect)
-    .intersect(&clean.window);
+    let (win, (cx, cy), half_diagonal_px) = comparison_window(corners, base, crop, &clean);
     let n = &cal.imaging.noise;
     let (li, lp) = (cal.imaging.ink_dn.value, cal.imaging.paper_dn.value);
     let (vi, vp) = (n.ink_sigma_dn.value.powi(2), n.paper_sigma_dn.value.powi(2));
@@ -1501,41 +1613,16 @@ fn render_check(
         };
         vi + f * (vp - vi)
     };
-    // Per pixel: footage − render, and the render's change per unit of each pose correction
-    // (shift x, shift y, rotation in rad and relative scale about the marker's centre), from
-    // its central differences.
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let mut rows: Vec<PixelResidual> = Vec::new();
     let (mut vs, mut count) = (0.0, 0usize);
-    for y in win.y0..win.y1() {
-        for x in win.x0..win.x1() {
-            let (Some(a), Some(b)) = (
-                crate::imagestats::pixel_at(&crop.view(), x, y),
-                clean.get(x, y),
-            ) else {
-                continue;
-            };
-            vs += var_at(b as f64);
-            if let Some(c) = coded.as_ref().and_then(|c| c.get(x, y)) {
-                vs += (c as f64 - b as f64).powi(2);
-            }
-            count += 1;
-            let at = |x: i64, y: i64| clean.get(x, y).map(f64::from);
-            let grad = match (at(x + 1, y), at(x - 1, y), at(x, y + 1), at(x, y - 1)) {
-                (Some(r), Some(l), Some(d), Some(u)) => Some((0.5 * (r - l), 0.5 * (d - u))),
-                _ => None,
-            };
-            let (gx, gy) = grad.unwrap_or((0.0, 0.0));
-            rows.push(PixelResidual::new(
-                a as f64 - b as f64,
-                gx,
-                gy,
-                x as f64 - cx,
-                y as f64 - cy,
-            ));
+    for (x, y, _, b) in window_pixels(crop, &clean, &win) {
+        vs += var_at(b as f64);
+        if let Some(c) = coded.as_ref().and_then(|c| c.get(x, y)) {
+            vs += (c as f64 - b as f64).powi(2);
         }
+        count += 1;
     }
-    let aligned = align(&rows, 0.5 * (x1 - x0).hypot(y1 - y0));
+    let rows = residual_rows(crop, &clean, &win, (cx, cy));
+    let aligned = align(&rows, half_diagonal_px);
     let count = count.max(1) as f64;
     // The structure tests: the aligned residual and the clean render over the window, against
     // a residual the fitted model draws (the render with its noise and codec − the clean one).
@@ -1544,25 +1631,15 @@ fn render_check(
         Grid::new(win.width, win.height),
         Grid::new(win.width, win.height),
     );
-    let mut row = rows.iter();
-    for y in win.y0..win.y1() {
-        for x in win.x0..win.x1() {
-            let (Some(_), Some(b)) = (
-                crate::imagestats::pixel_at(&crop.view(), x, y),
-                clean.get(x, y),
-            ) else {
-                continue;
-            };
-            let Some(p) = row.next() else { break };
-            let fit: f64 = aligned
-                .correction
-                .map_or(0.0, |c| (0..4).map(|k| p.jacobian[k] * c[k]).sum());
-            let (gx, gy) = ((x - win.x0) as usize, (y - win.y0) as usize);
-            residual.set(gx, gy, p.difference_dn - fit);
-            render.set(gx, gy, b as f64);
-            if let Some(f) = full.get(x, y) {
-                model.set(gx, gy, f as f64 - b as f64);
-            }
+    for ((x, y, _, b), p) in window_pixels(crop, &clean, &win).zip(&rows) {
+        let fit: f64 = aligned
+            .correction
+            .map_or(0.0, |c| (0..4).map(|k| p.jacobian[k] * c[k]).sum());
+        let (gx, gy) = ((x - win.x0) as usize, (y - win.y0) as usize);
+        residual.set(gx, gy, p.difference_dn - fit);
+        render.set(gx, gy, b as f64);
+        if let Some(f) = full.get(x, y) {
+            model.set(gx, gy, f as f64 - b as f64);
         }
     }
     let structure = judge(

@@ -737,7 +737,9 @@ pub fn calibration_report(
          quality range, or everything from the 1/√12 DN floor to 0.58 DN) still counts in the \
          coverage. Blur σ is mapped to the scenario's value through a model of \
          the edge fit on the renderer's pixel-sampled kernel (and, on JPEG footage, through the \
-         codec): `calibrate::blur_model`.\n\n\
+         codec): `calibrate::blur_model`; then the calibrated scenario is rendered against a \
+         static frame and the σ that reproduces it best is kept where it cuts footage − render \
+         by at least 1 % (`pipeline::calibrate_sharpening`).\n\n\
          ## Per parameter\n\n{}\n\
          Every comparison is in `checks.csv`; per case, whether compression was found and the \
          re-render ratio, in `cases.csv`. Regenerate with `cargo xtask reports`.\n\n{}",

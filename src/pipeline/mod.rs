@@ -19,6 +19,8 @@ pub mod calibrate_printed;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate_roundtrip;
 #[cfg(feature = "opencv-detector")]
+mod calibrate_sharpening;
+#[cfg(feature = "opencv-detector")]
 pub mod decompose;
 #[cfg(feature = "opencv-detector")]
 pub mod defaults_study;

@@ -1,6 +1,6 @@
 //! Frame rendering: samples the scene across each row's exposure, rasterises exactly, then
-//! applies optical blur, lighting, noise, quantisation and compression to give an 8-bit frame
-//! or any region of interest of it.
+//! applies optical blur, lighting, noise, tone curve, sharpening, quantisation and compression to
+//! give an 8-bit frame or any region of interest of it.
 //!
 //! Timing: `FrameRequest::t_s` is the centre of row 0's exposure (a frame's timestamp may mark
 //! another instant: `timing::TimestampMark` converts); with rolling shutter row y is centred at
@@ -13,7 +13,8 @@
 //!
 //! Region of interest: every stage is a pure function of absolute pixel position, so a window
 //! is bit-identical to the same pixels of the full frame: the rasteriser is exact in integers,
-//! blur reads a fixed margin (kernel radius), noise is keyed by (seed, frame, x, y), and JPEG
+//! blur and sharpening read fixed margins (kernel radii; the sharpening's margin is rendered
+//! beyond the frame's edges too), noise is keyed by (seed, frame, x, y), and JPEG
 //! blocks are aligned to the absolute 8-pixel grid (the window is grown to the grid, clipped to
 //! the frame, compressed and cropped). Rows are processed in parallel with rayon; the result
 //! does not depend on the thread count.
@@ -26,6 +27,8 @@ mod bands;
 mod tone;
 
 use super::effects::camera_vibration::Vibration;
+use super::effects::lighting::quantise;
+use super::effects::sharpening::{self, SharpeningConfig};
 use super::effects::{compression, motion_blur, optical_blur, EffectsConfig};
 use super::image::{crop_buffer, GrayImage, LinearImage};
 use super::raster::{ExposurePlan, PixelRect, PreparedSnapshot, RigidTransform};
@@ -33,7 +36,7 @@ use super::shapes::{SceneAt, SceneSnapshot};
 use bands::{BandPipeline, BandScratch, BandValues, Samples, BAND_ROWS};
 use rayon::prelude::*;
 use std::sync::Mutex;
-use tone::ToneMap;
+use tone::{ToneMap, ToneOut};
 
 /// Buffers reused from frame to frame by [`render_frame_with`]: a pool of band buffers, one
 /// per band being rendered at a time (about one per thread), so memory stays bounded by the
@@ -141,15 +144,18 @@ pub fn render_frame_with(
             settings.width_px,
             settings.height_px,
         );
-        let rect = jpeg_rect;
-        render_bands(&pipeline, &rect, buffers, &mut pixels, |v, r, y, o| {
-            let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
-            let (o_left, rest) = o.split_at_mut(left);
-            let (o_mid, o_right) = rest.split_at_mut(mid);
-            tone.constant_run(v.constant, rect.x0, y, o_left);
-            tone.run(v.row(r), v.x0, y, o_mid);
-            tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
-        });
+        if fx.sharpening.active() {
+            sharpened(
+                &pipeline,
+                &tone,
+                &fx.sharpening,
+                &jpeg_rect,
+                buffers,
+                &mut pixels,
+            );
+        } else {
+            tone_mapped(&pipeline, &tone, &jpeg_rect, buffers, &mut pixels);
+        }
     }
     if fx.compression.enabled && !jpeg_rect.is_empty() {
         if let Ok(p) = compression::jpeg_round_trip(
@@ -169,6 +175,54 @@ pub fn render_frame_with(
     }
     let (w, data) = crop_buffer(&pixels, &jpeg_rect, &window);
     GrayImage { window: w, data }
+}
+
+/// The tone-mapped pixels of `rect` into `out` (row-major over `rect`): 8-bit grey, or DN.
+fn tone_mapped<O: ToneOut>(
+    pipeline: &BandPipeline<'_>,
+    tone: &ToneMap<'_>,
+    rect: &PixelRect,
+    buffers: &FrameBuffers,
+    out: &mut [O],
+) {
+    render_bands(pipeline, rect, buffers, out, |v, r, y, o| {
+        let (left, mid) = ((v.x0 - rect.x0) as usize, v.width);
+        let (o_left, rest) = o.split_at_mut(left);
+        let (o_mid, o_right) = rest.split_at_mut(mid);
+        tone.constant_run(v.constant, rect.x0, y, o_left);
+        tone.run(v.row(r), v.x0, y, o_mid);
+        tone.constant_run(v.constant, v.x0 + mid as i64, y, o_right);
+    });
+}
+
+/// The sharpened 8-bit pixels of `rect`: the tone-mapped DN of `rect` grown by the mask's
+/// radius (beyond the frame's edges too, so a pixel's neighbourhood is the same in a window
+/// and in the full frame), the mask's separable blur of them, then [`sharpening::sharpen`]
+/// and quantisation.
+fn sharpened(
+    pipeline: &BandPipeline<'_>,
+    tone: &ToneMap<'_>,
+    mask: &SharpeningConfig,
+    rect: &PixelRect,
+    buffers: &FrameBuffers,
+    out: &mut [u8],
+) {
+    let weights = mask.weights();
+    let r = weights.len() / 2;
+    let grown = rect.expand(r);
+    let mut dn = vec![0.0f32; grown.len()];
+    tone_mapped(pipeline, tone, &grown, buffers, &mut dn);
+    let blurred = optical_blur::blur_separable(&dn, grown.width, grown.height, &weights);
+    let amount = mask.amount as f32;
+    out.par_chunks_mut(rect.width)
+        .zip(blurred.par_chunks(rect.width))
+        .enumerate()
+        .for_each(|(y, (o, b))| {
+            let row = &dn[(y + r) * grown.width + r..][..rect.width];
+            for ((o, &v), &b) in o.iter_mut().zip(row).zip(b) {
+                *o = quantise(sharpening::sharpen(v, b, amount));
+            }
+        });
 }
 
 /// Linear radiance of `rect` after motion blur, rolling shutter, vibration and optical blur.

@@ -15,7 +15,8 @@
 //! - **rolling shutter**: bands of [`RS_BAND_ROWS`] rows, each drawn at its middle row's time;
 //! - **noise**: shot and read noise in linear signal after the blur, from its own random stream
 //!   (Box–Muller), so no pixel shares a draw with the other renderer;
-//! - **uneven lighting**: its gain applied to the drawn grey about the black level.
+//! - **uneven lighting**: its gain applied to the drawn grey about the black level;
+//! - **sharpening**: its unsharp mask blurs with the pixel-integrated Gaussian, clamped borders.
 //!
 //! Shared with [`super::frame`], because they are the rig and not the renderer: the scene's
 //! geometry at each instant (mechanism, camera, lens, tilt, runout), the camera-vibration
@@ -116,7 +117,7 @@ pub fn render_frame_independent(
     }
     let mut rng = crate::rng::stream(settings.seed, crate::rng::Stream::IndependentRender, index);
     let noise = fx.pixel_noise.enabled.then_some(&fx.pixel_noise);
-    let mut data = Vec::with_capacity(w * h);
+    let mut dn = Vec::with_capacity(w * h);
     for (i, &d) in display.iter().enumerate() {
         let (x, y) = ((i % w) as i64, (i / w) as i64);
         let t_row = t_s + fx.rolling_shutter.row_delay_s(y, h);
@@ -127,8 +128,19 @@ pub fn render_frame_independent(
             let sigma_e = (e + c.read_noise_e * c.read_noise_e).sqrt();
             s = ((e + sigma_e * standard_normal(&mut rng)) / c.full_well_e) as f32;
         }
-        data.push(quantise(tone.dn(s)));
+        dn.push(tone.dn(s));
     }
+    let mask = &fx.sharpening;
+    let mut data: Vec<u8> = if mask.active() {
+        let blurred = blur(&dn, w, h, mask.sigma_px);
+        let a = mask.amount as f32;
+        dn.iter()
+            .zip(&blurred)
+            .map(|(&v, &b)| quantise(v + a * (v - b)))
+            .collect()
+    } else {
+        dn.iter().map(|&v| quantise(v)).collect()
+    };
     if fx.compression.enabled {
         if let Ok(p) = compression::jpeg_round_trip(&data, w, h, fx.compression.quality) {
             data = p;
@@ -431,6 +443,71 @@ mod tests {
             .map(|&v| (paper as f64 - v as f64) / (paper as f64 - ink as f64))
             .sum();
         assert!((area - 400.0).abs() < 1.5, "area {area}");
+    }
+
+    #[test]
+    fn a_sharpened_square_matches_the_other_renderer_within_their_differences() {
+        let mut fx = plain();
+        fx.optical_blur.enabled = true;
+        fx.optical_blur.sigma_px = 1.0;
+        fx.lighting.black_level_dn = 40.0;
+        fx.lighting.white_level_dn = 215.0;
+        let plain_fx = fx.clone();
+        fx.sharpening.enabled = true;
+        fx.sharpening.amount = 0.8;
+        fx.sharpening.sigma_px = 1.5;
+        let s = settings(fx);
+        let scene = Still(SceneSnapshot {
+            background: None,
+            background_radiance: 0.8,
+            layers: vec![Layer {
+                texture: None,
+                radiance: 0.1,
+                polygons: vec![square(10.3, 8.6, 20.0)],
+            }],
+        });
+        let ind = render_frame_independent(&scene, &s, 0, 0.0).unwrap();
+        let main_renderer = |s: &RenderSettings| {
+            crate::render::frame::render_frame(
+                &scene,
+                s,
+                &crate::render::frame::FrameRequest {
+                    index: 0,
+                    t_s: 0.0,
+                    window: s.frame_rect(),
+                },
+            )
+        };
+        let main = main_renderer(&s);
+        let plain_settings = settings(plain_fx);
+        let unsharpened = render_frame_independent(&scene, &plain_settings, 0, 0.0).unwrap();
+        let main_unsharpened = main_renderer(&plain_settings);
+        // Away from the frame's borders (clamped here, rendered beyond the frame there). The
+        // mask's 2-D taps (1 + a)·δ − a·G have an L1 norm of 1 + 2a − 2a·G₀ < 1 + 2a, so the
+        // renderers' difference without the mask (anti-aliasing, blur kernels) grows by at most
+        // that factor, plus a DN of rounding on each side.
+        let worst = |a: &GrayImage, b: &GrayImage| {
+            let mut worst = 0i32;
+            for y in 6..34 {
+                for x in 6..42 {
+                    let i = y * 48 + x;
+                    worst = worst.max((a.data[i] as i32 - b.data[i] as i32).abs());
+                }
+            }
+            worst
+        };
+        let (sharp, plain) = (worst(&ind, &main), worst(&unsharpened, &main_unsharpened));
+        let bound = (1.0 + 2.0 * s.effects.sharpening.amount) * plain as f64 + 2.0;
+        assert!(
+            sharp as f64 <= bound,
+            "renderers differ by {sharp} DN sharpened, {plain} DN without (bound {bound})"
+        );
+        // The halo both draw is many times that.
+        let halo = worst(&ind, &unsharpened);
+        assert!(
+            halo >= 20,
+            "the sharpening changes pixels by up to {halo} DN only"
+        );
     }
 
     #[test]

@@ -385,3 +385,28 @@ pub fn calibrate_fast_frames(dir: &Path) -> Output {
     assert!(o.status.success(), "{}", stderr(&o));
     o
 }
+
+/// Renders 4 s of the `fast` rig with `extra` (TOML appended to the truth's scenario) into
+/// `dir/frames` and calibrates it with [`calibrate_fast_frames`]: the truth, the calibrated
+/// scenario, and what calibrate printed (stdout and stderr).
+pub fn render_and_calibrate_fast(
+    dir: &Path,
+    extra: &str,
+) -> (
+    geneva_vision::scenario::Scenario,
+    geneva_vision::scenario::Scenario,
+    String,
+) {
+    std::fs::write(
+        dir.join("truth.toml"),
+        format!("extend = \"fast\"\nduration_s = 4.0\n{extra}"),
+    )
+    .unwrap();
+    let o = geneva(dir, &["render", "truth.toml", "--out", "frames"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = calibrate_fast_frames(dir);
+    let truth = geneva_vision::scenario::load(&dir.join("truth.toml")).unwrap();
+    let cal = geneva_vision::scenario::load(&dir.join("cal/scenario.toml")).unwrap();
+    let log = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    (truth, cal, log)
+}

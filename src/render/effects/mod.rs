@@ -3,7 +3,8 @@
 //!
 //! Order in the renderer (physical order of image formation): camera vibration and motion blur
 //! (scene sampled across the exposure), rolling shutter (row times), optical blur (PSF), lighting
-//! (illumination), pixel noise (electrons), tone curve and 8-bit quantisation, compression.
+//! (illumination), pixel noise (electrons), tone curve, sharpening, 8-bit quantisation,
+//! compression.
 
 pub mod camera_vibration;
 pub mod compression;
@@ -12,6 +13,7 @@ pub mod motion_blur;
 pub mod optical_blur;
 pub mod pixel_noise;
 pub mod rolling_shutter;
+pub mod sharpening;
 
 use crate::validation::{join, Problems};
 use serde::{Deserialize, Serialize};
@@ -23,6 +25,7 @@ pub use motion_blur::MotionBlurConfig;
 pub use optical_blur::OpticalBlurConfig;
 pub use pixel_noise::PixelNoiseConfig;
 pub use rolling_shutter::RollingShutterConfig;
+pub use sharpening::SharpeningConfig;
 
 /// All imaging effects; each sub-table has an `enabled` flag. Defaults reproduce the seed rig's
 /// real 4K frame (see [`crate::render::real_frame`]).
@@ -43,6 +46,10 @@ pub struct EffectsConfig {
     pub lighting: LightingConfig,
     /// JPEG compression of the 8-bit frame.
     pub compression: CompressionConfig,
+    /// Unsharp mask of the tone-mapped frame (a phone's image processor). Left out of a
+    /// written scenario while off and at its defaults, so scenarios without it read as before.
+    #[serde(skip_serializing_if = "SharpeningConfig::is_default")]
+    pub sharpening: SharpeningConfig,
 }
 
 impl EffectsConfig {
@@ -78,6 +85,7 @@ impl EffectsConfig {
                 enabled: false,
                 ..Default::default()
             },
+            sharpening: SharpeningConfig::default(),
         }
     }
 
@@ -95,6 +103,8 @@ impl EffectsConfig {
         self.lighting.validate(&join(path, "lighting"), problems);
         self.compression
             .validate(&join(path, "compression"), problems);
+        self.sharpening
+            .validate(&join(path, "sharpening"), problems);
     }
 }
 

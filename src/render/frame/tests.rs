@@ -60,6 +60,9 @@ fn all_effects() -> EffectsConfig {
     fx.lighting.flicker_hz = 100.0;
     fx.compression.enabled = true;
     fx.compression.quality = 70;
+    fx.sharpening.enabled = true;
+    fx.sharpening.amount = 0.9;
+    fx.sharpening.sigma_px = 1.3;
     fx
 }
 
@@ -475,4 +478,51 @@ fn exposure_average_matches_summing_whole_sample_renders() {
             );
         }
     }
+}
+
+#[test]
+fn sharpening_adds_the_unsharp_masks_halo_to_a_step() {
+    // A vertical step on a pixel boundary (pixel x covers x ± ½), no blur, noise or codec: each pixel of a row is a
+    // level, and the mask's blur of a step is the step weighted by the kernel's tail, so the
+    // sharpened row follows in closed form from the Gaussian.
+    let mut fx = EffectsConfig::none();
+    fx.sharpening.enabled = true;
+    fx.sharpening.amount = 0.7;
+    fx.sharpening.sigma_px = 1.5;
+    let s = settings(80, 20, fx.clone());
+    let scene = Moving {
+        base: single_layer(
+            vec![half_plane_left_of(DVec2::new(39.5, 0.0), 0.0)],
+            0.2,
+            0.8,
+        ),
+        velocity_px_s: DVec2::ZERO,
+    };
+    let img = render_frame(&scene, &s, &request(0, 0.0, s.frame_rect()));
+    let (dark, bright) = (0.2 * 255.0, 0.8 * 255.0);
+    let sigma = fx.sharpening.sigma_px;
+    let r = (4.0 * sigma).ceil() as i64;
+    let g = |k: i64| (-(k * k) as f64 / (2.0 * sigma * sigma)).exp();
+    let total: f64 = (-r..=r).map(g).sum();
+    for x in 20..60i64 {
+        let level = |x: i64| if x < 40 { dark } else { bright };
+        let blurred: f64 = (-r..=r).map(|k| g(k) * level(x + k)).sum::<f64>() / total;
+        let want = level(x) + 0.7 * (level(x) - blurred);
+        let got = img.data[10 * 80 + x as usize] as f64;
+        assert!((got - want).abs() <= 0.51, "x {x}: {got} against {want}");
+    }
+    // The halo: above the bright level right of the step, below the dark level left of it.
+    assert!(img.data[10 * 80 + 40] as f64 > bright + 20.0);
+    assert!((img.data[10 * 80 + 39] as f64) < dark - 20.0);
+}
+
+#[test]
+fn a_scenario_without_sharpening_writes_no_sharpening_table() {
+    let text = toml::to_string(&EffectsConfig::default()).unwrap();
+    assert!(!text.contains("sharpening"), "{text}");
+    let mut fx = EffectsConfig::default();
+    fx.sharpening.enabled = true;
+    let text = toml::to_string(&fx).unwrap();
+    let back: EffectsConfig = toml::from_str(&text).unwrap();
+    assert_eq!(back, fx);
 }

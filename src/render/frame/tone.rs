@@ -11,6 +11,26 @@ use crate::render::effects::lighting::{quantise, LightingConfig, Tone};
 use crate::render::effects::pixel_noise::{self, NoiseModel};
 use crate::render::effects::EffectsConfig;
 
+/// What a tone-mapped pixel is written as: 8-bit grey (quantised), or the DN before
+/// quantisation (for the sharpening that follows the tone curve).
+pub(super) trait ToneOut: Copy + Send {
+    fn from_dn(dn: f32) -> Self;
+}
+
+impl ToneOut for u8 {
+    #[inline(always)]
+    fn from_dn(dn: f32) -> u8 {
+        quantise(dn)
+    }
+}
+
+impl ToneOut for f32 {
+    #[inline(always)]
+    fn from_dn(dn: f32) -> f32 {
+        dn
+    }
+}
+
 /// Pixels per chunk: the normals and signals of a chunk stay in L1.
 const CHUNK: usize = 256;
 
@@ -72,7 +92,7 @@ impl<'a> ToneMap<'a> {
     }
 
     /// Pixels `x0 .. x0 + out.len()` of row `y`, all of linear radiance `v`.
-    pub(super) fn constant_run(&self, v: f32, x0: i64, y: i64, out: &mut [u8]) {
+    pub(super) fn constant_run<O: ToneOut>(&self, v: f32, x0: i64, y: i64, out: &mut [O]) {
         if self.uneven {
             for chunk_start in (0..out.len()).step_by(CHUNK) {
                 let n = CHUNK.min(out.len() - chunk_start);
@@ -84,7 +104,7 @@ impl<'a> ToneMap<'a> {
         }
         let s = v * self.row_gain(y) as f32; // as the general path: the same bits
         let Some(noise) = self.noise else {
-            out.fill(quantise(self.tone.dn(s)));
+            out.fill(O::from_dn(self.tone.dn(s)));
             return;
         };
         let (e, sigma) = noise.electrons(s);
@@ -97,7 +117,7 @@ impl<'a> ToneMap<'a> {
     }
 
     /// Pixels `x0 .. x0 + values.len()` of row `y` with linear radiances `values`.
-    pub(super) fn run(&self, values: &[f32], x0: i64, y: i64, out: &mut [u8]) {
+    pub(super) fn run<O: ToneOut>(&self, values: &[f32], x0: i64, y: i64, out: &mut [O]) {
         let mut s = [0.0f32; CHUNK];
         let mut z = [0.0f32; CHUNK];
         let g_t = self.row_gain(y);
@@ -135,18 +155,18 @@ impl<'a> ToneMap<'a> {
         }
     }
 
-    /// Tone curve and quantisation of `signal(input[i])` into `out[i]`.
+    /// Tone curve (and quantisation, for 8-bit output) of `signal(input[i])` into `out[i]`.
     #[inline(always)]
-    fn tone_chunk(&self, input: &[f32], out: &mut [u8], signal: impl Fn(f32) -> f32) {
+    fn tone_chunk<O: ToneOut>(&self, input: &[f32], out: &mut [O], signal: impl Fn(f32) -> f32) {
         let t = self.tone;
         if t.inv_gamma == 1.0 {
             for (o, &v) in out.iter_mut().zip(input) {
                 let s = signal(v).clamp(0.0, 1.0);
-                *o = quantise(t.black_dn + t.span_dn * s);
+                *o = O::from_dn(t.black_dn + t.span_dn * s);
             }
         } else {
             for (o, &v) in out.iter_mut().zip(input) {
-                *o = quantise(t.dn(signal(v)));
+                *o = O::from_dn(t.dn(signal(v)));
             }
         }
     }
