@@ -21,6 +21,9 @@ pub enum Stream {
     IndependentRender = 9,
     /// Sub-pixel placement of the scene per seed of a decomposition (`pipeline::decompose`).
     DecomposePlacement = 10,
+    /// Sub-pixel placement of the scene per seed of `analyze`'s error bars
+    /// (`pipeline::error_bars`).
+    ErrorBarPlacement = 11,
 }
 
 /// SplitMix64 finaliser: decorrelates nearby (seed, stream, index) triples.

@@ -7,6 +7,7 @@ pub mod bounds;
 pub mod compare;
 pub mod decompose;
 pub mod detectability;
+pub mod error_bars;
 pub mod judge;
 pub mod montecarlo;
 pub mod report;

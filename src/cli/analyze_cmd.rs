@@ -1,10 +1,14 @@
-//! `geneva analyze (--video F | --frames DIR --timestamps F | --tracks F) [--scenario S] --out DIR`.
+//! `geneva analyze (--video F | --frames DIR --timestamps F | --tracks F) [--scenario S] --out DIR`;
+//! with a scenario, every sample gets an error bar (`pipeline::error_bars`).
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use geneva_vision::estimate::{EstimatorConfig, Signal};
-use geneva_vision::pipeline::analyze::{analyze, AnalyzeError, AnalyzeOptions, Source};
+use geneva_vision::pipeline::analyze::{
+    analyze, write_measured, AnalyzeError, AnalyzeOptions, Source,
+};
 use geneva_vision::pipeline::defaults_study::defaults_reason;
+use geneva_vision::pipeline::error_bars::{error_bars, summary_lines, ErrorBarOptions};
 use geneva_vision::scenario;
 use std::path::PathBuf;
 
@@ -18,6 +22,14 @@ pub struct AnalyzeArgs {
     /// Positive angle sense: `cw` (clockwise on screen, the seed's convention) or `ccw`.
     #[arg(long, default_value = "cw")]
     angle_sense: String,
+    /// Seeds of the rig simulated at the footage's frame times for the error bars (with
+    /// --scenario; 0: no error bars).
+    #[arg(long, default_value_t = ErrorBarOptions::default().seeds)]
+    error_bar_seeds: usize,
+    /// Flag a frame whose α2, or ω2 jump, departs from the modelled rig by more than this many
+    /// standard deviations of its noise.
+    #[arg(long, default_value_t = ErrorBarOptions::default().k_sigma)]
+    k_sigma: f64,
     #[arg(long, default_value = "out/analyze")]
     out: PathBuf,
 }
@@ -29,13 +41,21 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         inputs.extend(super::scenario_inputs("--scenario", spec));
     }
     super::refuse_inputs_inside(&a.out, &inputs)?;
+    if !(a.k_sigma.is_finite() && a.k_sigma > 0.0) {
+        bail!("--k-sigma: expected a positive number, got {}", a.k_sigma);
+    }
+    if a.error_bar_seeds == 1 {
+        bail!("--error-bar-seeds: an RMS needs at least 2 seeds (0 turns the error bars off)");
+    }
     let mut options = AnalyzeOptions::default();
     let mut estimator_from = None;
+    let mut rig = None;
     if let Some(spec) = &a.scenario {
         let s = scenario::load_any(spec)?;
-        options.detector = s.detector;
-        options.estimator = s.estimator;
-        estimator_from = Some(s.name);
+        options.detector = s.detector.clone();
+        options.estimator = s.estimator.clone();
+        estimator_from = Some(s.name.clone());
+        rig = Some(s);
     }
     options.angle_sign = match a.angle_sense.as_str() {
         "cw" => -1.0,
@@ -105,8 +125,45 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         c.method,
         c.rms_residual_px
     );
+    if let Some(s) = rig.filter(|_| a.error_bar_seeds > 0) {
+        let bar = super::run_cmd::progress_bar(0, "simulate");
+        let opts = ErrorBarOptions {
+            seeds: a.error_bar_seeds,
+            k_sigma: a.k_sigma,
+        };
+        let bars = error_bars(&s, &out, options.angle_sign, &opts, &|done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        });
+        bar.finish_and_clear();
+        match bars {
+            Ok(bars) => {
+                write_measured(staged.path(), &out.tracks, &out.signals, Some(&bars))?;
+                let lines = summary_lines(&bars, &out.signals);
+                let md = staged.path().join("error_bars.md");
+                std::fs::write(&md, format!("# Error bars\n\n{}\n", lines.join("\n")))
+                    .with_context(|| md.display().to_string())?;
+                for line in lines {
+                    println!("{line}");
+                }
+            }
+            // The analysis stands without them: it is kept, and the reason said.
+            Err(e) => eprintln!("warning: no error bars: {}", chain(&e)),
+        }
+    }
     super::run_cmd::print_files(&staged.commit()?);
     Ok(())
+}
+
+/// An error and its causes on one line.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(&format!(": {s}"));
+        source = s.source();
+    }
+    text
 }
 
 /// Which estimator the analysis used and why: the scenario's choice, or the defaults and what

@@ -1,9 +1,10 @@
 //! `kinematics.csv`: per frame and signal, the measured θ2, ω2, α2 (wheel convention) and, for
 //! synthetic runs, the truth beside them (actual motion, ideal kinematics, resolvable truth,
-//! phase).
+//! phase); for real footage with a scenario, the error bars and flags of `analyze`.
 
 use super::csv_out::{num, CsvError, CsvWriter};
 use crate::budget::compare::{SignalErrors, TruthSeries};
+use crate::budget::error_bars::SignalBars;
 use crate::estimate::MeasuredSignal;
 use std::path::Path;
 
@@ -37,6 +38,34 @@ macro_rules! signal_columns {
 signal_columns!(SignalErrors);
 signal_columns!(MeasuredSignal);
 
+/// A measured signal's error bars and its flags (α2 beyond noise, ω2 jump beyond noise), written
+/// beside a real measurement.
+pub struct BarColumns<'a> {
+    pub bars: &'a SignalBars,
+    pub flags: [Vec<Option<bool>>; 2],
+}
+
+const BAR_HEADER: [&str; 6] = [
+    "theta2_sigma_rad",
+    "omega2_sigma_rad_s",
+    "alpha2_sigma_rad_s2",
+    "alpha2_model_rad_s2",
+    "alpha2_beyond_noise",
+    "omega2_jump_beyond_noise",
+];
+
+fn bar_cells(b: &BarColumns, i: usize) -> [String; 6] {
+    let flag = |f: Option<bool>| f.map_or(String::new(), |x| u8::from(x).to_string());
+    [
+        num(b.bars.sigma[0][i]),
+        num(b.bars.sigma[1][i]),
+        num(b.bars.sigma[2][i]),
+        num(b.bars.model[2][i]),
+        flag(b.flags[0][i]),
+        flag(b.flags[1][i]),
+    ]
+}
+
 /// Writes rows frame-major (all signals of frame 0, then frame 1, ...). The truths (actual,
 /// ideal, resolvable) are absent for real footage. `frame_numbers` (one per entry of
 /// `frames_t_s`) gives each row the input's frame number, `None` leaving that entry out (a
@@ -47,6 +76,7 @@ pub fn write_kinematics_csv<S: SignalColumns>(
     signals: &[S],
     truth: Option<(&TruthSeries, &TruthSeries, &TruthSeries)>,
     frame_numbers: Option<&[Option<usize>]>,
+    bars: Option<&[BarColumns]>,
 ) -> Result<(), CsvError> {
     let mut header = vec![
         "frame",
@@ -69,6 +99,9 @@ pub fn write_kinematics_csv<S: SignalColumns>(
             "resolvable_alpha2_rad_s2",
             "phase",
         ]);
+    }
+    if bars.is_some() {
+        header.extend(BAR_HEADER);
     }
     let mut w = CsvWriter::create(path, &header)?;
     for (i, t) in frames_t_s.iter().enumerate() {
@@ -101,6 +134,12 @@ pub fn write_kinematics_csv<S: SignalColumns>(
                     num(resolvable.alpha2_rad_s2[i]),
                     actual.phase[i].to_string(),
                 ]);
+            }
+            if let Some(bars) = bars {
+                match bars.iter().find(|b| b.bars.signal == s.name()) {
+                    Some(b) => cells.extend(bar_cells(b, i)),
+                    None => cells.extend(std::iter::repeat_n(String::new(), BAR_HEADER.len())),
+                }
             }
             w.row(&cells)?;
         }

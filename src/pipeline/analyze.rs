@@ -8,19 +8,22 @@
 //! rescale) is recorded as missing and listed with its reason, never searched; frame numbers
 //! absent from a track and a video cut short are counted and reported (`InputReport`).
 
+use super::error_bars::ErrorBars;
 use super::measure::estimate_track;
+use crate::budget::error_bars::feature_flags;
 use crate::detect::{corners_bbox_px, ArucoDetector, DetectError, DetectorConfig, GrayView};
 use crate::estimate::measured::relative_to_first_frame;
 use crate::estimate::{Estimate, EstimatorConfig, MeasuredSignal};
 use crate::io::csv_out::CsvWriter;
 use crate::io::images::{read_gray, read_header, ImageError, ImageHeader};
 use crate::io::kinematics_csv::write_kinematics_csv;
+use crate::io::kinematics_csv::BarColumns;
 use crate::io::timing_log::{read_frame_timestamps, TimingLogError};
 use crate::io::tracks_csv::{
     frame_gaps, read_tracks, Corners, TrackRow, TracksReadError, TracksWriter,
 };
 use crate::io::video::{Truncation, VideoError};
-use crate::plot::{stacked_png, Panel, Series, MEASURED, SECOND};
+use crate::plot::{stacked_png, Panel, Series, MEASURED, SECOND, THIRD, TRUTH};
 use std::path::{Path, PathBuf};
 
 /// Where the real data comes from.
@@ -140,6 +143,8 @@ pub struct InputReport {
     /// Set when a track's frame numbers and times tell different stories (the times are the
     /// time base; the numbers only label the rows).
     pub numbering: Option<NumberingMismatch>,
+    /// Width and height of the frames, px (unknown for a track).
+    pub frame_size_px: Option<[usize; 2]>,
 }
 
 /// Where a track's frame numbers disagree with its times: numbers that skip frames the times
@@ -474,6 +479,7 @@ fn track(
             let headers: Vec<Result<ImageHeader, ImageError>> =
                 files.iter().map(|f| read_header(f)).collect();
             let expected = sequence_header(&headers);
+            report.frame_size_px = expected.as_ref().map(|h| [h.width, h.height]);
             for (i, ((file, t), header)) in
                 files.iter().zip(times.as_slice()).zip(&headers).enumerate()
             {
@@ -517,6 +523,7 @@ fn track(
                 frames.info().frame_count(),
             );
             report.truncation = frames.info().truncation();
+            report.frame_size_px = Some([w, h]);
             let odd = frames.info().odd_frames.clone();
             loop {
                 match frames.next_frame() {
@@ -569,7 +576,7 @@ fn track(
 /// The rows with placeholders (no corners, time interpolated between its neighbours) for the
 /// frame numbers absent from a track, so that the estimator counts them as missing and a
 /// constant-rate timebase numbers frames as the input does. The flag is true for real rows.
-fn with_placeholders(rows: &[TrackRow]) -> Vec<(TrackRow, bool)> {
+pub(crate) fn with_placeholders(rows: &[TrackRow]) -> Vec<(TrackRow, bool)> {
     let mut out = Vec::with_capacity(rows.len());
     for (k, row) in rows.iter().enumerate() {
         if let Some(prev) = k.checked_sub(1).map(|j| &rows[j]) {
@@ -625,41 +632,7 @@ pub fn analyze(
         tracks: tracks_file,
     })?;
     let signals = relative_to_first_frame(&estimate, options.angle_sign);
-    let kin = out_dir.join("kinematics.csv");
-    let numbers: Vec<Option<usize>> = filled
-        .iter()
-        .map(|(r, real)| real.then_some(r.frame))
-        .collect();
-    write_kinematics_csv(&kin, &t, &signals, None, Some(&numbers))?;
-    let plot = out_dir.join("measured.png");
-    let pts = |v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
-    let mut w = Vec::new();
-    let mut a = Vec::new();
-    for (name, color) in [("centre", SECOND), ("fused", MEASURED)] {
-        if let Some(s) = signals.iter().find(|s| s.signal == name) {
-            w.push(Series::points(name, pts(&s.omega2_rad_s), color));
-            a.push(Series::points(name, pts(&s.alpha2_rad_s2), color));
-        }
-    }
-    stacked_png(
-        &plot,
-        &[
-            Panel {
-                title: "omega2 (measured)".into(),
-                x_label: "t (s)".into(),
-                y_label: "omega2 (rad/s)".into(),
-                series: w,
-            },
-            Panel {
-                title: "alpha2 (measured)".into(),
-                x_label: "t (s)".into(),
-                y_label: "alpha2 (rad/s^2)".into(),
-                series: a,
-            },
-        ],
-        1200,
-        450,
-    )?;
+    let [kin, plot] = write_measured(out_dir, &tracks, &signals, None)?;
     let mut files = vec![kin, plot];
     if !matches!(source, Source::Tracks(_)) {
         files.insert(0, out_dir.join("tracks.csv"));
@@ -690,6 +663,99 @@ pub fn analyze(
         input,
         files,
     })
+}
+
+/// `kinematics.csv` and `measured.png` of an analysis (over `tracks` with placeholders for the
+/// absent frame numbers, as [`AnalyzeOutput::signals`]), with the error bars when there are
+/// some: σ columns and flags in the table, σ bands and the flagged frames in the plot.
+pub fn write_measured(
+    out_dir: &Path,
+    tracks: &[TrackRow],
+    signals: &[MeasuredSignal],
+    bars: Option<&ErrorBars>,
+) -> Result<[PathBuf; 2], AnalyzeError> {
+    let filled = with_placeholders(tracks);
+    let t: Vec<f64> = filled.iter().map(|(r, _)| r.t_s).collect();
+    let numbers: Vec<Option<usize>> = filled
+        .iter()
+        .map(|(r, real)| real.then_some(r.frame))
+        .collect();
+    let columns: Option<Vec<BarColumns>> = bars.map(|b| {
+        signals
+            .iter()
+            .filter_map(|s| {
+                let bars = b.signal(&s.signal)?;
+                let flags = feature_flags(bars, &s.omega2_rad_s, &s.alpha2_rad_s2, b.k_sigma);
+                Some(BarColumns { bars, flags })
+            })
+            .collect()
+    });
+    let kin = out_dir.join("kinematics.csv");
+    write_kinematics_csv(&kin, &t, signals, None, Some(&numbers), columns.as_deref())?;
+    let plot = out_dir.join("measured.png");
+    let pts = |v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
+    let mut panels = [(1, "omega2", "rad/s"), (2, "alpha2", "rad/s^2")].map(|(q, name, unit)| {
+        let mut series = Vec::new();
+        for (signal, color) in [("centre", SECOND), ("fused", MEASURED)] {
+            if let Some(s) = signals.iter().find(|s| s.signal == signal) {
+                let v = if q == 1 {
+                    &s.omega2_rad_s
+                } else {
+                    &s.alpha2_rad_s2
+                };
+                series.push(Series::points(signal, pts(v), color));
+            }
+        }
+        Panel {
+            title: format!("{name} (measured)"),
+            x_label: "t (s)".into(),
+            y_label: format!("{name} ({unit})"),
+            series,
+        }
+    });
+    if let (Some(b), Some(cols)) = (bars, &columns) {
+        let fused = signals.iter().find(|s| s.signal == "fused");
+        let col = cols.iter().find(|c| c.bars.signal == "fused");
+        if let (Some(s), Some(c)) = (fused, col) {
+            for (panel, q) in panels.iter_mut().zip([1, 2]) {
+                let v = if q == 1 {
+                    &s.omega2_rad_s
+                } else {
+                    &s.alpha2_rad_s2
+                };
+                let band = |k: f64| -> Vec<f64> {
+                    v.iter()
+                        .zip(&c.bars.sigma[q])
+                        .map(|(m, s)| m + k * s)
+                        .collect()
+                };
+                panel.title = format!(
+                    "{} (measured, fused ± 1 σ over {} simulated seeds; {}: beyond {} σ of the modelled motion)",
+                    if q == 1 { "omega2" } else { "alpha2" },
+                    b.seeds.len(),
+                    if q == 1 { "jumps" } else { "values" },
+                    b.k_sigma
+                );
+                panel
+                    .series
+                    .push(Series::line("fused + σ", pts(&band(1.0)), THIRD));
+                panel
+                    .series
+                    .push(Series::line("fused − σ", pts(&band(-1.0)), THIRD));
+                let flags = &c.flags[if q == 1 { 1 } else { 0 }];
+                let flagged: Vec<f64> = v
+                    .iter()
+                    .zip(flags)
+                    .map(|(m, f)| if *f == Some(true) { *m } else { f64::NAN })
+                    .collect();
+                panel
+                    .series
+                    .push(Series::points("beyond k σ", pts(&flagged), TRUTH));
+            }
+        }
+    }
+    stacked_png(&plot, &panels, 1200, 450)?;
+    Ok([kin, plot])
 }
 
 /// `unreadable_frames.csv`: frame, file, reason (quoted: reasons hold commas).

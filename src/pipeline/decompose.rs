@@ -347,9 +347,9 @@ pub fn decompose_effects(
 /// error, depends on where the marker falls on the pixel grid: with one placement for every seed
 /// it was one draw reported as certain (a zero-width interval on the quantisation row), and the
 /// comparison of two rigs rested on that draw.
-pub fn place_for_seed(s: &mut Scenario) {
+pub fn place_for_seed(s: &mut Scenario, purpose: crate::rng::Stream) {
     use rand::Rng;
-    let mut r = crate::rng::stream(s.seed, crate::rng::Stream::DecomposePlacement, 0);
+    let mut r = crate::rng::stream(s.seed, purpose, 0);
     let (dx, dy): (f64, f64) = (r.gen::<f64>() - 0.5, r.gen::<f64>() - 0.5);
     let c = s
         .camera
@@ -361,7 +361,7 @@ pub fn place_for_seed(s: &mut Scenario) {
 fn run_one(c: &Configuration, k: usize, roi: bool) -> Result<[f64; 2], DecompositionError> {
     let mut s = c.scenario.clone();
     s.seed = s.seed.wrapping_add(k as u64);
-    place_for_seed(&mut s);
+    place_for_seed(&mut s, crate::rng::Stream::DecomposePlacement);
     let options = RunOptions {
         roi,
         plots: false,
@@ -636,7 +636,7 @@ mod tests {
         let offset = |s: &Scenario, k: u64| {
             let mut s = s.clone();
             s.seed = s.seed.wrapping_add(k);
-            place_for_seed(&mut s);
+            place_for_seed(&mut s, crate::rng::Stream::DecomposePlacement);
             let c = s.camera.rotation_centre_px.unwrap();
             [c[0] - centre[0], c[1] - centre[1]]
         };

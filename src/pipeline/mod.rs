@@ -28,6 +28,10 @@ pub mod defaults_study;
 pub mod diagnose;
 pub mod dynamics_report;
 #[cfg(feature = "opencv-detector")]
+pub mod error_bars;
+#[cfg(feature = "opencv-detector")]
+pub mod error_bars_check;
+#[cfg(feature = "opencv-detector")]
 pub mod frames;
 pub mod measure;
 #[cfg(feature = "opencv-detector")]

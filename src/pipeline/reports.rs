@@ -55,6 +55,8 @@ pub enum ReportsError {
     Output(#[from] crate::io::output_dir::OutputError),
     #[error("calibration round trip")]
     Calibration(#[source] Box<super::calibrate::CalibrateJobError>),
+    #[error("error bars against the truth")]
+    ErrorBars(#[source] Box<super::error_bars_check::CheckError>),
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
 }
@@ -76,7 +78,7 @@ pub struct ReportsOptions {
 }
 
 /// The report folders `reports` writes, in the order it writes them.
-pub const REPORT_NAMES: [&str; 8] = [
+pub const REPORT_NAMES: [&str; 9] = [
     "fast",
     "seed-internal-4k",
     "seed-external-4k",
@@ -85,6 +87,7 @@ pub const REPORT_NAMES: [&str; 8] = [
     "dynamics",
     "calibration",
     "defaults",
+    "error-bars",
 ];
 
 impl Default for ReportsOptions {
@@ -885,7 +888,7 @@ fn staged(
 
 /// Regenerates the reports under `out_root`: `fast/`, and unless `fast_only`,
 /// `seed-internal-4k/`, `seed-external-4k/`, `decomposition/`, `seed-camera/`, `dynamics/`,
-/// `calibration/` and `defaults/` — or only those named in `options.only` — each folder committed all at once.
+/// `calibration/`, `defaults/` and `error-bars/` — or only those named in `options.only` — each folder committed all at once.
 pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>, ReportsError> {
     if let Some(unknown) = options
         .only
@@ -957,8 +960,17 @@ pub fn reports(out_root: &Path, options: &ReportsOptions) -> Result<Vec<PathBuf>
                 .map_err(ReportsError::from)
         })?);
     }
+    if wanted("error-bars") {
+        files.extend(staged(&out_root.join("error-bars"), "error-bars", |d| {
+            super::error_bars_check::error_bars_report(d, ERROR_BAR_FOOTAGES, 16)
+                .map_err(|e| ReportsError::ErrorBars(Box::new(e)))
+        })?);
+    }
     Ok(files)
 }
+
+/// Footages per renderer of `reports/error-bars/`.
+pub const ERROR_BAR_FOOTAGES: usize = 24;
 
 /// The seed-camera sweep (the seed's own design question), run from scratch into `out_dir`:
 /// its results, summary, recommendation and heatmaps. The sweep's own bookkeeping (the manifest,

@@ -61,7 +61,12 @@ fn pose_of(s: &MotionSample) -> WheelPose {
 
 impl Rig {
     pub fn new(scenario: &Scenario) -> Result<Rig, RigError> {
-        let frame_times = scenario.frame_times()?;
+        Self::filmed_at(scenario, scenario.frame_times()?)
+    }
+
+    /// The rig of `scenario` filmed at `frame_times` instead of its own frame timing (a real
+    /// footage's times, rebased to start at 0 s): the motion is simulated to the last of them.
+    pub fn filmed_at(scenario: &Scenario, frame_times: Timestamps) -> Result<Rig, RigError> {
         // The resolvable truth filters the motion around each frame's exposure of the marker:
         // simulate past the end by that reach (the motion up to duration_s is unchanged).
         let fx = &scenario.effects;
@@ -70,7 +75,8 @@ impl Rig {
             + 1.5 * fx.motion_blur.exposure_or_zero_s()
             + 0.5 * WINDOW_FRAMES * if h.is_finite() { h } else { 0.0 }
             + 0.01;
-        let simulated_s = scenario.duration_s + reach_s;
+        let last_s = frame_times.as_slice().last().copied().unwrap_or(0.0);
+        let simulated_s = scenario.duration_s.max(last_s) + reach_s;
         let mechanism = Mechanism::new(
             &scenario.mechanism,
             &scenario.drive_speed,

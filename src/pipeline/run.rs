@@ -377,6 +377,7 @@ fn judge(
             &signals,
             Some((&truth, &ideal, &resolvable)),
             None,
+            None,
         )?;
         let json_path = out_dir.join("budget.json");
         let text = serde_json::to_string_pretty(&budget)
