@@ -9,6 +9,7 @@ use super::error_bars::{error_bars, ErrorBarOptions, ErrorBarsError};
 use super::render_job::{render_job, RenderJob, RenderJobError, Renderer};
 use super::rig::{Rig, RigError};
 use crate::budget::error_bars::z_rms;
+use crate::detect::CornerRefinement;
 use crate::rng::Stream;
 use crate::scenario::Scenario;
 use std::path::Path;
@@ -255,7 +256,8 @@ pub fn coverage_table(c: &CoverageCheck) -> String {
 }
 
 /// The `reports/error-bars/` folder: the check on footage of the second renderer and, as the
-/// control, of the simulating renderer itself, for the `fast` rig over 4 s.
+/// control, of the simulating renderer itself, for the `fast` rig over 4 s, with whole-pixel
+/// corners (the rig's, and the seed study's) and with sub-pixel ones.
 pub fn error_bars_report(out_dir: &Path, footages: usize, seeds: usize) -> Result<(), CheckError> {
     let mut base = crate::scenario::load_any("fast").map_err(Box::new)?;
     base.duration_s = 4.0;
@@ -275,40 +277,47 @@ pub fn error_bars_report(out_dir: &Path, footages: usize, seeds: usize) -> Resul
         100.0 * crate::budget::error_bars::sigma_relative_se(seeds),
         exact_z_rms(seeds)
     );
-    for (renderer, title) in [
-        (
-            Renderer::Independent,
-            "Footage of the second renderer (not the one the bars simulate)",
-        ),
-        (
-            Renderer::Own,
-            "Footage of the simulating renderer (the control)",
-        ),
+    for (refinement, name) in [
+        (CornerRefinement::None, "none"),
+        (CornerRefinement::Subpix, "subpix"),
     ] {
-        let c = coverage_check(&base, footages, seeds, renderer, &out_dir.join("work"))?;
-        let held: Vec<String> = c
-            .rows
-            .iter()
-            .filter(|r| r.phase != "all" && !within(r.z_rms, exact_z_rms(c.seeds)))
-            .map(|r| {
+        let mut rig = base.clone();
+        rig.detector.corner_refinement_method = refinement;
+        for (renderer, title) in [
+            (
+                Renderer::Independent,
+                "footage of the second renderer (not the one the bars simulate)",
+            ),
+            (
+                Renderer::Own,
+                "footage of the simulating renderer (the control)",
+            ),
+        ] {
+            let c = coverage_check(&rig, footages, seeds, renderer, &out_dir.join("work"))?;
+            let held: Vec<String> = c
+                .rows
+                .iter()
+                .filter(|r| r.phase != "all" && !within(r.z_rms, exact_z_rms(c.seeds)))
+                .map(|r| {
+                    format!(
+                        "{} in {} ({:.2} ± {:.2})",
+                        r.quantity, r.phase, r.z_rms, r.z_rms_se
+                    )
+                })
+                .collect();
+            let verdict = if held.is_empty() {
+                "Every quantity and phase is within 10 % of what exact bars give.".to_string()
+            } else {
                 format!(
-                    "{} in {} ({:.2} ± {:.2})",
-                    r.quantity, r.phase, r.z_rms, r.z_rms_se
+                    "Not within 10 % of what exact bars give: {}.",
+                    held.join(", ")
                 )
-            })
-            .collect();
-        let verdict = if held.is_empty() {
-            "Every quantity and phase is within 10 % of what exact bars give.".to_string()
-        } else {
-            format!(
-                "Not within 10 % of what exact bars give: {}.",
-                held.join(", ")
-            )
-        };
-        text.push_str(&format!(
-            "\n## {title}\n\n{}\n{verdict}\n",
-            coverage_table(&c)
-        ));
+            };
+            text.push_str(&format!(
+                "\n## Corners `{name}`, {title}\n\n{}\n{verdict}\n",
+                coverage_table(&c)
+            ));
+        }
     }
     let work = out_dir.join("work");
     if work.exists() {
