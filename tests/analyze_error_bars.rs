@@ -142,6 +142,44 @@ fn a_scenario_of_another_camera_gives_no_error_bars_and_keeps_the_analysis() {
 }
 
 #[test]
+fn a_track_of_another_image_scale_gives_no_error_bars() {
+    // A track carries no frame size: a scenario whose marker shows at another size in the image
+    // (here an image scale of 0.65 mm/px instead of 0.5: 23 % smaller) is refused by the
+    // marker's size.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    footage(d, "plain", "");
+    let o = analyze(d, "plain", "a", "fast");
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(
+        d.join("far.toml"),
+        "extend = \"fast\"\n[camera.focal]\nkind = \"image_scale\"\nmm_per_px = 0.65\n",
+    )
+    .unwrap();
+    let o = geneva(
+        d,
+        &[
+            "analyze",
+            "--tracks",
+            "a/tracks.csv",
+            "--scenario",
+            "far.toml",
+            "--error-bar-seeds",
+            "4",
+            "--out",
+            "b",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning: no error bars") && err.contains("px a side"),
+        "{err}"
+    );
+    assert!(!d.join("b/error_bars.md").exists());
+}
+
+#[test]
 fn the_error_bars_cover_footage_of_the_simulating_renderer() {
     // Where the bars' model is exact, z = (measured − truth)/σ̂ has an RMS of √(N/(N−2)) for σ̂
     // an RMS over N seeds (E[N/χ²_N] = N/(N−2)): 1.155 for N = 8. Its sampling error: 3

@@ -64,6 +64,12 @@ pub enum ErrorBarsError {
         frames: usize,
         limit_deg: f64,
     },
+    #[error(
+        "the footage's marker is {footage_px:.1} px a side, the scenario's rig shows it at \
+         {simulated_px:.1} px: the error bars need the rig as filmed (`geneva calibrate` fits a \
+         scenario to the footage)"
+    )]
+    MarkerSize { footage_px: f64, simulated_px: f64 },
     #[error("seed {seed}: detection")]
     Frames {
         seed: u64,
@@ -166,6 +172,9 @@ pub fn error_bars(
         let truths = run_truths(&rig, &times);
         let to_analysis = angle_sign * rig.screen_sign;
         let detections = simulate(&rig, seed, &|done| progress(k * n + done, seeds.len() * n))?;
+        if k == 0 {
+            same_marker_size(&analysis.tracks, &detections)?;
+        }
         let blank = |c: Option<Corners>, i: usize| c.filter(|_| seen[i]);
         let corners: Vec<Option<Corners>> = detections
             .iter()
@@ -321,6 +330,51 @@ fn seed_series(e: &crate::budget::compare::SignalErrors, to_analysis: f64) -> Se
             scaled(&e.omega_raw_err_rad_s, 0.0),
             scaled(&e.alpha_raw_err_rad_s2, 0.0),
         ],
+    }
+}
+
+/// Largest relative difference between the footage's and the simulated rig's marker size at
+/// which the simulation still stands for the footage (10 %: detection error scales with it).
+const MARKER_SIZE_TOLERANCE: f64 = 0.10;
+
+/// Refuses a rig whose marker is not the footage's size in the image (a track's camera is not
+/// known from its file, so a scenario of another camera or distance shows here).
+fn same_marker_size(
+    footage: &[crate::io::tracks_csv::TrackRow],
+    simulated: &[FrameDetection],
+) -> Result<(), ErrorBarsError> {
+    let side = |c: &Corners| {
+        (0..4)
+            .map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % 4]);
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            })
+            .sum::<f64>()
+            / 4.0
+    };
+    let median = |sides: Vec<f64>| crate::numeric::robust::median_finite(sides);
+    let footage_px = median(
+        footage
+            .iter()
+            .filter_map(|r| r.corners_px.as_ref())
+            .map(side)
+            .collect(),
+    );
+    let simulated_px = median(
+        simulated
+            .iter()
+            .filter_map(|d| d.corners_px.as_ref())
+            .map(side)
+            .collect(),
+    );
+    match (footage_px, simulated_px) {
+        (Some(f), Some(s)) if (s / f - 1.0).abs() > MARKER_SIZE_TOLERANCE => {
+            Err(ErrorBarsError::MarkerSize {
+                footage_px: f,
+                simulated_px: s,
+            })
+        }
+        _ => Ok(()),
     }
 }
 
