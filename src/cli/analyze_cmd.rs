@@ -1,14 +1,12 @@
 //! `geneva analyze (--video F | --frames DIR --timestamps F | --tracks F) [--scenario S] --out DIR`;
 //! with a scenario, every sample gets an error bar (`pipeline::error_bars`).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use geneva_vision::estimate::{EstimatorConfig, Signal};
-use geneva_vision::pipeline::analyze::{
-    analyze, write_measured, AnalyzeError, AnalyzeOptions, Source,
-};
+use geneva_vision::pipeline::analyze::{analyze, AnalyzeError, AnalyzeOptions, Source};
 use geneva_vision::pipeline::defaults_study::defaults_reason;
-use geneva_vision::pipeline::error_bars::{error_bars, summary_lines, ErrorBarOptions};
+use geneva_vision::pipeline::error_bars::{error_bars, write_error_bars, ErrorBarOptions};
 use geneva_vision::scenario;
 use std::path::PathBuf;
 
@@ -138,12 +136,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         bar.finish_and_clear();
         match bars {
             Ok(bars) => {
-                write_measured(staged.path(), &out.tracks, &out.signals, Some(&bars))?;
-                let lines = summary_lines(&bars, &out.signals);
-                let md = staged.path().join("error_bars.md");
-                std::fs::write(&md, format!("# Error bars\n\n{}\n", lines.join("\n")))
-                    .with_context(|| md.display().to_string())?;
-                for line in lines {
+                for line in write_error_bars(staged.path(), &out, &bars)? {
                     println!("{line}");
                 }
             }

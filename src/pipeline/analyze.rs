@@ -270,6 +270,16 @@ impl AnalyzeOutput {
             .collect();
         select_frames(&self.estimate, &keep)
     }
+
+    /// The rows [`AnalyzeOutput::signals`] are sampled at: time (s), frame number, and whether
+    /// the frame is in the input (false for a placeholder of an absent frame number, whose time
+    /// is interpolated and whose values are NaN).
+    pub fn sample_rows(&self) -> Vec<(f64, usize, bool)> {
+        with_placeholders(&self.tracks)
+            .into_iter()
+            .map(|(row, real)| (row.t_s, row.frame, real))
+            .collect()
+    }
 }
 
 /// `e` at the frames whose `keep` is true (every per-frame series, the counts recomputed).

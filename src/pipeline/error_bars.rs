@@ -7,7 +7,7 @@
 //! The simulation draws the scenario's camera, scene and effects: the bars are as right as the
 //! scenario is (a calibrated one is fitted to the footage). What the model lacks is not in them.
 
-use super::analyze::{with_placeholders, AnalyzeOutput};
+use super::analyze::{with_placeholders, write_measured, AnalyzeError, AnalyzeOutput};
 use super::decompose::place_for_seed;
 use super::frames::{detect_frames, FrameDetection, FrameLoopOptions, FramesError};
 use super::measure::estimate_track;
@@ -22,6 +22,7 @@ use crate::mechanism::DriveSpeedConfig;
 use crate::rng::Stream;
 use crate::scenario::Scenario;
 use crate::timing::{Timestamps, TimingError};
+use std::path::Path;
 
 /// Largest RMS difference between the footage's measured angle and the simulated rig's, rad,
 /// at which the simulated frames still sample the footage's motion (2°: a few per cent of an
@@ -118,6 +119,21 @@ impl ErrorBars {
     pub fn signal(&self, name: &str) -> Option<&SignalBars> {
         self.signals.iter().find(|b| b.signal == name)
     }
+}
+
+/// Writes `bars` beside `analysis` in `out_dir`: `kinematics.csv` and `measured.png` again with
+/// the σ columns, bands and flags, and `error_bars.md` with [`summary_lines`], which it returns.
+pub fn write_error_bars(
+    out_dir: &Path,
+    analysis: &AnalyzeOutput,
+    bars: &ErrorBars,
+) -> Result<Vec<String>, AnalyzeError> {
+    write_measured(out_dir, &analysis.tracks, &analysis.signals, Some(bars))?;
+    let lines = summary_lines(bars, &analysis.signals);
+    let md = out_dir.join("error_bars.md");
+    std::fs::write(&md, format!("# Error bars\n\n{}\n", lines.join("\n")))
+        .map_err(crate::errors::FileError::io(&md))?;
+    Ok(lines)
 }
 
 /// The error bars of `analysis` (made with `angle_sign`) from `scenario` simulated at its frames.

@@ -163,31 +163,14 @@ pub fn render_job(
     let mut done = 0;
     for start in (range.start..range.end).step_by(chunk) {
         let end = (start + chunk).min(range.end);
-        let images: Vec<GrayImage> = (start..end)
-            .into_par_iter()
-            .map_init(FrameBuffers::default, |buffers, i| {
-                let t_s = rig.frame_times.as_slice()[i];
-                let request = FrameRequest {
-                    index: i as u64,
-                    t_s: rig.render_time_s(t_s),
-                    // Video frames are always whole frames.
-                    window: if video.is_some() {
-                        full
-                    } else {
-                        window_for(t_s)
-                    },
-                };
-                match job.renderer {
-                    Renderer::Own => {
-                        Ok(render_frame_with(&scene, &rig.settings, &request, buffers))
-                    }
-                    Renderer::Independent => {
-                        render_frame_independent(&scene, &rig.settings, request.index, request.t_s)
-                            .map_err(|source| RenderJobError::Independent { frame: i, source })
-                    }
-                }
-            })
-            .collect::<Result<_, _>>()?;
+        // Video frames are always whole frames.
+        let images = render_chunk(&rig, &scene, start..end, job.renderer, &|t_s| {
+            if video.is_some() {
+                full
+            } else {
+                window_for(t_s)
+            }
+        })?;
         for (k, img) in images.iter().enumerate() {
             let frame = start + k;
             if job.png {
@@ -213,6 +196,65 @@ pub fn render_job(
         frames: range.end - range.start,
         files,
     })
+}
+
+/// Frames `frames` of `rig` drawn by `renderer` in parallel, each in the window `window_for`
+/// gives at its timestamp; every frame's noise is keyed by its index, so the images do not
+/// depend on the chunking or the thread count.
+fn render_chunk(
+    rig: &Rig,
+    scene: &dyn crate::render::shapes::SceneAt,
+    frames: std::ops::Range<usize>,
+    renderer: Renderer,
+    window_for: &(dyn Fn(f64) -> PixelRect + Sync),
+) -> Result<Vec<GrayImage>, RenderJobError> {
+    frames
+        .into_par_iter()
+        .map_init(FrameBuffers::default, |buffers, i| {
+            let t_s = rig.frame_times.as_slice()[i];
+            let request = FrameRequest {
+                index: i as u64,
+                t_s: rig.render_time_s(t_s),
+                window: window_for(t_s),
+            };
+            match renderer {
+                Renderer::Own => Ok(render_frame_with(scene, &rig.settings, &request, buffers)),
+                Renderer::Independent => {
+                    render_frame_independent(scene, &rig.settings, request.index, request.t_s)
+                        .map_err(|source| RenderJobError::Independent { frame: i, source })
+                }
+            }
+        })
+        .collect()
+}
+
+/// Whole frames `frames` of `scenario` in memory, with their timestamps (s): the pixels
+/// `render_job` writes, for callers that want arrays rather than files (the Python module).
+/// `progress(done, total)` counts frames.
+pub fn render_images(
+    scenario: &Scenario,
+    frames: std::ops::Range<usize>,
+    renderer: Renderer,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Vec<f64>, Vec<GrayImage>), RenderJobError> {
+    let rig = Rig::new(scenario)?;
+    let count = rig.frame_times.len();
+    if frames.start >= frames.end || frames.end > count {
+        return Err(RenderJobError::Range {
+            start: frames.start,
+            end: frames.end,
+            count,
+        });
+    }
+    let scene = rig.animated();
+    let full = rig.frame_rect();
+    let mut images = Vec::with_capacity(frames.len());
+    for start in frames.clone().step_by(16) {
+        let end = (start + 16).min(frames.end);
+        images.extend(render_chunk(&rig, &scene, start..end, renderer, &|_| full)?);
+        progress(images.len(), frames.len());
+    }
+    Ok((rig.frame_times.as_slice()[frames].to_vec(), images))
 }
 
 #[cfg(test)]

@@ -29,6 +29,7 @@
 
 use std::process::{exit, Command};
 
+mod python;
 mod slurm;
 mod system;
 mod tally;
@@ -59,6 +60,13 @@ fn main() {
                 }
             }
         }),
+        "python-test" => system::ensure_packages().and_then(|_| {
+            let started = std::time::Instant::now();
+            let mut tally = tally::Tally::default();
+            let result = python::test(&mut tally);
+            eprintln!("{}", tally.summary(started));
+            result
+        }),
         "bench" => system::ensure_packages().and_then(|_| bench(rest)),
         "fuzz" => fuzz(rest),
         "statistics" => system::ensure_packages().and_then(|_| statistics()),
@@ -66,7 +74,7 @@ fn main() {
         "diagnosis" => system::ensure_packages().and_then(|_| diagnosis(rest)),
         _ => {
             eprintln!(
-                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  statistics  the statistical tests whole: 20 own-render nulls, 40 interval-coverage footages\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  pbr-suite  path-traced footage (tools/pbr) through calibrate and diagnose into reports/diagnosis-pbr/ (hours; resumable; --quick: three cases)\n  deps     check and install the system packages (--pbr: also Blender and Python's OpenCV for tools/pbr)"
+                "usage: cargo xtask <task>\n\n  demo     run the main job on the embedded default scenario (out/demo/)\n  test     run the whole test suite (and the real-Slurm test as root on Debian)\n  slurm-test  only the real-Slurm integration test\n  python-test  only the Python module's tests (builds it into target/python-venv/)\n  bench    run the benchmarks and print figures\n  fuzz     every parser on --inputs N generated inputs (default 1000000)\n  statistics  the statistical tests whole: 20 own-render nulls, 40 interval-coverage footages\n  reports  regenerate the reports `geneva reports` makes (minutes)\n  diagnosis [NAME…|all]  the named diagnosis self-check suites into reports/ (no name: list them; hours each; resumable, --shard I/N)\n  pbr-suite  path-traced footage (tools/pbr) through calibrate and diagnose into reports/diagnosis-pbr/ (hours; resumable; --quick: three cases)\n  deps     check and install the system packages (--pbr: also Blender and Python's OpenCV for tools/pbr)"
             );
             Ok(())
         }
@@ -163,6 +171,8 @@ fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String
         core.env("PROPTEST_RNG_SEED", "20261123");
     }
     tally::run_counted(core, tally)?;
+    // The Python module, built as a user installs it, under pytest.
+    python::test(tally)?;
     pbr_ci_case(tally)?;
     // The real-Slurm test of `geneva slurm script`: as root on Debian it must run, unless the
     // user opts out (then it counts as skipped); `GENEVA_REQUIRE_SLURM_TEST` (set by CI) makes

@@ -40,6 +40,44 @@ impl Tally {
         true
     }
 
+    /// Adds pytest's closing line (`3 passed, 1 failed, 2 skipped in 4.21s`, with or without
+    /// the `=` rule around it): errors count as failures, skipped tests as skipped. Other lines
+    /// are left alone. Returns whether the line was one.
+    pub fn add_pytest_line(&mut self, line: &str) -> bool {
+        let line = line.trim().trim_matches('=').trim();
+        let Some((counts, time)) = line.rsplit_once(" in ") else {
+            return false;
+        };
+        if !time.ends_with('s') {
+            return false;
+        }
+        let mut found = (0, 0, 0);
+        for part in counts.split(", ") {
+            let Some((n, what)) = part.split_once(' ') else {
+                return false;
+            };
+            let Ok(n) = n.parse::<u64>() else {
+                return false;
+            };
+            match what {
+                "passed" => found.0 += n,
+                "failed" | "error" | "errors" => found.1 += n,
+                "skipped" => found.2 += n,
+                "warning" | "warnings" | "deselected" | "xfailed" | "xpassed" => {}
+                _ => return false,
+            }
+        }
+        self.passed += found.0;
+        self.failed += found.1;
+        if found.2 > 0 {
+            self.skip(
+                &format!("{} Python tests", found.2),
+                "pytest skipped them (named above)",
+            );
+        }
+        true
+    }
+
     /// A check that did not run, printed as it happens and counted.
     pub fn skip(&mut self, what: &str, why: &str) {
         eprintln!("xtask: SKIPPED {what}: {why}");
@@ -72,7 +110,17 @@ impl Tally {
 
 /// Runs a `cargo test` command, passing its output through as it comes and adding its summary
 /// lines to `tally`.
-pub fn run_counted(mut command: Command, tally: &mut Tally) -> Result<(), String> {
+pub fn run_counted(command: Command, tally: &mut Tally) -> Result<(), String> {
+    run_counted_with(command, tally, Tally::add_line)
+}
+
+/// Runs a command, passing its output through as it comes and adding the lines that `count`
+/// recognises to `tally`.
+pub fn run_counted_with(
+    mut command: Command,
+    tally: &mut Tally,
+    count: fn(&mut Tally, &str) -> bool,
+) -> Result<(), String> {
     eprintln!("xtask: running {command:?}");
     let mut child = command
         .stdout(Stdio::piped())
@@ -82,7 +130,7 @@ pub fn run_counted(mut command: Command, tally: &mut Tally) -> Result<(), String
         for line in BufReader::new(out).lines() {
             let line = line.map_err(|e| format!("reading {command:?}'s output: {e}"))?;
             println!("{line}");
-            tally.add_line(&line);
+            count(tally, &line);
         }
     }
     let status = child
@@ -107,6 +155,19 @@ mod tests {
         assert!(!t.add_line("test foo::bar ... ok"));
         assert!(!t.add_line("running 12 tests"));
         assert_eq!((t.passed, t.failed, t.ignored), (16, 2, 1));
+    }
+
+    #[test]
+    fn pytest_closing_lines_are_counted_and_others_left_alone() {
+        let mut t = Tally::default();
+        assert!(t.add_pytest_line("8 passed in 20.14s"));
+        assert!(t.add_pytest_line(
+            "===== 1 failed, 5 passed, 2 skipped, 3 warnings, 1 error in 1.02s ====="
+        ));
+        assert!(!t.add_pytest_line("python/tests/test_api.py ....... [100%]"));
+        assert!(!t.add_pytest_line("FAILED python/tests/test_api.py::test_x - in 2s"));
+        assert!(!t.add_pytest_line("the marker was found in 3 frames"));
+        assert_eq!((t.passed, t.failed, t.skipped.len()), (13, 2, 1));
     }
 
     #[test]
