@@ -53,11 +53,12 @@ fn finite_at(series: &[SeedSeries], pick: impl Fn(&SeedSeries) -> f64) -> Vec<f6
     series.iter().map(pick).filter(|v| v.is_finite()).collect()
 }
 
+/// The RMS of at least two finite values (one has no spread to speak of), else NaN.
 fn rms(v: &[f64]) -> f64 {
-    if v.len() < 2 {
-        return f64::NAN;
+    match crate::numeric::robust::rms_finite(v.iter().copied()) {
+        (r, n) if n >= 2 => r,
+        _ => f64::NAN,
     }
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
 /// The error bars of one signal from its simulated seeds (all of one length, the footage's

@@ -70,8 +70,7 @@ mod tests {
     use std::f64::consts::TAU;
 
     fn rms(v: &[f64]) -> f64 {
-        let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-        (f.iter().map(|x| x * x).sum::<f64>() / f.len() as f64).sqrt()
+        crate::numeric::robust::rms_finite(v.iter().copied()).0
     }
 
     #[test]

@@ -261,12 +261,8 @@ fn phase_name(p: Phase) -> &'static str {
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
-    let (mut n, mut s) = (0usize, 0.0);
-    for x in v.filter(|x| x.is_finite()) {
-        n += 1;
-        s += x * x;
-    }
-    (n >= MIN_FRAMES).then(|| (s / n as f64).sqrt())
+    let (r, n) = crate::numeric::robust::rms_finite(v);
+    (n >= MIN_FRAMES).then_some(r)
 }
 
 /// Robust RMS: 1.4826 × the median of |x|, which equals the RMS for zero-mean Gaussian

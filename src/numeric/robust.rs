@@ -1,4 +1,5 @@
-//! Location and scale of samples: mean, sample variance and standard deviation, medians (the
+//! Location and scale of samples: mean, sample variance and standard deviation, the RMS of the
+//! finite values, medians (the
 //! mean of the two middle values, and the upper one), the median absolute deviation, and
 //! numpy-style percentiles.
 //!
@@ -31,6 +32,20 @@ pub fn sample_sd(xs: &[f64]) -> f64 {
 
 /// Median of `v`, sorting it in place: the middle value, or the mean of the two middle values of
 /// an even count; NaN for no values. NaNs sort above every number (`f64::total_cmp`).
+/// Root mean square of the finite values and how many there were; NaN (and 0) when none is.
+pub fn rms_finite(values: impl IntoIterator<Item = f64>) -> (f64, usize) {
+    let (mut n, mut sum_sq) = (0usize, 0.0);
+    for x in values.into_iter().filter(|x| x.is_finite()) {
+        n += 1;
+        sum_sq += x * x;
+    }
+    if n == 0 {
+        (f64::NAN, 0)
+    } else {
+        ((sum_sq / n as f64).sqrt(), n)
+    }
+}
+
 pub fn median_in_place(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -89,6 +104,15 @@ pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn rms_skips_non_finite_values_and_counts_the_rest() {
+        let (r, n) = rms_finite([3.0, f64::NAN, -4.0, f64::INFINITY]);
+        assert_eq!(n, 2);
+        assert!((r - (12.5f64).sqrt()).abs() < 1e-15);
+        let (r, n) = rms_finite([f64::NAN]);
+        assert!(r.is_nan() && n == 0);
+    }
 
     #[test]
     fn known_values() {

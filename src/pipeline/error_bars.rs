@@ -396,17 +396,7 @@ fn same_marker_size(
 
 /// RMS of `a − b` over the frames where both are finite, and their count.
 fn rms_difference(a: &[f64], b: &[f64]) -> (f64, usize) {
-    let d: Vec<f64> = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| x - y)
-        .filter(|d| d.is_finite())
-        .collect();
-    if d.is_empty() {
-        return (f64::NAN, 0);
-    }
-    let n = d.len();
-    ((d.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt(), n)
+    crate::numeric::robust::rms_finite(a.iter().zip(b).map(|(x, y)| x - y))
 }
 
 /// What the error bars are, in lines for the terminal and `error_bars.md`: how they were made,
