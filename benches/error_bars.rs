@@ -29,11 +29,7 @@ fn main() {
         ..RenderJob::default()
     };
     render_job(&rig, &frames, &job, &|_, _| {}).expect("render");
-    let options = AnalyzeOptions {
-        detector: rig.detector.clone(),
-        estimator: rig.estimator.clone(),
-        ..AnalyzeOptions::default()
-    };
+    let options = AnalyzeOptions::from_scenario(&rig, AnalyzeOptions::default().angle_sign);
     let source = Source::Frames {
         dir: frames.clone(),
         timestamps: frames.join("timestamps.csv"),

@@ -46,12 +46,7 @@ fn copy_frames(dir: &Path) -> PathBuf {
 }
 
 fn options() -> AnalyzeOptions {
-    let s = fast();
-    AnalyzeOptions {
-        detector: s.detector.clone(),
-        estimator: s.estimator.clone(),
-        angle_sign: -1.0,
-    }
+    AnalyzeOptions::from_scenario(&fast(), -1.0)
 }
 
 fn analyze_frames(frames: &Path, out: &Path) -> AnalyzeOutput {

@@ -253,11 +253,7 @@ fn analyze_frames_written_by_render_matches_run() {
         &|_, _| {},
     )
     .unwrap();
-    let options = AnalyzeOptions {
-        detector: s.detector.clone(),
-        estimator: s.estimator.clone(),
-        angle_sign: -1.0,
-    };
+    let options = AnalyzeOptions::from_scenario(&s, -1.0);
     let source = Source::Frames {
         dir: frames.clone(),
         timestamps: frames.join("timestamps.csv"),

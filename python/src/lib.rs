@@ -323,14 +323,13 @@ fn analyze<'py>(
             inputs.extend(scenario_inputs("scenario", s));
         }
         refuse_inputs_inside(&out, &inputs).map_err(|e| failed(&e))?;
-        let mut options = AnalyzeOptions {
-            angle_sign,
-            ..AnalyzeOptions::default()
+        let options = match &rig {
+            Some(s) => AnalyzeOptions::from_scenario(s, angle_sign),
+            None => AnalyzeOptions {
+                angle_sign,
+                ..AnalyzeOptions::default()
+            },
         };
-        if let Some(s) = &rig {
-            options.detector = s.detector.clone();
-            options.estimator = s.estimator.clone();
-        }
         let staged = OutputDir::create(&out).map_err(|e| failed(&e))?;
         let analysis = analyze_job(&src, &options, staged.path(), &|done, total| {
             progress.report("detect", done, total)

@@ -45,20 +45,19 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     if a.error_bar_seeds == 1 {
         bail!("--error-bar-seeds: an RMS needs at least 2 seeds (0 turns the error bars off)");
     }
-    let mut options = AnalyzeOptions::default();
-    let mut estimator_from = None;
-    let mut rig = None;
-    if let Some(spec) = &a.scenario {
-        let s = scenario::load_any(spec)?;
-        options.detector = s.detector.clone();
-        options.estimator = s.estimator.clone();
-        estimator_from = Some(s.name.clone());
-        rig = Some(s);
-    }
-    options.angle_sign = match a.angle_sense.as_str() {
+    let rig = a.scenario.as_deref().map(scenario::load_any).transpose()?;
+    let estimator_from = rig.as_ref().map(|s| s.name.clone());
+    let angle_sign = match a.angle_sense.as_str() {
         "cw" => -1.0,
         "ccw" => 1.0,
         other => bail!("--angle-sense `{other}`: expected cw or ccw"),
+    };
+    let options = match &rig {
+        Some(s) => AnalyzeOptions::from_scenario(s, angle_sign),
+        None => AnalyzeOptions {
+            angle_sign,
+            ..AnalyzeOptions::default()
+        },
     };
     let staged = geneva_vision::io::output_dir::OutputDir::create(&a.out)?;
     let bar = super::run_cmd::progress_bar(0, "detect");

@@ -43,6 +43,17 @@ pub struct AnalyzeOptions {
     pub angle_sign: f64,
 }
 
+impl AnalyzeOptions {
+    /// The detector and estimator `scenario` states, with `angle_sign` (see the field).
+    pub fn from_scenario(scenario: &crate::scenario::Scenario, angle_sign: f64) -> Self {
+        Self {
+            detector: scenario.detector.clone(),
+            estimator: scenario.estimator.clone(),
+            angle_sign,
+        }
+    }
+}
+
 impl Default for AnalyzeOptions {
     fn default() -> Self {
         Self {

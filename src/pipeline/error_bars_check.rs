@@ -107,11 +107,7 @@ pub fn coverage_check(
             footage: k,
             source: Box::new(e),
         })?;
-        let options = AnalyzeOptions {
-            detector: base.detector.clone(),
-            estimator: base.estimator.clone(),
-            ..AnalyzeOptions::default()
-        };
+        let options = AnalyzeOptions::from_scenario(base, AnalyzeOptions::default().angle_sign);
         let source = Source::Frames {
             dir: dir.clone(),
             timestamps: dir.join("timestamps.csv"),

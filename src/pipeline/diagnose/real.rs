@@ -79,11 +79,7 @@ pub fn measure_real(
     progress: &dyn Fn(usize, usize),
 ) -> Result<RealMeasurement, DiagnoseError> {
     check_source(nominal, source)?;
-    let options = AnalyzeOptions {
-        detector: nominal.detector.clone(),
-        estimator: nominal.estimator.clone(),
-        angle_sign: 1.0,
-    };
+    let options = AnalyzeOptions::from_scenario(nominal, 1.0);
     let d = &nominal.detector;
     let out = match analyze(source, &options, work_dir, progress) {
         Ok(out) => out,
