@@ -10,7 +10,7 @@ use convert::{array1, error_text, json_object};
 use geneva_vision::io::output_dir::{refuse_inputs_inside, Input, OutputDir};
 use geneva_vision::pipeline::analyze::{analyze as analyze_job, AnalyzeOptions, Source};
 use geneva_vision::pipeline::error_bars::{error_bars, write_error_bars, ErrorBarOptions};
-use geneva_vision::pipeline::render_job::{render_images, render_job, RenderJob, Renderer};
+use geneva_vision::pipeline::render_job::{render_each, render_job, RenderJob, Renderer};
 use geneva_vision::pipeline::rig::Rig;
 use geneva_vision::scenario::{self, Scenario};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
@@ -218,16 +218,20 @@ fn render<'py>(
     let progress = Progress(progress);
     let (shape, data) = py.allow_threads(|| {
         let s = load_scenario(spec, overrides)?;
-        let (_, images) = render_images(&s, start..end, which, &|done, total| {
-            progress.report("render", done, total)
+        let (w, h) = (s.camera.width_px as usize, s.camera.height_px as usize);
+        // One buffer of the final size, reserved once the range has been checked (the first
+        // frame arrives only then): the frames are copied in as they are drawn.
+        let mut data: Vec<u8> = Vec::new();
+        let report = |done, total| progress.report("render", done, total);
+        render_each(&s, start..end, which, &report, &mut |img| {
+            if data.is_empty() {
+                data.reserve_exact((end - start) * img.data.len());
+            }
+            data.extend_from_slice(&img.data)
         })
         .map_err(|e| failed(&e))?;
-        let (w, h) = (s.camera.width_px as usize, s.camera.height_px as usize);
-        let mut data = Vec::with_capacity(images.len() * w * h);
-        for img in &images {
-            data.extend_from_slice(&img.data);
-        }
-        Ok::<_, PyErr>(([images.len(), h, w], data))
+        let frames = data.len() / (w * h).max(1);
+        Ok::<_, PyErr>(([frames, h, w], data))
     })?;
     Ok(PyArray1::from_vec(py, data).reshape(shape)?.into_any())
 }

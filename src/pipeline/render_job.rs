@@ -104,15 +104,7 @@ pub fn render_job(
         dir: out_dir.into(),
         source,
     })?;
-    let count = rig.frame_times.len();
-    let range = job.frames.clone().unwrap_or(0..count);
-    if range.start >= range.end || range.end > count {
-        return Err(RenderJobError::Range {
-            start: range.start,
-            end: range.end,
-            count,
-        });
-    }
+    let range = frame_range(&rig, job.frames.clone())?;
     let times = &rig.frame_times.as_slice()[range.clone()];
     let ts_path = out_dir.join("timestamps.csv");
     let mut ts = CsvWriter::create(&ts_path, &["frame", "t_s"])?;
@@ -159,10 +151,9 @@ pub fn render_job(
         )?),
         None => None,
     };
-    let chunk = 16;
     let mut done = 0;
-    for start in (range.start..range.end).step_by(chunk) {
-        let end = (start + chunk).min(range.end);
+    for start in (range.start..range.end).step_by(CHUNK_FRAMES) {
+        let end = (start + CHUNK_FRAMES).min(range.end);
         // Video frames are always whole frames.
         let images = render_chunk(&rig, &scene, start..end, job.renderer, &|t_s| {
             if video.is_some() {
@@ -198,6 +189,26 @@ pub fn render_job(
     })
 }
 
+/// Frames rendered at once: enough to keep every core busy, few enough that memory stays flat.
+const CHUNK_FRAMES: usize = 16;
+
+/// `frames` (default: all) checked against the rig's frame count.
+fn frame_range(
+    rig: &Rig,
+    frames: Option<std::ops::Range<usize>>,
+) -> Result<std::ops::Range<usize>, RenderJobError> {
+    let count = rig.frame_times.len();
+    let range = frames.unwrap_or(0..count);
+    if range.start >= range.end || range.end > count {
+        return Err(RenderJobError::Range {
+            start: range.start,
+            end: range.end,
+            count,
+        });
+    }
+    Ok(range)
+}
+
 /// Frames `frames` of `rig` drawn by `renderer` in parallel, each in the window `window_for`
 /// gives at its timestamp; every frame's noise is keyed by its index, so the images do not
 /// depend on the chunking or the thread count.
@@ -228,33 +239,28 @@ fn render_chunk(
         .collect()
 }
 
-/// Whole frames `frames` of `scenario` in memory, with their timestamps (s): the pixels
-/// `render_job` writes, for callers that want arrays rather than files (the Python module).
-/// `progress(done, total)` counts frames.
-pub fn render_images(
+/// Whole frames `frames` of `scenario`, handed to `sink` one by one in frame order: the pixels
+/// `render_job` writes, for callers that want arrays rather than files (the Python module). At
+/// most one chunk of frames is held here at a time. `progress(done, total)` counts frames.
+pub fn render_each(
     scenario: &Scenario,
     frames: std::ops::Range<usize>,
     renderer: Renderer,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<(Vec<f64>, Vec<GrayImage>), RenderJobError> {
+    sink: &mut dyn FnMut(GrayImage),
+) -> Result<(), RenderJobError> {
     let rig = Rig::new(scenario)?;
-    let count = rig.frame_times.len();
-    if frames.start >= frames.end || frames.end > count {
-        return Err(RenderJobError::Range {
-            start: frames.start,
-            end: frames.end,
-            count,
-        });
-    }
+    let range = frame_range(&rig, Some(frames))?;
     let scene = rig.animated();
     let full = rig.frame_rect();
-    let mut images = Vec::with_capacity(frames.len());
-    for start in frames.clone().step_by(16) {
-        let end = (start + 16).min(frames.end);
-        images.extend(render_chunk(&rig, &scene, start..end, renderer, &|_| full)?);
-        progress(images.len(), frames.len());
+    for start in range.clone().step_by(CHUNK_FRAMES) {
+        let end = (start + CHUNK_FRAMES).min(range.end);
+        for image in render_chunk(&rig, &scene, start..end, renderer, &|_| full)? {
+            sink(image);
+        }
+        progress(end - range.start, range.len());
     }
-    Ok((rig.frame_times.as_slice()[frames].to_vec(), images))
+    Ok(())
 }
 
 #[cfg(test)]
