@@ -8,7 +8,9 @@ mod convert;
 
 use convert::{array1, error_text, json_object};
 use geneva_vision::io::output_dir::{refuse_inputs_inside, Input, OutputDir};
-use geneva_vision::pipeline::analyze::{analyze as analyze_job, AnalyzeOptions, Source};
+use geneva_vision::pipeline::analyze::{
+    analyze as analyze_job, AnalyzeError, AnalyzeOptions, Source,
+};
 use geneva_vision::pipeline::error_bars::{error_bars, write_error_bars, ErrorBarOptions};
 use geneva_vision::pipeline::render_job::{render_each, render_job, RenderJob, Renderer};
 use geneva_vision::pipeline::rig::Rig;
@@ -335,10 +337,26 @@ fn analyze<'py>(
             },
         };
         let staged = OutputDir::create(&out).map_err(|e| failed(&e))?;
-        let analysis = analyze_job(&src, &options, staged.path(), &|done, total| {
+        let analysis = match analyze_job(&src, &options, staged.path(), &|done, total| {
             progress.report("detect", done, total)
-        })
-        .map_err(|e| failed(&e))?;
+        }) {
+            Ok(a) => a,
+            // The detections are the expensive part and are complete: they are kept, as the
+            // command line keeps them, so that another estimator can be tried on them.
+            Err(e @ AnalyzeError::Estimate { .. })
+                if staged.path().join("tracks.csv").is_file() =>
+            {
+                staged.commit().map_err(|c| failed(&c))?;
+                let kept = out.join("tracks.csv");
+                return Err(GenevaError::new_err(format!(
+                    "{}; the detections are kept in {}: analyze(tracks=...) tries another \
+                     estimator on them",
+                    error_text(&e),
+                    kept.display()
+                )));
+            }
+            Err(e) => return Err(failed(&e)),
+        };
         let mut warnings = Vec::new();
         let mut bars = None;
         if let Some(s) = rig.filter(|_| error_bar_seeds > 0) {

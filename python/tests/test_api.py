@@ -146,3 +146,19 @@ def test_a_diagnosis_of_footage_of_the_rig_itself_finds_no_gap(rig, tmp_path):
     assert (tmp_path / "d" / "diagnosis.md").is_file()
     with pytest.raises(ValueError, match="not an effect"):
         gv.diagnose(rig / "nominal.toml", tmp_path / "e", tracks="t.csv", effects=["wobble"])
+
+
+def test_an_analysis_that_cannot_estimate_keeps_its_detections(rig, tmp_path):
+    # The detector looks for another marker id: every frame is searched, none has it, and
+    # the estimator has nothing to work on. The searched track is kept for another try.
+    with pytest.raises(gv.GenevaError, match="kept in"):
+        gv.analyze(
+            tmp_path / "a",
+            frames=rig / "frames",
+            timestamps=rig / "frames" / "timestamps.csv",
+            scenario=rig / "nominal.toml",
+            overrides={"detector.marker_id": 7, "scene.marker.id": 7},
+            progress=False,
+        )
+    tracks = (tmp_path / "a" / "tracks.csv").read_text().splitlines()
+    assert len(tracks) == 1 + 45

@@ -48,6 +48,8 @@ impl Tally {
         let Some((counts, time)) = line.rsplit_once(" in ") else {
             return false;
         };
+        // Past a minute pytest adds the clock time: `in 72.97s (0:01:12)`.
+        let time = time.split_once(" (").map_or(time, |(seconds, _)| seconds);
         if !time.ends_with('s') {
             return false;
         }
@@ -161,13 +163,14 @@ mod tests {
     fn pytest_closing_lines_are_counted_and_others_left_alone() {
         let mut t = Tally::default();
         assert!(t.add_pytest_line("8 passed in 20.14s"));
+        assert!(t.add_pytest_line("9 passed in 72.97s (0:01:12)"));
         assert!(t.add_pytest_line(
             "===== 1 failed, 5 passed, 2 skipped, 3 warnings, 1 error in 1.02s ====="
         ));
         assert!(!t.add_pytest_line("python/tests/test_api.py ....... [100%]"));
         assert!(!t.add_pytest_line("FAILED python/tests/test_api.py::test_x - in 2s"));
         assert!(!t.add_pytest_line("the marker was found in 3 frames"));
-        assert_eq!((t.passed, t.failed, t.skipped.len()), (13, 2, 1));
+        assert_eq!((t.passed, t.failed, t.skipped.len()), (22, 2, 1));
     }
 
     #[test]
