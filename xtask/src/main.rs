@@ -228,9 +228,12 @@ fn pbr_ci_case(tally: &mut tally::Tally) -> Result<(), String> {
     }
     // The ignored test runs now: it is counted by this run, not as skipped.
     tally.ignored = tally.ignored.saturating_sub(1);
+    // `--workspace` selects the packages the suite's test build selected, so Cargo unifies the
+    // same features and reuses that build instead of compiling the crate again.
     let mut command = cargo();
     command.args([
         "test",
+        "--workspace",
         "--test",
         "pbr_footage",
         "--",
