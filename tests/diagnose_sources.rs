@@ -139,6 +139,12 @@ fn a_drive_speed_variation_in_a_corner_track_is_explained_and_fitted() {
     // A track has no pixels: no image-formation candidate is judged on it.
     let md = std::fs::read_to_string(d.join("diagnosis/diagnosis.md")).unwrap();
     assert!(md.contains("corner track only, no image channels"), "{md}");
+    // The before/after residuals (the real track's, the nominal's and the best candidate's) are
+    // drawn and shown.
+    let overlay = "residuals_before_after.png";
+    assert!(md.contains(&format!("![{overlay}]({overlay})")), "{md}");
+    let png = std::fs::read(d.join("diagnosis").join(overlay)).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "{overlay}");
     let ranked: Vec<&str> = json["ranking"]
         .as_array()
         .unwrap()

@@ -15,7 +15,8 @@
 //!    it is but leaves more than noise leaves in another candidate's cells (a second look,
 //!    [`SecondLook`]); the ranking and the verdict are pure ([`crate::diagnose::verdict`]).
 //! 5. Outputs ([`report`]): `diagnosis.json`, `diagnosis.md`, gap-map heatmaps, a ranking
-//!    chart, before/after residual overlays; the real measurement's `tracks.csv` under `real/`.
+//!    chart, before/after residual overlays (their curves simulated by [`overlay`]); the real
+//!    measurement's `tracks.csv` under `real/`.
 //! 6. Beyond one machine ([`shards`]): the single-candidate fits of step 4 as shards, merged
 //!    through the same candidate loop ([`diagnose_with`]).
 //!
@@ -25,6 +26,7 @@ mod candidates;
 #[cfg(test)]
 mod engine_tests;
 pub mod outlook;
+pub mod overlay;
 pub mod real;
 pub mod report;
 pub mod selfcheck;
@@ -843,7 +845,8 @@ pub fn diagnose_with(
         elapsed_s: started.elapsed().as_secs_f64(),
     };
     progress("writing the report", 0, 1);
-    let files = report::write(&diagnosis, &fitter, &real, &staging)?;
+    let curves = overlay::overlay(&diagnosis, &fitter, &real)?;
+    let files = report::write(&diagnosis, &curves, &staging)?;
     let files: Vec<PathBuf> = files.iter().map(|f| staging.final_path(f)).collect();
     staging.commit()?;
     Ok(Finished::Diagnosis(Box::new(diagnosis), files))

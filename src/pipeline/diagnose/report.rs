@@ -3,22 +3,19 @@
 //! real and simulated residual curves; written into a staging folder that replaces the output
 //! folder only once everything is written.
 
+use super::overlay::Overlay;
 use super::{
     candidate_name, Bootstrap, DiagnoseError, Diagnosis, NotDistinct, Ranked, Refit, SecondLook,
     SkipReason, SkippedPair,
 };
 use crate::diagnose::bands::band_edges_hz;
 use crate::diagnose::cells::{CellKey, CHANNELS, PHASES};
-use crate::diagnose::fit::{Evaluated, Fitter};
+use crate::diagnose::fit::Evaluated;
 use crate::diagnose::fit_noise::FootageFits;
 use crate::diagnose::gap::{fmt_sum_z2, CellGap, GapMap};
 use crate::diagnose::holdout;
 use crate::diagnose::holdout::judge::HeldOut;
-use crate::diagnose::nominal;
 use crate::diagnose::plan::SecondLookPair;
-use crate::diagnose::record::RealMeasurement;
-use crate::diagnose::record::Record;
-use crate::diagnose::trials::{estimate_record, Trial};
 use crate::diagnose::verdict::{SetAside, VerdictReason};
 use crate::errors::FileError;
 use crate::io::json::finite_or_null;
@@ -1431,83 +1428,34 @@ fn gap_heatmaps(g: &GapMap, nyquist_hz: f64, dir: &Path) -> Result<Vec<PathBuf>,
     Ok(files)
 }
 
-/// Angle and ω residual series of a record against the aligned motion.
-/// Angle, ω and α residual curves.
-type Residuals = (Vec<f64>, Vec<f64>, Vec<f64>);
-
-fn residuals(
-    d: &Diagnosis,
-    scenario: &crate::scenario::Scenario,
-    record: &Record,
-    est: Option<&crate::estimate::Estimate>,
-) -> Result<Residuals, DiagnoseError> {
-    let owned;
-    let est = match est {
-        Some(e) => e,
-        None => {
-            owned = estimate_record(scenario, record)?;
-            &owned
-        }
-    };
-    let (r, _) = nominal::motion_reference(&d.aligned.reference, record, est);
-    let p = est.primary_series();
-    let th = p
-        .theta_rad
-        .iter()
-        .zip(&r.theta_rad)
-        .map(|(a, b)| a - b)
-        .collect();
-    let w = p
-        .omega_rad_s
-        .iter()
-        .zip(&r.omega_rad_s)
-        .map(|(a, b)| a - b)
-        .collect();
-    Ok((record.t_s(), th, w))
-}
-
-fn overlay(
-    d: &Diagnosis,
-    fitter: &Fitter<'_>,
-    real: &RealMeasurement,
-    path: &Path,
-) -> Result<bool, DiagnoseError> {
-    let seed = d.seeds[0];
-    let sim = |trial: &Trial| -> Result<Residuals, DiagnoseError> {
-        let mut s = trial.scenario.clone();
-        s.seed = seed;
-        let mut record = fitter.ctx.simulator.record(&s, fitter.ctx.layout, false)?;
-        if let Some(fps) = trial.stamped_fps {
-            for (k, f) in record.frames.iter_mut().enumerate() {
-                f.t_s = k as f64 / fps;
-            }
-        }
-        residuals(d, &s, &record, None)
-    };
-    let (t, th, w) = residuals(d, &d.aligned.scenario, &real.record, Some(&real.estimate))?;
-    let nominal = sim(&fitter.base)?;
-    let best = match d.best {
-        Some(b) => {
-            let applied = crate::diagnose::fit::applied(&d.ranking[b].evaluated.effects);
-            Some((
-                candidate_name(&d.ranking[b].evaluated),
-                sim(&fitter.trial_with(&applied)?)?,
-            ))
-        }
-        None => None,
-    };
+/// Draws the before/after residual curves ([`Overlay`]).
+fn overlay_png(o: &Overlay, path: &Path) -> Result<(), DiagnoseError> {
+    let (real, nominal) = (&o.real, &o.nominal);
     let pts = |t: &[f64], v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
     let mut theta = vec![
-        Series::points("real", pts(&t, &th), MEASURED),
-        Series::line("nominal (seed 1)", pts(&nominal.0, &nominal.1), SECOND),
+        Series::points("real", pts(&real.t_s, &real.theta_rad), MEASURED),
+        Series::line(
+            "nominal (seed 1)",
+            pts(&nominal.t_s, &nominal.theta_rad),
+            SECOND,
+        ),
     ];
     let mut omega = vec![
-        Series::points("real", pts(&t, &w), MEASURED),
-        Series::line("nominal (seed 1)", pts(&nominal.0, &nominal.2), SECOND),
+        Series::points("real", pts(&real.t_s, &real.omega_rad_s), MEASURED),
+        Series::line(
+            "nominal (seed 1)",
+            pts(&nominal.t_s, &nominal.omega_rad_s),
+            SECOND,
+        ),
     ];
-    if let Some((name, b)) = &best {
-        theta.push(Series::line(format!("with {name}"), pts(&b.0, &b.1), THIRD));
-        omega.push(Series::line(format!("with {name}"), pts(&b.0, &b.2), THIRD));
+    if let Some((name, b)) = &o.best {
+        let label = format!("with {name}");
+        theta.push(Series::line(
+            label.clone(),
+            pts(&b.t_s, &b.theta_rad),
+            THIRD,
+        ));
+        omega.push(Series::line(label, pts(&b.t_s, &b.omega_rad_s), THIRD));
     }
     stacked_png(
         path,
@@ -1529,14 +1477,13 @@ fn overlay(
         420,
     )
     .map_err(plot_err)?;
-    Ok(true)
+    Ok(())
 }
 
-/// Writes every output into the staging folder.
+/// Writes every output into the staging folder: what `d` holds, and `overlay`'s curves.
 pub fn write(
     d: &Diagnosis,
-    fitter: &Fitter<'_>,
-    real: &RealMeasurement,
+    overlay: &Overlay,
     staging: &OutputDir,
 ) -> Result<Vec<PathBuf>, DiagnoseError> {
     let dir = staging.path();
@@ -1558,9 +1505,8 @@ pub fn write(
         files.push(path);
     }
     let overlay_path = dir.join("residuals_before_after.png");
-    if overlay(d, fitter, real, &overlay_path)? {
-        files.push(overlay_path);
-    }
+    overlay_png(overlay, &overlay_path)?;
+    files.push(overlay_path);
     let figures: Vec<String> = files
         .iter()
         .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().to_string()))
