@@ -14,11 +14,11 @@
 
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::pipeline::analyze::Source;
-use geneva_vision::pipeline::diagnose::selfcheck::{
-    level_values, render_case, suite_base, Case, Level, PostProcess,
-};
 use geneva_vision::pipeline::diagnose::{
     candidate_name, diagnose, DiagnoseOptions, Diagnosis, StageLog,
+};
+use geneva_vision::pipeline::selfcheck::{
+    level_values, render_case, suite_base, Case, Level, PostProcess,
 };
 use geneva_vision::scenario::effects::Effect;
 use geneva_vision::scenario::Scenario;

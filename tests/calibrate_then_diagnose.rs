@@ -10,11 +10,9 @@
 
 use geneva_vision::calibrate::CalibrateOptions;
 use geneva_vision::pipeline::calibrate::{calibrate, CalibrateOutput, Footage};
-use geneva_vision::pipeline::diagnose::selfcheck::{
-    cases, render_case, suite_base, Case, SuitePlan,
-};
 use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use geneva_vision::pipeline::render_job::Renderer;
+use geneva_vision::pipeline::selfcheck::{cases, render_case, suite_base, Case, SuitePlan};
 use geneva_vision::scenario::effects::Effect;
 use std::path::Path;
 

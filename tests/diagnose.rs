@@ -8,9 +8,9 @@
 use geneva_vision::diagnose::scoring::Expectation;
 use geneva_vision::errors::full;
 use geneva_vision::pipeline::analyze::Source;
-use geneva_vision::pipeline::diagnose::selfcheck::{cases, run_case, suite_base, Case, SuitePlan};
 use geneva_vision::pipeline::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
 use geneva_vision::pipeline::render_job::Renderer;
+use geneva_vision::pipeline::selfcheck::{cases, run_case, suite_base, Case, SuitePlan};
 use geneva_vision::scenario::effects::Effect;
 use std::path::Path;
 

@@ -16,11 +16,11 @@
 #![cfg(feature = "opencv-detector")]
 
 use geneva_vision::pipeline::analyze::Source;
-use geneva_vision::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, SuitePlan};
 use geneva_vision::pipeline::diagnose::shards::Mode;
 use geneva_vision::pipeline::diagnose::{
     diagnose_with, DiagnoseError, DiagnoseOptions, Diagnosis, Finished,
 };
+use geneva_vision::pipeline::selfcheck::{cases, render_case, suite_base, SuitePlan};
 use geneva_vision::scenario::effects::Effect;
 use geneva_vision::shard::Shard;
 use std::path::Path;

@@ -162,7 +162,7 @@ fn parse_with(arg: &str) -> Result<(geneva_vision::scenario::effects::Effect, Ve
 
 /// The vocabulary as `geneva scenario effects` prints it (see its help).
 fn vocabulary_json(fps: f64) -> serde_json::Value {
-    use geneva_vision::pipeline::diagnose::selfcheck::{level_values, timebase_schedule, Level};
+    use geneva_vision::pipeline::selfcheck::{level_values, timebase_schedule, Level};
     use geneva_vision::scenario::effects::Effect;
     use serde_json::json;
     let effects: Vec<serde_json::Value> = Effect::ALL

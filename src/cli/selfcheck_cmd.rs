@@ -6,11 +6,11 @@
 
 use anyhow::Result;
 use clap::Args;
-use geneva_vision::pipeline::diagnose::selfcheck::{
-    cases, phone_logs, suite_base, suite_base_from, Level, SelfCheck, SoFar, SuitePlan,
-};
 use geneva_vision::pipeline::diagnose::DiagnoseOptions;
 use geneva_vision::pipeline::render_job::Renderer;
+use geneva_vision::pipeline::selfcheck::{
+    cases, phone_logs, suite_base, suite_base_from, Level, SelfCheck, SoFar, SuitePlan,
+};
 use geneva_vision::scenario::effects::Effect;
 use geneva_vision::shard::{self, Control, Shard};
 use std::path::{Path, PathBuf};

@@ -45,6 +45,8 @@ pub mod rig;
 pub mod run;
 pub mod scored_cases;
 #[cfg(feature = "opencv-detector")]
+pub mod selfcheck;
+#[cfg(feature = "opencv-detector")]
 pub mod sweep_eval;
 pub mod truth;
 pub mod workload;

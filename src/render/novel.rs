@@ -1,7 +1,7 @@
 //! Effects outside the diagnosis's vocabulary, drawn onto rendered frames: what a real camera or
 //! rig does that no effect of [`crate::scenario::effects`] models. The self-check films them to
 //! check that `diagnose` answers `unexplained` rather than take a flexible candidate for their
-//! cause (`pipeline::diagnose::selfcheck`). Each is a pure function of the frame, its index, its
+//! cause (`pipeline::selfcheck`). Each is a pure function of the frame, its index, its
 //! time and where the marker is; the marker's slip on the wheel ([`Novel::Creep`]) changes the
 //! motion instead and is drawn by the renderer.
 

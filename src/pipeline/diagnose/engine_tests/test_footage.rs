@@ -7,7 +7,7 @@ use crate::diagnose::record::RealMeasurement;
 use crate::imagestats::MarkerLayout;
 use crate::pipeline::analyze::Source;
 use crate::pipeline::diagnose::real;
-use crate::pipeline::diagnose::selfcheck::{cases, render_case, suite_base, Case, SuitePlan};
+use crate::pipeline::selfcheck::{cases, render_case, suite_base, Case, SuitePlan};
 use std::path::Path;
 
 /// The case (its footage rig and its nominal, the same rig without the clearance), the marker

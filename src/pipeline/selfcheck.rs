@@ -26,7 +26,7 @@
 //! A case's frames are deleted once diagnosed (they are reproducible from the case); set
 //! `GENEVA_KEEP_FRAMES` to keep them for inspection.
 
-use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
+use super::diagnose::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
 use crate::diagnose::scoring::{pct, score, CaseOutcome, Expectation, PairMember, Rate};
 use crate::errors::FileError;
 use crate::pipeline::analyze::Source;
@@ -856,7 +856,7 @@ pub fn outcome(case: &Case, d: &Diagnosis) -> CaseOutcome {
                     .iter()
                     .flat_map(|g| g.split('+').map(str::to_string)),
             );
-            let label = std::iter::once(super::candidate_name(&r.evaluated))
+            let label = std::iter::once(super::diagnose::candidate_name(&r.evaluated))
                 .chain(r.group.iter().cloned())
                 .collect::<Vec<_>>()
                 .join(" ≈ ");
@@ -1260,7 +1260,7 @@ pub fn write_summary(
     let mut md = String::from(
         "# Diagnosis self-check\n\nFootage with a known cause rendered by the renderer the plan names, diagnosed by \
          `geneva diagnose` against a nominal without that cause (see \
-         `src/pipeline/diagnose/selfcheck.rs` for the cases). Every figure is a count over the cases \
+         `src/pipeline/selfcheck.rs` for the cases). Every figure is a count over the cases \
          below, with a 95 % Wilson interval; \"top-k\" counts a case only when a gap was found and the \
          withheld effect (or its group, or an effect sharing its switch) is among the k best candidates. \
          Made by `geneva diagnose-selfcheck` with the plan below; `cargo xtask diagnosis NAME` \
