@@ -129,19 +129,29 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     c / (sa * sb)
 }
 
+/// `residual` at (x, y) where it and `render` both have a value.
+fn both_at(residual: &Grid, render: &Grid, x: i64, y: i64) -> Option<f64> {
+    match (residual.get(x, y), render.get(x, y)) {
+        (Some(r), Some(_)) => Some(r),
+        _ => None,
+    }
+}
+
+/// `residual`'s values, row by row, where it and `render` both have one.
+fn residual_values(residual: &Grid, render: &Grid) -> Vec<f64> {
+    let (w, h) = (residual.width as i64, residual.height as i64);
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .filter_map(|(x, y)| both_at(residual, render, x, y))
+        .collect()
+}
+
 /// `residual` (less its mean) smoothed by the test's Gaussian, at the centres whose whole kernel
 /// lies on pixels where it and `render` have values.
 pub fn smoothed(residual: &Grid, render: &Grid) -> Grid {
     let (w, h) = (residual.width as i64, residual.height as i64);
-    let at = |x: i64, y: i64| match (residual.get(x, y), render.get(x, y)) {
-        (Some(r), Some(_)) => Some(r),
-        _ => None,
-    };
-    let all: Vec<f64> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .filter_map(|(x, y)| at(x, y))
-        .collect();
-    let (mean, _) = mean_sd(&all);
+    let at = |x: i64, y: i64| both_at(residual, render, x, y);
+    let (mean, _) = mean_sd(&residual_values(residual, render));
     let k = kernel(SMOOTHING_SIGMA_PX, SMOOTHING_RADIUS_PX);
     let rad = SMOOTHING_RADIUS_PX;
     let mut across = Grid::new(residual.width, residual.height);
@@ -172,14 +182,8 @@ pub fn smoothed(residual: &Grid, render: &Grid) -> Grid {
 /// The statistics of `residual` over the pixels where it and `render` have values.
 pub fn structure(residual: &Grid, render: &Grid) -> Structure {
     let (w, h) = (residual.width as i64, residual.height as i64);
-    let at = |x: i64, y: i64| match (residual.get(x, y), render.get(x, y)) {
-        (Some(r), Some(_)) => Some(r),
-        _ => None,
-    };
-    let all: Vec<f64> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .filter_map(|(x, y)| at(x, y))
-        .collect();
+    let at = |x: i64, y: i64| both_at(residual, render, x, y);
+    let all = residual_values(residual, render);
     let (mean, sd) = mean_sd(&all);
     let smooth = smoothed(residual, render);
     let (mut raw, mut sm) = (Vec::new(), Vec::new());

@@ -181,24 +181,30 @@ fn paint_layers(snapshot: &SceneSnapshot, tone: &Tone, y0: usize, pixmap: &mut P
             draw_textured(layer, tex, tone, y0, pixmap);
             continue;
         }
-        let mut pb = PathBuilder::new();
-        for polygon in &layer.polygons {
-            let mut points = polygon.vertices_px.iter().map(|&p| opencv_to_tiny_skia(p));
-            if let Some(first) = points.next() {
-                pb.move_to(first.x, first.y);
-                for p in points {
-                    pb.line_to(p.x, p.y);
-                }
-                pb.close();
-            }
-        }
-        if let Some(path) = pb.finish() {
+        if let Some(path) = outline(layer) {
             let mut paint = Paint::default();
             paint.set_color(grey(layer.radiance));
             paint.anti_alias = true;
             pixmap.fill_path(&path, &paint, FillRule::Winding, shift, None);
         }
     }
+}
+
+/// A layer's polygons as one tiny-skia path in its coordinates (`None` when it has no area to
+/// draw).
+fn outline(layer: &crate::render::shapes::Layer) -> Option<tiny_skia::Path> {
+    let mut pb = PathBuilder::new();
+    for polygon in &layer.polygons {
+        let mut points = polygon.vertices_px.iter().map(|&p| opencv_to_tiny_skia(p));
+        if let Some(first) = points.next() {
+            pb.move_to(first.x, first.y);
+            for p in points {
+                pb.line_to(p.x, p.y);
+            }
+            pb.close();
+        }
+    }
+    pb.finish()
 }
 
 /// Paints a textured layer: its outline as tiny-skia's anti-aliased mask, the texture sampled
@@ -215,18 +221,7 @@ fn draw_textured(
     let Some(mut mask) = tiny_skia::Mask::new(w, h) else {
         return;
     };
-    let mut pb = PathBuilder::new();
-    for polygon in &layer.polygons {
-        let mut points = polygon.vertices_px.iter().map(|&p| opencv_to_tiny_skia(p));
-        if let Some(first) = points.next() {
-            pb.move_to(first.x, first.y);
-            for p in points {
-                pb.line_to(p.x, p.y);
-            }
-            pb.close();
-        }
-    }
-    let Some(path) = pb.finish() else {
+    let Some(path) = outline(layer) else {
         return;
     };
     mask.fill_path(
