@@ -3,7 +3,8 @@
 //! - `cargo xtask demo`    — install what is missing, then run the main job on the embedded
 //!   default scenario (output under `out/demo/`).
 //! - `cargo xtask test`    — install what is missing, then `cargo fmt --check`, clippy with
-//!   `-D warnings` (default features and `--no-default-features`), the whole test suite, the
+//!   `-D warnings` (default features and `--no-default-features`), the whole test suite (under
+//!   cargo-nextest when it is installed, `.config/nextest.toml`; else `cargo test`), the
 //!   library's tests without OpenCV and, as root on Debian, the real-Slurm integration test
 //!   (`slurm.rs`).
 //! - `cargo xtask bench`   — run the benchmarks and print their figures, then again the ones
@@ -139,6 +140,83 @@ fn test(extra: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+/// Property tests explore a fixed sequence of cases, so a green run stays green; set
+/// PROPTEST_RNG_SEED yourself to explore other cases (failures are saved under
+/// proptest-regressions/ and replayed first).
+fn fixed_proptest_seed(command: &mut Command) {
+    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+        command.env("PROPTEST_RNG_SEED", "20261123");
+    }
+}
+
+/// The oldest cargo-nextest that reads `.config/nextest.toml` (its test priorities).
+const NEXTEST_MIN: (u64, u64, u64) = (0, 9, 91);
+
+/// Whether a recent enough `cargo nextest` is installed (and not declined with
+/// `GENEVA_TEST_RUNNER=cargo`); says why not when it is not.
+fn have_nextest() -> bool {
+    if std::env::var("GENEVA_TEST_RUNNER").is_ok_and(|r| r == "cargo") {
+        return false;
+    }
+    let version = cargo()
+        .args(["nextest", "--version"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| nextest_version(&String::from_utf8_lossy(&o.stdout)));
+    match version {
+        Some(v) if v >= NEXTEST_MIN => true,
+        Some((a, b, c)) => {
+            eprintln!("xtask: cargo-nextest {a}.{b}.{c} is older than 0.9.91");
+            false
+        }
+        None => {
+            eprintln!("xtask: cargo-nextest is not installed");
+            false
+        }
+    }
+}
+
+/// The version in `cargo nextest --version`'s first line (`cargo-nextest 0.9.143 (…)`).
+fn nextest_version(text: &str) -> Option<(u64, u64, u64)> {
+    let word = text.lines().next()?.split_whitespace().nth(1)?;
+    let mut parts = word.split('.').map(|p| p.parse::<u64>().ok());
+    Some((parts.next()??, parts.next()??, parts.next()??))
+}
+
+/// The workspace's tests, `extra` passed on as test filters and options. With cargo-nextest
+/// installed its runner takes them: it keeps both cores busy across test binaries, where
+/// `cargo test` runs the binaries one after another and a binary's last long test leaves a core
+/// idle (the suite's wall time on a 2-core machine: README.md). nextest does not run doc tests,
+/// so `cargo test --doc` follows it. Without nextest, `cargo test` runs everything.
+fn suite(extra: &[String], tally: &mut tally::Tally) -> Result<(), String> {
+    if !have_nextest() {
+        eprintln!("xtask: running the suite with `cargo test`");
+        let mut command = cargo();
+        command.args(["test", "--workspace"]);
+        fixed_proptest_seed(&mut command);
+        command.args(extra);
+        return tally::run_counted(command, tally);
+    }
+    let mut command = cargo();
+    command.args(["nextest", "run", "--workspace", "--no-fail-fast"]);
+    fixed_proptest_seed(&mut command);
+    command.args(extra);
+    tally::run_counted_with(
+        command,
+        tally,
+        tally::Stream::Stderr,
+        tally::Tally::add_nextest_line,
+    )?;
+    if extra.is_empty() {
+        let mut doc = cargo();
+        doc.args(["test", "--workspace", "--doc"]);
+        tally::run_counted(doc, tally)?;
+    }
+    Ok(())
+}
+
 /// Everything `cargo xtask test` runs, counted into `tally`.
 fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String> {
     // Formatting and lints first: they fail in seconds where the tests take minutes.
@@ -153,23 +231,12 @@ fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String
         run(clippy)?;
     }
     // Library, binaries, integration tests and doc tests; benchmarks run only under `xtask bench`.
-    let mut command = cargo();
-    command.args(["test", "--workspace"]);
-    // Property tests explore a fixed sequence of cases, so a green run stays green; set
-    // PROPTEST_RNG_SEED yourself to explore other cases (failures are saved under
-    // proptest-regressions/ and replayed first).
-    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
-        command.env("PROPTEST_RNG_SEED", "20261123");
-    }
-    command.args(extra);
-    tally::run_counted(command, tally)?;
+    suite(extra, tally)?;
     // The pure core without OpenCV, as Cargo.toml promises (the clippy pass above has built every
     // target without it; the library holds the core's tests).
     let mut core = cargo();
     core.args(["test", "--no-default-features", "--lib"]);
-    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
-        core.env("PROPTEST_RNG_SEED", "20261123");
-    }
+    fixed_proptest_seed(&mut core);
     tally::run_counted(core, tally)?;
     // The Python module, built as a user installs it, under pytest.
     python::test(tally)?;
@@ -629,4 +696,20 @@ fn diagnosis(rest: &[String]) -> Result<(), String> {
         geneva("diagnose-selfcheck", suite.folder, &args)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn nextest_versions_are_read_off_its_version_line() {
+        let v = super::nextest_version("cargo-nextest 0.9.143 (60fa45f63 2026-08-04)\nrelease: x");
+        assert_eq!(v, Some((0, 9, 143)));
+        assert!(v.unwrap() >= super::NEXTEST_MIN);
+        assert!(super::nextest_version("cargo-nextest 0.9.90").unwrap() < super::NEXTEST_MIN);
+        assert_eq!(
+            super::nextest_version("error: no such command: `nextest`"),
+            None
+        );
+        assert_eq!(super::nextest_version(""), None);
+    }
 }

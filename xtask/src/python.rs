@@ -85,5 +85,10 @@ pub fn test(tally: &mut crate::tally::Tally) -> Result<(), String> {
     // The tests import the installed module, never the source folder's (which lacks the
     // extension): the working directory is the workspace root.
     pytest.current_dir(Path::new("."));
-    crate::tally::run_counted_with(pytest, tally, crate::tally::Tally::add_pytest_line)
+    crate::tally::run_counted_with(
+        pytest,
+        tally,
+        crate::tally::Stream::Stdout,
+        crate::tally::Tally::add_pytest_line,
+    )
 }

@@ -40,6 +40,42 @@ impl Tally {
         true
     }
 
+    /// Adds cargo-nextest's closing line (`Summary [ 12.3s] 10 tests run: 8 passed (2 slow), 1
+    /// failed, 1 timed out, 2 skipped`): skipped tests are the `#[ignore]`d ones and count as
+    /// libtest's ignored do; every other outcome but `passed` (failed, timed out, leaky, not run)
+    /// counts as a failure. Other lines are left alone. Returns whether the line was one.
+    pub fn add_nextest_line(&mut self, line: &str) -> bool {
+        let Some(rest) = line.trim().strip_prefix("Summary [") else {
+            return false;
+        };
+        let Some((_, counts)) = rest
+            .split_once("tests run: ")
+            .or_else(|| rest.split_once("test run: "))
+        else {
+            return false;
+        };
+        let mut found = Tally::default();
+        for part in counts.split(", ") {
+            // "8 passed (2 slow)": the parenthesis qualifies the count.
+            let part = part.split_once(" (").map_or(part, |(count, _)| count);
+            let Some((n, what)) = part.trim().split_once(' ') else {
+                return false;
+            };
+            let Ok(n) = n.parse::<u64>() else {
+                return false;
+            };
+            match what {
+                "passed" => found.passed += n,
+                "skipped" => found.ignored += n,
+                _ => found.failed += n,
+            }
+        }
+        self.passed += found.passed;
+        self.failed += found.failed;
+        self.ignored += found.ignored;
+        true
+    }
+
     /// Adds pytest's closing line (`3 passed, 1 failed, 2 skipped in 4.21s`, with or without
     /// the `=` rule around it): errors count as failures, skipped tests as skipped. Other lines
     /// are left alone. Returns whether the line was one.
@@ -113,25 +149,45 @@ impl Tally {
 /// Runs a `cargo test` command, passing its output through as it comes and adding its summary
 /// lines to `tally`.
 pub fn run_counted(command: Command, tally: &mut Tally) -> Result<(), String> {
-    run_counted_with(command, tally, Tally::add_line)
+    run_counted_with(command, tally, Stream::Stdout, Tally::add_line)
 }
 
-/// Runs a command, passing its output through as it comes and adding the lines that `count`
-/// recognises to `tally`.
+/// The output stream a command prints its summary on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stream {
+    /// libtest and pytest.
+    Stdout,
+    /// cargo-nextest's reporter.
+    Stderr,
+}
+
+/// Runs a command, passing its `stream` through as it comes (the other is inherited) and adding
+/// the lines that `count` recognises to `tally`.
 pub fn run_counted_with(
     mut command: Command,
     tally: &mut Tally,
+    stream: Stream,
     count: fn(&mut Tally, &str) -> bool,
 ) -> Result<(), String> {
     eprintln!("xtask: running {command:?}");
+    match stream {
+        Stream::Stdout => command.stdout(Stdio::piped()),
+        Stream::Stderr => command.stderr(Stdio::piped()),
+    };
     let mut child = command
-        .stdout(Stdio::piped())
         .spawn()
         .map_err(|e| format!("could not start {command:?}: {e}"))?;
-    if let Some(out) = child.stdout.take() {
-        for line in BufReader::new(out).lines() {
+    let output: Option<Box<dyn std::io::Read>> = match stream {
+        Stream::Stdout => child.stdout.take().map(|o| Box::new(o) as _),
+        Stream::Stderr => child.stderr.take().map(|o| Box::new(o) as _),
+    };
+    if let Some(output) = output {
+        for line in BufReader::new(output).lines() {
             let line = line.map_err(|e| format!("reading {command:?}'s output: {e}"))?;
-            println!("{line}");
+            match stream {
+                Stream::Stdout => println!("{line}"),
+                Stream::Stderr => eprintln!("{line}"),
+            }
             count(tally, &line);
         }
     }
@@ -171,6 +227,21 @@ mod tests {
         assert!(!t.add_pytest_line("FAILED python/tests/test_api.py::test_x - in 2s"));
         assert!(!t.add_pytest_line("the marker was found in 3 frames"));
         assert_eq!((t.passed, t.failed, t.skipped.len()), (22, 2, 1));
+    }
+
+    #[test]
+    fn nextest_summary_lines_are_counted_and_others_left_alone() {
+        let mut t = Tally::default();
+        assert!(t.add_nextest_line(
+            "     Summary [   0.170s] 3 tests run: 2 passed, 1 failed, 1 skipped"
+        ));
+        assert!(t.add_nextest_line(
+            "     Summary [ 901.004s] 1431 tests run: 1430 passed (12 slow), 1 timed out, 2 skipped"
+        ));
+        assert!(t.add_nextest_line("Summary [   1.000s] 1 test run: 1 passed"));
+        assert!(!t.add_nextest_line("        PASS [   0.012s] geneva-vision::render frame_hash"));
+        assert!(!t.add_nextest_line("    Starting 1431 tests across 40 binaries (2 skipped)"));
+        assert_eq!((t.passed, t.failed, t.ignored), (1433, 2, 3));
     }
 
     #[test]
