@@ -92,10 +92,25 @@ fn cargo() -> Command {
 
 fn run(mut command: Command) -> Result<(), String> {
     eprintln!("xtask: running {command:?}");
+    let started = std::time::Instant::now();
     let status = command
         .status()
         .map_err(|e| format!("could not start {command:?}: {e}"))?;
+    took(&command, started);
     succeeded(&command, status)
+}
+
+/// Says how long a command took, so that a slow `cargo xtask test` shows which step to look at.
+fn took(command: &Command, started: std::time::Instant) {
+    let s = started.elapsed().as_secs();
+    let program = command.get_program().to_string_lossy();
+    let args: Vec<_> = command.get_args().map(|a| a.to_string_lossy()).collect();
+    eprintln!(
+        "xtask: `{program} {}` took {} min {:02} s",
+        args.join(" "),
+        s / 60,
+        s % 60
+    );
 }
 
 /// Ok for a command that exited with success, else an error naming it and its status.
@@ -217,8 +232,29 @@ fn suite(extra: &[String], tally: &mut tally::Tally) -> Result<(), String> {
     Ok(())
 }
 
+/// Makes the Python module's environment and, as root on Debian (unless the Slurm test is
+/// opted out of), installs the Slurm packages. A failure is only reported here: the steps that
+/// need them set them up again and fail there, naming what is missing.
+fn prepare_last_steps() {
+    if let Err(e) = python::environment() {
+        eprintln!("xtask: the Python environment could not be set up yet: {e}");
+    }
+    let slurm_wanted = system::is_root()
+        && std::path::Path::new("/etc/debian_version").exists()
+        && system::has_dpkg()
+        && std::env::var_os("GENEVA_SKIP_SLURM_TEST").is_none();
+    if slurm_wanted {
+        if let Err(e) = system::ensure(slurm::PACKAGES) {
+            eprintln!("xtask: the Slurm packages could not be installed yet: {e}");
+        }
+    }
+}
+
 /// Everything `cargo xtask test` runs, counted into `tally`.
 fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String> {
+    // What the last steps download (the Python environment, the Slurm packages) arrives while
+    // the lints and the build keep the CPU busy.
+    let downloads = std::thread::spawn(prepare_last_steps);
     // Formatting and lints first: they fail in seconds where the tests take minutes.
     let mut fmt = cargo();
     fmt.args(["fmt", "--all", "--check"]);
@@ -239,6 +275,9 @@ fn test_counted(extra: &[String], tally: &mut tally::Tally) -> Result<(), String
     fixed_proptest_seed(&mut core);
     tally::run_counted(core, tally)?;
     // The Python module, built as a user installs it, under pytest.
+    if downloads.join().is_err() {
+        return Err("the Python environment's and Slurm packages' set-up panicked".into());
+    }
     python::test(tally)?;
     pbr_ci_case(tally)?;
     // The real-Slurm test of `geneva slurm script`: as root on Debian it must run, unless the

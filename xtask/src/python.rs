@@ -24,7 +24,7 @@ fn target_dir() -> PathBuf {
 }
 
 /// The environment's folder, made (and its requirements installed) when missing.
-fn environment() -> Result<PathBuf, String> {
+pub fn environment() -> Result<PathBuf, String> {
     let venv = std::path::absolute(target_dir().join("python-venv"))
         .map_err(|e| format!("target/python-venv: {e}"))?;
     let python = venv.join("bin").join("python");

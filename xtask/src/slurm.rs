@@ -11,7 +11,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Debian packages of a single-node cluster.
-const PACKAGES: &[&str] = &["slurm-wlm", "munge"];
+pub const PACKAGES: &[&str] = &["slurm-wlm", "munge"];
 /// The sweep submitted (8 runs of the `fast` scenario) and its shard count.
 const SWEEP: &str = "scenarios/sweeps/fast.toml";
 const SHARDS: usize = 4;

@@ -174,6 +174,7 @@ pub fn run_counted_with(
         Stream::Stdout => command.stdout(Stdio::piped()),
         Stream::Stderr => command.stderr(Stdio::piped()),
     };
+    let started = std::time::Instant::now();
     let mut child = command
         .spawn()
         .map_err(|e| format!("could not start {command:?}: {e}"))?;
@@ -194,6 +195,7 @@ pub fn run_counted_with(
     let status = child
         .wait()
         .map_err(|e| format!("waiting for {command:?}: {e}"))?;
+    crate::took(&command, started);
     crate::succeeded(&command, status)
 }
 
