@@ -54,6 +54,15 @@ pub struct LevelAnchors {
 }
 
 impl LevelAnchors {
+    /// Lighting off: DN = 255 × radiance.
+    #[cfg(test)]
+    pub(crate) const BYTE_SCALE: LevelAnchors = LevelAnchors {
+        ink_dn: 0.0,
+        ink_radiance: 0.0,
+        paper_dn: 255.0,
+        paper_radiance: 1.0,
+    };
+
     /// The radiance that renders as `dn`, in [0, 1].
     pub fn radiance(&self, dn: f64) -> f64 {
         let span = self.paper_dn - self.ink_dn;
@@ -195,7 +204,7 @@ pub fn texels_per_cell(px_per_cell: f64, margin_cells: f64) -> Option<u32> {
 
 /// Bilinear grey level of `view` at (x, y) px (pixel centres at integers); `None` when a
 /// neighbour lies outside the view.
-fn bilinear(view: &GrayView<'_>, x: f64, y: f64) -> Option<f64> {
+pub(crate) fn bilinear(view: &GrayView<'_>, x: f64, y: f64) -> Option<f64> {
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (i, j) = (x0 as i64, y0 as i64);
@@ -215,33 +224,44 @@ fn px_per_cell(corners: &[[f64; 2]; 4], cells: usize) -> f64 {
         / (4.0 * cells as f64)
 }
 
-/// Summed-area table of a texel grid (one row and column of zeros in front).
-struct Integral {
-    side: usize,
+/// Summed-area table of a texel grid of `width` × `height` (one row and column of zeros in
+/// front): local means of the texels that hold a value.
+pub(crate) struct Integral {
+    width: usize,
+    height: usize,
     sums: Vec<f64>,
     counts: Vec<u32>,
 }
 
 impl Integral {
-    fn new(side: usize, value: impl Fn(usize, usize) -> Option<f64>) -> Integral {
-        let w = side + 1;
-        let (mut sums, mut counts) = (vec![0.0; w * w], vec![0u32; w * w]);
-        for j in 0..side {
-            for i in 0..side {
+    pub(crate) fn new(
+        width: usize,
+        height: usize,
+        value: impl Fn(usize, usize) -> Option<f64>,
+    ) -> Integral {
+        let w = width + 1;
+        let (mut sums, mut counts) = (vec![0.0; w * (height + 1)], vec![0u32; w * (height + 1)]);
+        for j in 0..height {
+            for i in 0..width {
                 let (s, c) = value(i, j).map_or((0.0, 0), |v| (v, 1));
                 let k = (j + 1) * w + i + 1;
                 sums[k] = s + sums[k - 1] + sums[k - w] - sums[k - w - 1];
                 counts[k] = c + counts[k - 1] + counts[k - w] - counts[k - w - 1];
             }
         }
-        Integral { side, sums, counts }
+        Integral {
+            width,
+            height,
+            sums,
+            counts,
+        }
     }
 
     /// Mean over the square of half-width `r` texels about (i, j), `None` when empty.
-    fn mean(&self, i: usize, j: usize, r: usize) -> Option<f64> {
-        let w = self.side + 1;
+    pub(crate) fn mean(&self, i: usize, j: usize, r: usize) -> Option<f64> {
+        let w = self.width + 1;
         let (a, b) = (i.saturating_sub(r), j.saturating_sub(r));
-        let (c, d) = ((i + r + 1).min(self.side), (j + r + 1).min(self.side));
+        let (c, d) = ((i + r + 1).min(self.width), (j + r + 1).min(self.height));
         let at = |x: usize, y: usize| (self.sums[y * w + x], self.counts[y * w + x]);
         let (s1, n1) = at(c, d);
         let (s2, n2) = at(a, d);
@@ -374,7 +394,7 @@ fn fill_levels(
     let tables: Vec<Integral> = [Material::Ink, Material::Paper]
         .iter()
         .map(|&m| {
-            Integral::new(side, |i, j| {
+            Integral::new(side, side, |i, j| {
                 let k = j * side + i;
                 sampled[k].filter(|_| material[k] == m)
             })

@@ -48,6 +48,7 @@ pub mod output;
 pub mod rerender;
 pub mod residual;
 pub mod sharpening;
+pub mod surroundings;
 
 #[cfg(test)]
 mod tests;
@@ -232,6 +233,9 @@ pub struct Calibration {
     pub appearance: Option<appearance::AppearanceRecord>,
     /// The marker's level by wheel angle, when measured (written when it shows one).
     pub marker_levels: Option<marker_levels::LevelTable>,
+    /// How the disc around the marker and the background are drawn (sentences for the report;
+    /// empty: both uniform).
+    pub surroundings: Vec<String>,
     /// Things the user should know (assumptions, effects that were not resolved).
     pub notes: Vec<String>,
 }
@@ -279,6 +283,7 @@ pub fn calibrate(
         timing: stats.timing.clone(),
         appearance: None,
         marker_levels: None,
+        surroundings: Vec::new(),
         notes,
     })
 }

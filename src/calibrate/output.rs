@@ -749,13 +749,22 @@ pub fn scenario_toml(overrides: &[Override], ctx: &OutputContext, cal: &Calibrat
 }
 
 /// The `## Appearance` section: what the marker texture holds and where it came from.
-fn appearance_markdown(s: &mut String, a: Option<&crate::calibrate::appearance::AppearanceRecord>) {
+fn appearance_markdown(
+    s: &mut String,
+    a: Option<&crate::calibrate::appearance::AppearanceRecord>,
+    surroundings: &[String],
+) {
     let _ = writeln!(s, "\n## Appearance\n");
+    let around = if surroundings.is_empty() {
+        "The disc around the paper and the background are drawn uniform.".to_string()
+    } else {
+        surroundings.join(" ")
+    };
     let Some(a) = a else {
         let _ = writeln!(
             s,
             "The marker is drawn with uniform ink and paper at the fitted levels (no texture was \
-             measured: the notes say why)."
+             measured: the notes say why). {around}"
         );
         return;
     };
@@ -768,7 +777,7 @@ fn appearance_markdown(s: &mut String, a: Option<&crate::calibrate::appearance::
          paper or of the paper's rim, where the footage holds its blur of both sides, and take \
          their material's level from the nearest sampled texels, so that the render's edges stay \
          sharp and are blurred once, by the fitted σ. Texture within that band of an edge is not \
-         reproduced. The disc around the paper and the background are drawn uniform.",
+         reproduced. {}",
         a.file,
         a.texels_per_cell,
         a.px_per_cell,
@@ -784,6 +793,7 @@ fn appearance_markdown(s: &mut String, a: Option<&crate::calibrate::appearance::
         100.0 * a.sampled_texels as f64 / total as f64,
         a.level_texels,
         a.guard_px,
+        around,
     );
 }
 
@@ -1125,7 +1135,7 @@ pub fn calibration_markdown(
             "its four sides".into(),
         );
     }
-    appearance_markdown(&mut s, cal.appearance.as_ref());
+    appearance_markdown(&mut s, cal.appearance.as_ref(), &cal.surroundings);
     marker_levels_markdown(&mut s, cal.marker_levels.as_ref());
     if let Some(c) = check {
         let _ = writeln!(

@@ -572,11 +572,22 @@ impl Measurer {
         } else {
             self.first.clone()
         };
+        let background = self
+            .edge_jobs
+            .iter()
+            .map(|(k, crop, _, _)| {
+                (
+                    self.stats.frames.get(*k).map_or(*k, |f| f.frame),
+                    crop.clone(),
+                )
+            })
+            .collect();
         let mosaic = mosaic_frames(&self.stats, self.edge_jobs, &self.best_run);
         Measurements {
             stats: self.stats,
             overlay,
             mosaic,
+            background,
         }
     }
 }
@@ -809,6 +820,9 @@ struct Measurements {
     stats: FootageStats,
     overlay: Option<(usize, Crop, Corners)>,
     mosaic: Vec<MosaicFrame>,
+    /// Every frame whose window was kept (the marker at rest or moving), with its footage
+    /// frame number: the background is mosaicked from them.
+    background: Vec<(usize, Crop)>,
 }
 
 type Measured = (Measurements, Vec<f64>);
@@ -886,6 +900,7 @@ fn write_outputs(
         stats,
         overlay,
         mosaic,
+        background,
     } = measured;
     let single_frame = cal.motion.is_none();
     let mut files = Vec::new();
@@ -939,15 +954,20 @@ fn write_outputs(
     // The base's wheel dynamics displace the wheel from the ideal kinematics: shift the marker
     // angle so the rendered marker sits where the footage shows it.
     let typed = |o: &[Override]| -> Result<Scenario, CalibrateJobError> {
-        // Overrides are not anchored to a file: name the timestamps by their full path here.
+        // Overrides are not anchored to a file: name the timestamps and textures by their full
+        // paths here.
         // A `kind` selects a variant: like `extend` in a file, it replaces the base's table.
         let mut pairs: Vec<(String, Value)> = Vec::new();
         for x in o {
             if let Some(table) = x.path.strip_suffix(".kind") {
                 pairs.push((table.to_string(), Value::Table(Default::default())));
             }
+            let texture = x.path.starts_with("scene.appearance.") && x.path.ends_with("_file");
             let v = if x.path == "frame_timing.model.file" {
                 Value::String(ts_path.display().to_string())
+            } else if let (true, Some(name)) = (texture, x.value.as_str()) {
+                // The textures written beside the scenario.
+                Value::String(out_dir.join(name).display().to_string())
             } else {
                 x.value.clone()
             };
@@ -1065,6 +1085,19 @@ fn write_outputs(
             base,
         );
         files.extend(texture);
+        files.extend(super::calibrate_surroundings::write_surroundings(
+            &super::calibrate_surroundings::SurroundFrames {
+                disc: &mosaic,
+                background: &background,
+                times_s: times,
+                check_frame: Some(*frame),
+            },
+            blur_sigma_px,
+            &mut ovs,
+            &mut cal,
+            &typed,
+            out_dir,
+        )?);
     }
     let text = scenario_toml(&ovs, &ctx, &cal);
     std::fs::write(&scenario_path, &text).map_err(FileError::io(&scenario_path))?;

@@ -88,7 +88,8 @@ pub(crate) fn write_marker_appearance(
     // the mean, and the fixed pattern a codec draws on a still marker (a JPEG quantises the
     // same blocks alike in every frame, which the mean keeps).
     let null = typed(ovs).ok().and_then(|s| {
-        let renders = render_like(&s, &chosen)?;
+        let at: Vec<(usize, &Crop)> = chosen.iter().map(|(f, c, _)| (*f, c)).collect();
+        let renders = render_like(&s, &at)?;
         let views: Vec<RegisteredView<'_>> = renders
             .iter()
             .zip(&views)
@@ -167,13 +168,13 @@ pub(crate) fn write_marker_appearance(
 /// Renders `scenario` over each mosaic frame's window at that frame (its time, and its index as
 /// the noise's seed), as the footage's frames were kept; `None` when the scenario has no rig or
 /// a frame has no time.
-fn render_like(scenario: &Scenario, frames: &[&MosaicFrame]) -> Option<Vec<Crop>> {
+pub(crate) fn render_like(scenario: &Scenario, frames: &[(usize, &Crop)]) -> Option<Vec<Crop>> {
     let rig = crate::pipeline::rig::Rig::new(scenario).ok()?;
     let scene = rig.animated();
     let times = rig.frame_times.as_slice();
     frames
         .par_iter()
-        .map(|(frame, crop, _)| {
+        .map(|(frame, crop)| {
             let image = render_frame(
                 &scene,
                 &rig.settings,

@@ -21,6 +21,8 @@ pub mod calibrate_roundtrip;
 #[cfg(feature = "opencv-detector")]
 mod calibrate_sharpening;
 #[cfg(feature = "opencv-detector")]
+mod calibrate_surroundings;
+#[cfg(feature = "opencv-detector")]
 pub mod decompose;
 #[cfg(feature = "opencv-detector")]
 pub mod defaults_study;

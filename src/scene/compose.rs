@@ -281,13 +281,27 @@ impl Scene {
     /// The map of the wheel's frame (metres, the disc centre at the origin) to the image at
     /// `pose`: world = R(θ2)·p + offset, then the camera.
     fn wheel_map(&self, t: &TexturedDisc, pose: &WheelPose) -> PlaneMap {
+        self.wheel_map_with(t.ex, t.ey, t.origin, pose)
+    }
+
+    /// The map of the wheel's frame (metres, the disc centre at the origin) to the image at
+    /// `pose`, the one a textured disc is drawn through (what a calibration mosaics the disc's
+    /// texture with).
+    pub fn wheel_plane_map(&self, pose: &WheelPose) -> PlaneMap {
+        let origin = self.camera.to_camera_m(DVec3::ZERO);
+        let ex = self.camera.to_camera_m(DVec3::X) - origin;
+        let ey = self.camera.to_camera_m(DVec3::Y) - origin;
+        self.wheel_map_with(ex, ey, origin, pose)
+    }
+
+    fn wheel_map_with(&self, ex: DVec3, ey: DVec3, origin: DVec3, pose: &WheelPose) -> PlaneMap {
         let (sn, cs) = pose.theta2_rad.sin_cos();
         let o = DVec2::from(pose.centre_offset_m);
         PlaneMap {
             plane_to_camera: glam::DMat3::from_cols(
-                t.ex * cs + t.ey * sn,
-                -t.ex * sn + t.ey * cs,
-                t.ex * o.x + t.ey * o.y + t.origin,
+                ex * cs + ey * sn,
+                -ex * sn + ey * cs,
+                ex * o.x + ey * o.y + origin,
             ),
             lens: self
                 .camera

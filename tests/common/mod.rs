@@ -356,6 +356,52 @@ pub fn render_printed_marker(dir: &Path) {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// Writes `truth.toml` (the `fast` rig), `base.toml` (its mechanism and marker stated) and
+/// `taped.toml`: the truth with a disc texture (print lines at 45°, two strips of tape beside
+/// the marker's paper, a stain) and a background texture (a gradient with stripes), then
+/// renders `taped` into `dir/taped`.
+pub fn render_taped_disc(dir: &Path) {
+    use geneva_vision::render::texture::value_of;
+    std::fs::write(dir.join("truth.toml"), "extend = \"fast\"\n").unwrap();
+    std::fs::write(
+        dir.join("base.toml"),
+        "extend = \"fast\"\n[mechanism]\nkind = \"internal\"\nslots = 4\n[scene.marker]\nsize_mm = 32.0\n",
+    )
+    .unwrap();
+    // The disc (130 mm radius) at 0.5 mm per texel, its centre at texel (260, 260); the
+    // marker's paper is centred 100 mm out along the wheel's +x.
+    let (side, mm) = (521usize, 0.5);
+    let disc: Vec<u16> = (0..side * side)
+        .map(|k| {
+            let x = (k % side) as f64 * mm - 130.0;
+            let y = (k / side) as f64 * mm - 130.0;
+            let lines = 0.04 * (std::f64::consts::TAU * (x + y) / 7.0).sin();
+            let tape = (85.0..=115.0).contains(&x) && (19.0..=27.0).contains(&y.abs());
+            let stain = -0.15 * (-((x - 124.0).powi(2) + (y - 8.0).powi(2)) / 18.0).exp();
+            value_of(if tape { 0.8 } else { 0.5 + lines + stain })
+        })
+        .collect();
+    geneva_vision::io::texture_png::write_texture(&dir.join("disc.png"), side, side, &disc)
+        .unwrap();
+    let (w, h) = (1280usize, 720usize);
+    let background: Vec<u16> = (0..w * h)
+        .map(|k| {
+            let (x, y) = ((k % w) as f64, (k / w) as f64);
+            value_of(0.2 + 0.15 * x / w as f64 + 0.05 * (std::f64::consts::TAU * y / 40.0).sin())
+        })
+        .collect();
+    geneva_vision::io::texture_png::write_texture(&dir.join("background.png"), w, h, &background)
+        .unwrap();
+    std::fs::write(
+        dir.join("taped.toml"),
+        "extend = \"truth.toml\"\n[scene.appearance]\ndisc_file = \"disc.png\"\n\
+         disc_mm_per_texel = 0.5\nbackground_file = \"background.png\"\n",
+    )
+    .unwrap();
+    let o = geneva(dir, &["render", "taped.toml", "--out", "taped"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// `geneva calibrate --frames FRAMES --timestamps TIMES --base base.toml --out cal EXTRA…` in `dir`.
 pub fn calibrate_frames(dir: &Path, frames: &str, times: &str, extra: &[&str]) -> Output {
     let mut args = vec![

@@ -7,13 +7,7 @@ use crate::scenario::Scenario;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Lighting off: DN = 255 × radiance.
-const ANCHORS: LevelAnchors = LevelAnchors {
-    ink_dn: 0.0,
-    ink_radiance: 0.0,
-    paper_dn: 255.0,
-    paper_radiance: 1.0,
-};
+const ANCHORS: LevelAnchors = LevelAnchors::BYTE_SCALE;
 
 /// The `fast` rig (a 64 px marker) with only an optical blur of `sigma_px`.
 fn rig_scenario(sigma_px: f64) -> Scenario {
