@@ -23,8 +23,11 @@ pub const SLOW_PX: f64 = 1.5;
 /// Width of an angle bin, degrees.
 pub const BIN_DEG: f64 = 5.0;
 
-/// Fewer frames than this leave a bin out.
-pub const MIN_FRAMES_PER_BIN: usize = 3;
+/// Fewer frames than this leave a bin out. Two: a clip that leaves a dwell after a few frames
+/// (its first dwell cut by the start of the recording) shows that angle on two or three slow
+/// frames only, and the bins' standard errors already hold how few they are (the departure
+/// test below weighs a two-frame bin by the scatter pooled over the bins).
+pub const MIN_FRAMES_PER_BIN: usize = 2;
 
 /// A departure smaller than this (DN) is not worth a table: it is within what the levels'
 /// fit and the tone curve leave.
@@ -457,6 +460,36 @@ mod tests {
             "{}",
             s[0].theta2_deg
         );
+    }
+
+    /// A dwell the clip leaves after a few frames (two slow ones at 0°) beside a long one at
+    /// 270°, the glossy ink 50 DN darker at 0°: both angles are bins and the table draws them.
+    #[test]
+    fn two_slow_frames_at_an_angle_make_a_bin() {
+        let angles = [0.5, 1.0]
+            .into_iter()
+            .chain((0..24).map(|k| 270.0 + 0.01 * k as f64));
+        let s = samples(
+            angles,
+            |a| if a < 90.0 { 48.0 } else { 100.0 },
+            |_| 220.0,
+            1.0,
+        );
+        let t = measure_level_table(&s, [96.0, 220.0]).unwrap();
+        assert_eq!(t.bins.len(), 2);
+        assert_eq!((t.bins[0].frames, t.bins[1].frames), (2, 24));
+        assert!(t.shows_levels(), "largest z {}", t.largest_z());
+    }
+
+    /// Two frames per angle with 6 DN of noise: a two-frame bin's median is ~5 DN off, far
+    /// below what the departure test asks of it.
+    #[test]
+    fn two_noisy_frames_per_angle_are_not_taken_for_a_level_change() {
+        let pairs = (0..36).flat_map(|k| [5.0 * k as f64 + 1.0, 5.0 * k as f64 + 2.0]);
+        let s = samples(pairs, |_| 60.0, |_| 210.0, 6.0);
+        let t = measure_level_table(&s, [60.0, 210.0]).unwrap();
+        assert_eq!(t.bins.len(), 36);
+        assert!(!t.shows_levels(), "largest z {}", t.largest_z());
     }
 
     #[test]
