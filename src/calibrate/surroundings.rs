@@ -229,12 +229,12 @@ impl Accumulator {
 
     /// The texture: sampled texels at their mean, those near them at the local mean (squares of
     /// `reach`·[`FILL_STEPS`] texels), both rounded to whole grey levels, the rest at
-    /// `uniform_radiance`.
+    /// `uniform_radiance` (`None`: the sampled texels' mean).
     fn finish(
         self,
         anchors: &LevelAnchors,
         reach: usize,
-        uniform_radiance: f64,
+        uniform_radiance: Option<f64>,
         guard_px: f64,
     ) -> Result<Mosaic, SurroundError> {
         let (rw, rh) = (self.rect.width(), self.rect.height());
@@ -253,7 +253,9 @@ impl Accumulator {
         // to its neighbour costs the renderer no edge between them.
         let radiance = |dn: f64| anchors.radiance(dn.round());
         let reach = reach.max(1);
-        let mut values = vec![value_of(uniform_radiance); self.width * self.height];
+        let sampled_mean_dn = sampled.iter().sum::<f64>() / sampled.len() as f64;
+        let uniform = uniform_radiance.unwrap_or_else(|| anchors.radiance(sampled_mean_dn));
+        let mut values = vec![value_of(uniform); self.width * self.height];
         let mut filled = 0;
         for j in 0..rh {
             for i in 0..rw {
@@ -282,7 +284,7 @@ impl Accumulator {
             sampled_texels: sampled.len(),
             filled_texels: filled,
             guard_px,
-            mean_dn: sampled.iter().sum::<f64>() / sampled.len() as f64,
+            mean_dn: sampled_mean_dn,
             spread_dn: if sampled.len() >= 2 {
                 crate::numeric::robust::sample_sd(&sampled)
             } else {
@@ -351,7 +353,7 @@ pub fn disc_texture(
         }
         acc.views_used += used as usize;
     }
-    let mosaic = acc.finish(anchors, reach, uniform_radiance, guard)?;
+    let mosaic = acc.finish(anchors, reach, Some(uniform_radiance), guard)?;
     Ok(DiscMosaic {
         mosaic,
         texel_m,
@@ -362,7 +364,7 @@ pub fn disc_texture(
 /// The background as a texture of the camera's `size_px` (width, height), one texel per pixel,
 /// mosaicked from `views` (any frames: the background stays with the camera) with a blur of
 /// `blur_sigma_px`: every pixel that sees the wheel's plane beyond the disc of `radius_m` by
-/// the guard band; pixels the footage does not show keep `uniform_radiance`.
+/// the guard band; pixels the footage does not show take the sampled pixels' mean.
 pub fn background_texture(
     views: &[PlaneView<'_>],
     radius_m: f64,
@@ -370,7 +372,6 @@ pub fn background_texture(
     size_px: (usize, usize),
     blur_sigma_px: f64,
     anchors: &LevelAnchors,
-    uniform_radiance: f64,
 ) -> Result<Mosaic, SurroundError> {
     if views.is_empty() {
         return Err(SurroundError::NoViews);
@@ -413,7 +414,7 @@ pub fn background_texture(
         }
         acc.views_used += used as usize;
     }
-    acc.finish(anchors, reach, uniform_radiance, guard)
+    acc.finish(anchors, reach, None, guard)
 }
 
 #[cfg(test)]

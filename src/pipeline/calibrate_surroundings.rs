@@ -267,18 +267,10 @@ fn write_background(
     let size = (camera.width_px() as usize, camera.height_px() as usize);
     let radius_m = ctx.scenario.scene.disc_radius_mm * 1e-3;
     let m_per_px = camera.image_scale_mm_per_px() * 1e-3;
-    let measure = |views: &[PlaneView<'_>], uniform: f64| {
-        background_texture(
-            views,
-            radius_m,
-            m_per_px,
-            size,
-            blur_sigma_px,
-            &ctx.anchors,
-            uniform,
-        )
+    let measure = |views: &[PlaneView<'_>]| {
+        background_texture(views, radius_m, m_per_px, size, blur_sigma_px, &ctx.anchors)
     };
-    let first = match measure(&ctx.views(frames), ctx.scenario.scene.background_radiance) {
+    let m = match measure(&ctx.views(frames)) {
         Ok(m) if m.sampled_texels >= MIN_BACKGROUND_PX => m,
         Ok(m) => {
             cal.surroundings.push(format!(
@@ -296,20 +288,17 @@ fn write_background(
         }
     };
     // The pixels the footage does not show take the measured mean, not the base's level.
-    let level = ctx.anchors.radiance(first.mean_dn);
+    let level = ctx.anchors.radiance(m.mean_dn);
     ovs.retain(|o| o.path != "scene.background_radiance");
     ovs.push(Override {
         path: "scene.background_radiance".into(),
         value: Value::Float(round6(level)),
         comment: format!(
             "mean of {} background pixel(s) beyond the disc's rim, {:.1} DN",
-            first.sampled_texels, first.mean_dn
+            m.sampled_texels, m.mean_dn
         ),
     });
-    let m = measure(&ctx.views(frames), level).unwrap_or(first);
-    let null = ctx
-        .null_spread(frames, |v| measure(v, level).ok())
-        .unwrap_or(0.0);
+    let null = ctx.null_spread(frames, |v| measure(v).ok()).unwrap_or(0.0);
     let (texture_sd, shows) = texture_beyond(&m, null);
     if !shows {
         cal.surroundings.push(format!(
