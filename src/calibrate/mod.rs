@@ -44,6 +44,7 @@ mod geometry;
 mod imaging;
 pub mod marker_levels;
 mod motion;
+pub mod noise_levels;
 pub mod output;
 pub mod rerender;
 pub mod residual;
@@ -164,8 +165,11 @@ pub struct FootageStats {
     pub reference_levels: Vec<MarkerLevels>,
     /// Edge fits on the reference marker.
     pub reference_edges: Vec<EdgeProfile>,
-    /// Temporal noise on static runs.
+    /// Temporal noise on the longest static run.
     pub temporal: Vec<TemporalSample>,
+    /// Temporal noise of ink, paper and surround on every static run of three frames or more,
+    /// at each run's levels.
+    pub level_noise: Vec<noise_levels::LevelNoise>,
     /// Weak-texture noise of single frames (measured when there is no static run).
     pub spatial_noise: Vec<SpatialNoiseSample>,
     /// 8-px blockiness of the frames where it was measured.
@@ -233,6 +237,9 @@ pub struct Calibration {
     pub appearance: Option<appearance::AppearanceRecord>,
     /// The marker's level by wheel angle, when measured (written when it shows one).
     pub marker_levels: Option<marker_levels::LevelTable>,
+    /// The noise by grey level against the electron model, when measured (drawn when it shows
+    /// one).
+    pub noise_levels: Option<noise_levels::NoiseLevelFit>,
     /// How the disc around the marker and the background are drawn (sentences for the report;
     /// empty: both uniform).
     pub surroundings: Vec<String>,
@@ -283,6 +290,7 @@ pub fn calibrate(
         timing: stats.timing.clone(),
         appearance: None,
         marker_levels: None,
+        noise_levels: None,
         surroundings: Vec::new(),
         notes,
     })

@@ -830,6 +830,47 @@ fn marker_levels_markdown(s: &mut String, t: Option<&crate::calibrate::marker_le
     }
 }
 
+/// The noise by grey level: each level's measured σ against the model and whether the scenario
+/// draws the factors.
+fn noise_levels_markdown(
+    s: &mut String,
+    fit: Option<&crate::calibrate::noise_levels::NoiseLevelFit>,
+) {
+    let Some(fit) = fit.filter(|f| !f.points.is_empty()) else {
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "\nThe pixel noise by grey level, the temporal σ of each static run's ink, paper and \
+         surround against the fitted electrons (anchored on the run they were fitted on): {}\n",
+        if fit.shows_levels() {
+            "the scenario draws the factors (`effects.pixel_noise.level_gain`), interpolated in \
+             the level"
+        } else {
+            "within 10 % or within the noise, not written"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "| level (DN) | σ measured (DN) | σ of the electrons (DN) | factor on the sensor's σ (± 1 s.e.) | from |\n|---|---|---|---|---|"
+    );
+    for p in &fit.points {
+        let _ = writeln!(
+            s,
+            "| {:.1} | {:.3} | {:.3} | {:.3} ± {:.3} | {} |",
+            p.level_dn,
+            p.measured_dn,
+            p.model_dn,
+            p.gain,
+            p.gain_se,
+            p.what.join("; ")
+        );
+    }
+    for why in &fit.skipped {
+        let _ = writeln!(s, "\nLeft out: {why}.");
+    }
+}
+
 /// The calibration report (markdown).
 pub fn calibration_markdown(
     cal: &Calibration,
@@ -1137,6 +1178,7 @@ pub fn calibration_markdown(
     }
     appearance_markdown(&mut s, cal.appearance.as_ref(), &cal.surroundings);
     marker_levels_markdown(&mut s, cal.marker_levels.as_ref());
+    noise_levels_markdown(&mut s, cal.noise_levels.as_ref());
     if let Some(c) = check {
         let _ = writeln!(
             s,

@@ -11,6 +11,7 @@
 //! (`geneva diagnose` starts from them); nothing here is maths.
 
 use super::calibrate_appearance::{write_marker_appearance, MosaicFrame};
+use crate::calibrate::noise_levels::LevelNoise;
 use crate::calibrate::output::{
     calibration_markdown, dynamics_offset_rad, overrides, scenario_toml, OutputContext, Override,
     ReRenderCheck,
@@ -23,6 +24,7 @@ use crate::calibrate::{
 };
 use crate::detect::{corners_bbox_px, ArucoDetector, GrayView};
 use crate::errors::FileError;
+use crate::imagestats::TemporalNoise;
 use crate::imagestats::{
     blockiness, jpeg_quality, marker_levels, marker_regions, outer_edge_profiles, refined_corners,
     rigid_motion, temporal_noise, weak_texture_noise, EdgeOptions, EdgeProfile, LevelOptions,
@@ -460,10 +462,36 @@ impl Measurer {
     }
 
     fn close_run(&mut self) {
+        self.measure_run_noise();
         if self.run.len() > self.best_run.len() {
             self.best_run = std::mem::take(&mut self.run);
         }
         self.run.clear();
+    }
+
+    /// The temporal noise of the ink, paper and surround over the closing static run, at the
+    /// run's levels (`FootageStats::level_noise`): each dwell shows the noise at its own levels.
+    fn measure_run_noise(&mut self) {
+        let Some(first) = self.run.first() else {
+            return;
+        };
+        // The crops of a run differ in window only when the detection moved: use the first's.
+        let rect = first.1.rect;
+        let crops: Vec<&(usize, Crop, Corners)> =
+            self.run.iter().filter(|r| r.1.rect == rect).collect();
+        if crops.len() < 3 {
+            return;
+        }
+        let views: Vec<GrayView<'_>> = crops.iter().map(|c| c.1.view()).collect();
+        let frames = (crops[0].0, crops[crops.len() - 1].0);
+        for (name, noise) in regions_noise(&views, &crops[0].2, &self.layout, &self.level_opts) {
+            self.stats.level_noise.push(LevelNoise {
+                what: format!("{name} over frames {}–{}", frames.0, frames.1),
+                level_dn: noise.level_dn,
+                sigma_dn: noise.sigma_dn,
+                sigma_stderr_dn: noise.sigma_stderr_dn,
+            });
+        }
     }
 
     /// Parallel edge fits, temporal noise, timing fit.
@@ -518,23 +546,11 @@ impl Measurer {
                 return;
             }
             let views: Vec<GrayView<'_>> = crops.iter().map(|c| c.0.view()).collect();
-            let Ok(regions) = marker_regions(&views[0], &crops[0].1, layout, &self.level_opts)
-            else {
-                return;
-            };
-            for (name, px) in [
-                ("ink", &regions.ink),
-                ("paper", &regions.paper),
-                ("surround", &regions.surround),
-            ] {
-                if let Ok(noise) = temporal_noise(&views, px) {
-                    if noise.pixels >= 30 {
-                        temporal.push(TemporalSample {
-                            what: format!("{what} {name}"),
-                            noise,
-                        });
-                    }
-                }
+            for (name, noise) in regions_noise(&views, &crops[0].1, layout, &self.level_opts) {
+                temporal.push(TemporalSample {
+                    what: format!("{what} {name}"),
+                    noise,
+                });
             }
         };
         let run: Vec<(Crop, Corners)> = self
@@ -590,6 +606,32 @@ impl Measurer {
             background,
         }
     }
+}
+
+/// The temporal noise of the ink, paper and surround of the marker at `corners` over `views`
+/// (frames of one static pose), each measured on 30 pixels or more.
+fn regions_noise(
+    views: &[GrayView<'_>],
+    corners: &Corners,
+    layout: &MarkerLayout,
+    options: &LevelOptions,
+) -> Vec<(&'static str, TemporalNoise)> {
+    let Ok(regions) = marker_regions(&views[0], corners, layout, options) else {
+        return Vec::new();
+    };
+    [
+        ("ink", &regions.ink),
+        ("paper", &regions.paper),
+        ("surround", &regions.surround),
+    ]
+    .into_iter()
+    .filter_map(|(name, px)| {
+        temporal_noise(views, px)
+            .ok()
+            .filter(|n| n.pixels >= 30)
+            .map(|n| (name, n))
+    })
+    .collect()
 }
 
 /// The frames the marker's texture is mosaicked from, each with the footage's frame number and
@@ -1084,6 +1126,7 @@ fn write_outputs(
             &mut cal,
             base,
         );
+        super::calibrate_noise_levels::write_noise_levels(&stats, &mut ovs, &mut cal);
         files.extend(texture);
         files.extend(super::calibrate_surroundings::write_surroundings(
             &super::calibrate_surroundings::SurroundFrames {

@@ -13,6 +13,8 @@ mod calibrate_appearance;
 #[cfg(feature = "opencv-detector")]
 mod calibrate_levels;
 #[cfg(feature = "opencv-detector")]
+mod calibrate_noise_levels;
+#[cfg(feature = "opencv-detector")]
 mod calibrate_overlay;
 #[cfg(feature = "opencv-detector")]
 pub mod calibrate_printed;

@@ -125,7 +125,8 @@ pub fn render_frame_independent(
         let mut s = linear_signal(&tone, d) * fx.lighting.gain_with(x, y, w, h, g_t);
         if let Some(c) = noise {
             let e = s.max(0.0) as f64 * c.full_well_e;
-            let sigma_e = (e + c.read_noise_e * c.read_noise_e).sqrt();
+            let sigma_e =
+                (e + c.read_noise_e * c.read_noise_e).sqrt() * c.gain_at(tone.dn(s) as f64);
             s = ((e + sigma_e * standard_normal(&mut rng)) / c.full_well_e) as f32;
         }
         dn.push(tone.dn(s));

@@ -1,6 +1,13 @@
 //! Sensor noise: shot noise (Poisson, approximated as Gaussian with variance = signal electrons)
 //! plus Gaussian read noise, drawn from a counter-based generator keyed by
 //! (seed, frame index, x, y) so every pixel's noise is a pure function of its position.
+//!
+//! A phone's tone curve and denoising make the noise in DN depend on the grey level in ways that
+//! shot and read noise through the scenario's tone curve do not draw (more noise in the dark
+//! tones, less near the white): `level_gain` scales the noise's σ by a factor interpolated in the
+//! pixel's clean grey level, a noise level function relative to the electron model (Liu,
+//! Szeliski, Kang, Zitnick & Freeman 2008, "Automatic estimation and removal of noise from a
+//! single image", IEEE PAMI 30(2)).
 
 use crate::numeric::dist::normal_quantile;
 use crate::validation::{join, Problems};
@@ -19,6 +26,22 @@ pub struct PixelNoiseConfig {
     /// Read noise standard deviation in electrons, in [0, 10⁴]. Default: 185 (reproduces the
     /// 1.44 DN measured on the real frame's marker ink, where shot noise vanishes).
     pub read_noise_e: f64,
+    /// The noise's σ by grey level, as a factor on shot + read noise: linear in the pixel's
+    /// clean level (before noise, after the tone curve) between the entries, constant beyond
+    /// the first and the last. Default: none (factor 1). `geneva calibrate` writes it when the
+    /// footage's noise at the levels it holds still departs from the electron model.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub level_gain: Vec<NoiseGainAt>,
+}
+
+/// One entry of [`PixelNoiseConfig::level_gain`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseGainAt {
+    /// Clean grey level, DN, in [0, 255]; entries strictly increasing.
+    pub level_dn: f64,
+    /// The factor on the noise's σ at that level, in [0, 10].
+    pub gain: f64,
 }
 
 impl Default for PixelNoiseConfig {
@@ -27,6 +50,7 @@ impl Default for PixelNoiseConfig {
             enabled: true,
             full_well_e: 20000.0,
             read_noise_e: 185.0,
+            level_gain: Vec::new(),
         }
     }
 }
@@ -35,6 +59,19 @@ impl PixelNoiseConfig {
     pub fn validate(&self, path: &str, problems: &mut Problems) {
         problems.range(join(path, "full_well_e"), self.full_well_e, 1.0, 1e7);
         problems.range(join(path, "read_noise_e"), self.read_noise_e, 0.0, 1e4);
+        let mut last = f64::NEG_INFINITY;
+        for (i, e) in self.level_gain.iter().enumerate() {
+            let field = format!("{}[{i}]", join(path, "level_gain"));
+            problems.range(join(&field, "level_dn"), e.level_dn, 0.0, 255.0);
+            problems.range(join(&field, "gain"), e.gain, 0.0, 10.0);
+            problems.increasing(join(&field, "level_dn"), e.level_dn, last, ("level", " DN"));
+            last = e.level_dn;
+        }
+    }
+
+    /// The factor on the noise's σ at clean grey level `level_dn` (1 without a table).
+    pub fn gain_at(&self, level_dn: f64) -> f64 {
+        gain_at(&self.level_gain, level_dn)
     }
 
     /// Noisy normalised signal (1 = full well) for normalised signal `s` and standard normal `z`.
@@ -44,6 +81,57 @@ impl PixelNoiseConfig {
         let e = s.max(0.0) * fw;
         let sigma = (e + (self.read_noise_e * self.read_noise_e) as f32).sqrt();
         (e + sigma * z) / fw
+    }
+}
+
+/// The factor of `table` at `level_dn` (1 when empty): linear between entries, constant
+/// beyond the ends.
+pub fn gain_at(table: &[NoiseGainAt], level_dn: f64) -> f64 {
+    let (Some(first), Some(last)) = (table.first(), table.last()) else {
+        return 1.0;
+    };
+    if level_dn <= first.level_dn {
+        return first.gain;
+    }
+    if level_dn >= last.level_dn {
+        return last.gain;
+    }
+    let i = table.partition_point(|e| e.level_dn <= level_dn);
+    let (a, b) = (table[i - 1], table[i]);
+    let f = (level_dn - a.level_dn) / (b.level_dn - a.level_dn);
+    a.gain + f * (b.gain - a.gain)
+}
+
+/// [`gain_at`] in single precision for the renderer's loops (the table's entries as f32).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LevelGain {
+    levels_dn: Vec<f32>,
+    gains: Vec<f32>,
+}
+
+impl LevelGain {
+    /// `None` for an empty table: the noise then takes no factor at all (the same bits as
+    /// before tables existed).
+    pub fn new(table: &[NoiseGainAt]) -> Option<Self> {
+        (!table.is_empty()).then(|| Self {
+            levels_dn: table.iter().map(|e| e.level_dn as f32).collect(),
+            gains: table.iter().map(|e| e.gain as f32).collect(),
+        })
+    }
+
+    #[inline]
+    pub fn at(&self, level_dn: f32) -> f32 {
+        let n = self.levels_dn.len();
+        if level_dn <= self.levels_dn[0] {
+            return self.gains[0];
+        }
+        if level_dn >= self.levels_dn[n - 1] {
+            return self.gains[n - 1];
+        }
+        let i = self.levels_dn.partition_point(|&l| l <= level_dn);
+        let (l0, l1) = (self.levels_dn[i - 1], self.levels_dn[i]);
+        let f = (level_dn - l0) / (l1 - l0);
+        self.gains[i - 1] + f * (self.gains[i] - self.gains[i - 1])
     }
 }
 
@@ -185,5 +273,46 @@ mod tests {
             assert_eq!(m.noisy(e, sigma, z).to_bits(), c.apply(s, z).to_bits());
         }
         assert_eq!(normal_at(key, 3, 4), normal_at(frame_key(42, 7), 3, 4));
+    }
+
+    #[test]
+    fn level_gain_interpolates_between_entries_and_holds_beyond_them() {
+        let t = [
+            NoiseGainAt {
+                level_dn: 40.0,
+                gain: 1.5,
+            },
+            NoiseGainAt {
+                level_dn: 100.0,
+                gain: 1.0,
+            },
+            NoiseGainAt {
+                level_dn: 220.0,
+                gain: 0.4,
+            },
+        ];
+        let f = LevelGain::new(&t).unwrap();
+        for (level, want) in [
+            (0.0, 1.5),
+            (40.0, 1.5),
+            (70.0, 1.25),
+            (160.0, 0.7),
+            (250.0, 0.4),
+        ] {
+            assert!((gain_at(&t, level) - want).abs() < 1e-12, "{level}");
+            assert!((f.at(level as f32) as f64 - want).abs() < 1e-6, "{level}");
+        }
+        assert_eq!(gain_at(&[], 80.0), 1.0);
+        assert!(LevelGain::new(&[]).is_none());
+        let mut c = PixelNoiseConfig {
+            level_gain: t.to_vec(),
+            ..Default::default()
+        };
+        let mut p = Problems::default();
+        c.validate("effects.pixel_noise", &mut p);
+        assert!(p.is_empty());
+        c.level_gain.swap(0, 1);
+        c.validate("effects.pixel_noise", &mut p);
+        assert!(format!("{p:?}").contains("effects.pixel_noise.level_gain[1].level_dn"));
     }
 }

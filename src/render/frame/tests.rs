@@ -1,4 +1,5 @@
 use super::*;
+use crate::render::effects::pixel_noise::NoiseGainAt;
 use crate::render::effects::{CameraVibrationConfig, RandomVibrationConfig, Sinusoid};
 use crate::render::effects::{MotionBlurConfig, PixelNoiseConfig, RollingShutterConfig};
 use crate::render::test_scenes::*;
@@ -307,33 +308,55 @@ fn noise_variance_matches_shot_plus_read_plus_quantisation() {
         enabled: true,
         full_well_e: 1000.0,
         read_noise_e: 5.0,
+        level_gain: Vec::new(),
     };
-    for radiance in [0.1f32, 0.5] {
-        let scene = Moving {
-            base: single_layer(vec![], 0.0, radiance),
-            velocity_px_s: DVec2::ZERO,
-        };
-        let s = settings(256, 200, fx.clone());
-        let img = render_frame(&scene, &s, &request(1, 0.0, s.frame_rect()));
-        let n = img.data.len() as f64;
-        let mean = img.data.iter().map(|&v| v as f64).sum::<f64>() / n;
-        let var = img
-            .data
-            .iter()
-            .map(|&v| (v as f64 - mean).powi(2))
-            .sum::<f64>()
-            / n;
-        let gain_dn_per_e = 200.0 / 1000.0;
-        let electrons = radiance as f64 * 1000.0;
-        let want = gain_dn_per_e * gain_dn_per_e * (electrons + 25.0) + 1.0 / 12.0;
-        assert!(
-            (mean - (10.0 + 200.0 * radiance as f64)).abs() < 0.1,
-            "mean {mean}"
-        );
-        assert!(
-            (var / want - 1.0).abs() < 0.04,
-            "r {radiance}: var {var} vs {want}"
-        );
+    // Without a level table, and with one that doubles the σ at the dark level (30 DN) and
+    // halves it at the mid level (110 DN): a flat run and a row of varying radiance each.
+    let table = vec![
+        NoiseGainAt {
+            level_dn: 30.0,
+            gain: 2.0,
+        },
+        NoiseGainAt {
+            level_dn: 110.0,
+            gain: 0.5,
+        },
+    ];
+    for (level_gain, gains) in [(Vec::new(), [1.0, 1.0]), (table, [2.0, 0.5])] {
+        fx.pixel_noise.level_gain = level_gain;
+        for (radiance, g) in [0.1f32, 0.5].into_iter().zip(gains) {
+            for ripple in [0.0, 1e-6] {
+                // A light gradient far below a DN takes the per-pixel path instead of the flat
+                // run's.
+                let mut fx = fx.clone();
+                fx.lighting.gradient_x_frac = ripple;
+                let scene = Moving {
+                    base: single_layer(vec![], 0.0, radiance),
+                    velocity_px_s: DVec2::ZERO,
+                };
+                let s = settings(256, 200, fx);
+                let img = render_frame(&scene, &s, &request(1, 0.0, s.frame_rect()));
+                let n = img.data.len() as f64;
+                let mean = img.data.iter().map(|&v| v as f64).sum::<f64>() / n;
+                let var = img
+                    .data
+                    .iter()
+                    .map(|&v| (v as f64 - mean).powi(2))
+                    .sum::<f64>()
+                    / n;
+                let gain_dn_per_e = 200.0 / 1000.0;
+                let electrons = radiance as f64 * 1000.0;
+                let want = g * g * gain_dn_per_e * gain_dn_per_e * (electrons + 25.0) + 1.0 / 12.0;
+                assert!(
+                    (mean - (10.0 + 200.0 * radiance as f64)).abs() < 0.1,
+                    "mean {mean}"
+                );
+                assert!(
+                    (var / want - 1.0).abs() < 0.04,
+                    "r {radiance}, gain {g}, ripple {ripple}: var {var} vs {want}"
+                );
+            }
+        }
     }
     fx.pixel_noise.enabled = false;
     let scene = Moving {

@@ -3,12 +3,13 @@
 //!
 //! Every pixel goes through exactly the operations of the reference per-pixel formula
 //! `quantise(tone.dn(noise.apply(v · gain(x, y, g_t(y)), normal_at(key, x, y))))`, where g_t(y)
-//! is the light's gain over time at row y's exposure (1 under steady light); the loops only
+//! is the light's gain over time at row y's exposure (1 under steady light) and the noise's σ
+//! takes the factor of `pixel_noise.level_gain` at the clean level `tone.dn(s)`; the loops only
 //! hoist what is constant along a run (gain under even light, the electron count of a flat
 //! run) and work in small chunks so the arithmetic vectorises.
 
 use crate::render::effects::lighting::{quantise, LightingConfig, Tone};
-use crate::render::effects::pixel_noise::{self, NoiseModel};
+use crate::render::effects::pixel_noise::{self, LevelGain, NoiseModel};
 use crate::render::effects::EffectsConfig;
 
 /// What a tone-mapped pixel is written as: 8-bit grey (quantised), or the DN before
@@ -40,6 +41,8 @@ pub(super) struct ToneMap<'a> {
     uneven: bool,
     tone: Tone,
     noise: Option<NoiseModel>,
+    /// The noise's factor by clean grey level (`None`: 1 everywhere, no operation).
+    level_gain: Option<LevelGain>,
     key: u64,
     width_px: usize,
     height_px: usize,
@@ -77,6 +80,7 @@ impl<'a> ToneMap<'a> {
                 .pixel_noise
                 .enabled
                 .then(|| NoiseModel::new(&fx.pixel_noise)),
+            level_gain: LevelGain::new(&fx.pixel_noise.level_gain),
             key: pixel_noise::frame_key(seed, frame_index),
             width_px,
             height_px,
@@ -107,7 +111,7 @@ impl<'a> ToneMap<'a> {
             out.fill(O::from_dn(self.tone.dn(s)));
             return;
         };
-        let (e, sigma) = noise.electrons(s);
+        let (e, sigma) = self.electrons(&noise, s);
         let mut z = [0.0f32; CHUNK];
         for (i, o) in out.chunks_mut(CHUNK).enumerate() {
             let z = &mut z[..o.len()];
@@ -148,10 +152,21 @@ impl<'a> ToneMap<'a> {
             let z = &mut z[..v.len()];
             pixel_noise::normals_row(self.key, xc, y, z);
             for (s, &z) in s.iter_mut().zip(z.iter()) {
-                let (e, sigma) = noise.electrons(*s);
+                let (e, sigma) = self.electrons(&noise, *s);
                 *s = noise.noisy(e, sigma, z);
             }
             self.tone_chunk(s, o, |s| s);
+        }
+    }
+
+    /// Mean electrons and σ of clean signal `s`, σ scaled by the level table at `s`'s clean
+    /// grey level.
+    #[inline(always)]
+    fn electrons(&self, noise: &NoiseModel, s: f32) -> (f32, f32) {
+        let (e, sigma) = noise.electrons(s);
+        match &self.level_gain {
+            None => (e, sigma),
+            Some(g) => (e, sigma * g.at(self.tone.dn(s))),
         }
     }
 
