@@ -397,10 +397,10 @@ pub fn background_texture(
         let v = &view.image;
         let b = rect_of(v).grown_within(0, w, h);
         let mut used = false;
+        let to_plane = view.wheel_map.inverse();
         for y in b.y0..b.y1 {
             for x in b.x0..b.x1 {
-                let beyond = view
-                    .wheel_map
+                let beyond = to_plane
                     .to_plane(DVec2::new(x as f64, y as f64))
                     .is_some_and(|p| p.length() >= beyond_m);
                 if let (true, Some(dn)) = (beyond, pixel_at(v, x, y)) {

@@ -42,6 +42,8 @@ struct Context<'a> {
     anchors: LevelAnchors,
     times_s: &'a [f64],
     gain: &'a dyn Fn(f64) -> f64,
+    /// The larger of the fitted noise σ at the ink and at the paper, DN.
+    noise_sd_dn: f64,
 }
 
 impl Context<'_> {
@@ -76,6 +78,19 @@ impl Context<'_> {
             .map(|((f, _), r)| (*f, r))
             .collect();
         mosaic(&self.views(&rendered)).map(|m| m.spread_dn)
+    }
+
+    /// [`Self::null_spread`], or when the renders cannot be made, what the noise leaves in a
+    /// mean over `mosaic_frames` frames (the larger of the ink's and the paper's σ: a texture
+    /// is then written only where it stands above the noisier of the two).
+    fn null_spread_or_noise(
+        &self,
+        frames: &[(usize, &Crop)],
+        mosaic_frames: usize,
+        mosaic: impl Fn(&[PlaneView<'_>]) -> Option<Mosaic>,
+    ) -> f64 {
+        self.null_spread(frames, mosaic)
+            .unwrap_or_else(|| self.noise_sd_dn / (mosaic_frames.max(1) as f64).sqrt())
     }
 }
 
@@ -139,6 +154,12 @@ pub(crate) fn write_surroundings<'a>(
         },
         times_s: frames.times_s,
         gain: &gain,
+        noise_sd_dn: cal
+            .imaging
+            .noise
+            .ink_sigma_dn
+            .value
+            .max(cal.imaging.noise.paper_sigma_dn.value),
     };
     // The check's frame is left out unless it is the only one (as for the marker's texture).
     let held_out = |all: Vec<(usize, &'a Crop)>| without_frame(all, frames.check_frame);
@@ -202,9 +223,7 @@ fn write_disc(
         }
     };
     let m = &disc.mosaic;
-    let null = ctx
-        .null_spread(frames, |v| measure(v).ok().map(|d| d.mosaic))
-        .unwrap_or(0.0);
+    let null = ctx.null_spread_or_noise(frames, m.frames, |v| measure(v).ok().map(|d| d.mosaic));
     let (texture_sd, shows) = texture_beyond(m, null);
     if !shows {
         cal.surroundings.push(format!(
@@ -298,7 +317,7 @@ fn write_background(
             m.sampled_texels, m.mean_dn
         ),
     });
-    let null = ctx.null_spread(frames, |v| measure(v).ok()).unwrap_or(0.0);
+    let null = ctx.null_spread_or_noise(frames, m.frames, |v| measure(v).ok());
     let (texture_sd, shows) = texture_beyond(&m, null);
     if !shows {
         cal.surroundings.push(format!(

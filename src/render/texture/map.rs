@@ -39,26 +39,16 @@ impl PlaneMap {
     /// The plane point imaged at pixel `px`; `None` where the ray misses the plane in front of
     /// the camera or the distortion cannot be inverted.
     pub fn to_plane(&self, px: DVec2) -> Option<DVec2> {
-        let px = match &self.transform {
-            Some(t) => {
-                let (s, c) = t.rotation_rad.sin_cos();
-                let d = px - t.translation_px - t.centre_px;
-                t.centre_px + DVec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
-            }
-            None => px,
-        };
-        let distorted = (px - self.principal_point_px) / self.focal_px;
-        let n = match &self.lens {
-            Some(d) => undistort_normalised(d, distorted)?,
-            None => distorted,
-        };
-        let inv = self.plane_to_camera.inverse();
-        let q = inv * DVec3::new(n.x, n.y, 1.0);
-        if !q.is_finite() || q.z.abs() < 1e-300 {
-            return None;
+        self.inverse().to_plane(px)
+    }
+
+    /// The map from the image back to the plane, its homography inverted once (for many
+    /// pixels).
+    pub fn inverse(&self) -> ImageToPlane<'_> {
+        ImageToPlane {
+            map: self,
+            camera_to_plane: self.plane_to_camera.inverse(),
         }
-        // The ray's points are λ·(n, 1) with λ > 0 in front of the camera: λ = 1/q.z.
-        (q.z > 0.0).then(|| DVec2::new(q.x / q.z, q.y / q.z))
     }
 
     /// +1 when the map keeps the plane's orientation at `p` (x right, y down to x right, y
@@ -73,6 +63,39 @@ impl PlaneMap {
         } else {
             -1
         }
+    }
+}
+
+/// Image pixel → plane point: [`PlaneMap`] inverted.
+#[derive(Debug, Clone)]
+pub struct ImageToPlane<'a> {
+    map: &'a PlaneMap,
+    camera_to_plane: DMat3,
+}
+
+impl ImageToPlane<'_> {
+    /// [`PlaneMap::to_plane`].
+    pub fn to_plane(&self, px: DVec2) -> Option<DVec2> {
+        let m = self.map;
+        let px = match &m.transform {
+            Some(t) => {
+                let (s, c) = t.rotation_rad.sin_cos();
+                let d = px - t.translation_px - t.centre_px;
+                t.centre_px + DVec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
+            }
+            None => px,
+        };
+        let distorted = (px - m.principal_point_px) / m.focal_px;
+        let n = match &m.lens {
+            Some(d) => undistort_normalised(d, distorted)?,
+            None => distorted,
+        };
+        let q = self.camera_to_plane * DVec3::new(n.x, n.y, 1.0);
+        if !q.is_finite() || q.z.abs() < 1e-300 {
+            return None;
+        }
+        // The ray's points are λ·(n, 1) with λ > 0 in front of the camera: λ = 1/q.z.
+        (q.z > 0.0).then(|| DVec2::new(q.x / q.z, q.y / q.z))
     }
 }
 
