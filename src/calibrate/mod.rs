@@ -167,7 +167,7 @@ pub struct FootageStats {
     pub reference_edges: Vec<EdgeProfile>,
     /// Temporal noise on the longest static run.
     pub temporal: Vec<TemporalSample>,
-    /// Temporal noise of ink, paper and surround on every static run of three frames or more,
+    /// Temporal noise of ink, paper and surround on every static run of two frames or more,
     /// at each run's levels.
     pub level_noise: Vec<noise_levels::LevelNoise>,
     /// Weak-texture noise of single frames (measured when there is no static run).

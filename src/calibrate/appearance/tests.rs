@@ -160,6 +160,105 @@ fn a_rendered_marker_texture_is_measured_back_and_renders_the_footage_again() {
     );
 }
 
+/// A print with detail of a few pixels (lines 3.5 px apart across the paper, as a 3-D print's or
+/// a tape's): the mosaic holds it blurred once by the footage and the render blurs it again, so
+/// the texture as sampled renders the lines too faint; restored, the re-render is closer to the
+/// footage, and the cells' edges take no halo.
+#[test]
+fn fine_detail_is_restored_so_that_the_render_blurs_it_once() {
+    let sigma = 0.8;
+    let s = rig_scenario(sigma);
+    let layout = layout_of(&s);
+    let tpc = texels_per_cell(10.7, layout.margin_cells().unwrap()).unwrap();
+    let mut truth = printed_texture(&s, tpc);
+    let texel_px = 10.7 / tpc as f64;
+    for (k, v) in truth.values.iter_mut().enumerate() {
+        let x = (k % truth.width) as f64 * texel_px;
+        let r = radiance_of(*v) as f64;
+        if r > 0.5 {
+            *v = value_of(r + 0.12 * (std::f64::consts::TAU * x / 3.5).sin());
+        }
+    }
+    let (footage, corners) = render_marker(&with_marker_texture(s.clone(), truth, tpc));
+    let views = [RegisteredView {
+        image: view(&footage),
+        corners_px: corners,
+        light_gain: 1.0,
+    }];
+    // Compared where the texture was sampled (the guard band holds a level, not the lines).
+    let h = Homography::from_corners(&corners, layout.side_cells()).unwrap();
+    let margin = (layout.margin_cells().unwrap() * tpc as f64).round();
+    let w = footage.window;
+    let rerender_rms = |restore: bool| {
+        let got = mosaic_marker(&views, &layout, sigma, &ANCHORS, restore).unwrap();
+        let side = got.texture.width;
+        let mut pixels: Vec<usize> = got
+            .sampled_mask
+            .iter()
+            .enumerate()
+            .filter(|(_, &m)| m)
+            .filter_map(|(k, _)| {
+                let g = |v: usize| (v as f64 + 0.5 - margin) / tpc as f64;
+                let [x, y] = h.map(g(k % side), g(k / side));
+                let (i, j) = (x.round() as i64 - w.x0, y.round() as i64 - w.y0);
+                ((0..w.width as i64).contains(&i) && (0..w.height as i64).contains(&j))
+                    .then_some(j as usize * w.width + i as usize)
+            })
+            .collect();
+        pixels.sort_unstable();
+        pixels.dedup();
+        let again = with_marker_texture(s.clone(), got.texture, got.texels_per_cell);
+        let (render, _) = render_marker(&again);
+        let d2: Vec<f64> = pixels
+            .iter()
+            .map(|&p| (footage.data[p] as f64 - render.data[p] as f64).powi(2))
+            .collect();
+        (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+    };
+    let (restored, sampled) = (rerender_rms(true), rerender_rms(false));
+    assert!(
+        restored < 0.75 * sampled,
+        "re-render RMS restored {restored:.2} DN, as sampled {sampled:.2} DN"
+    );
+}
+
+#[test]
+fn restoration_stays_within_its_material_and_keeps_flat_regions() {
+    // Ink texels at 0.1 beside paper at 0.8: a flat region is its own mean, so the step
+    // leaves it; no paper value leaks into the ink across the boundary.
+    let side = 8;
+    let material: Vec<Material> = (0..side * side)
+        .map(|k| {
+            if k % side < 4 {
+                Material::Ink
+            } else {
+                Material::Paper
+            }
+        })
+        .collect();
+    let mut sampled: Vec<Option<f64>> = material
+        .iter()
+        .map(|m| Some(if *m == Material::Ink { 0.1 } else { 0.8 }))
+        .collect();
+    sampled[0] = None;
+    let before = sampled.clone();
+    restore_sampled(&mut sampled, &material, side, 1.5);
+    for (a, b) in sampled.iter().zip(&before) {
+        match (a, b) {
+            (Some(a), Some(b)) => assert!((a - b).abs() < 1e-12, "{a} vs {b}"),
+            (a, b) => assert_eq!(a, b),
+        }
+    }
+    // A bright texel among dark ones is raised further (its contrast restored).
+    sampled[3 * side + 1] = Some(0.3);
+    restore_sampled(&mut sampled, &material, side, 1.0);
+    assert!(sampled[3 * side + 1].unwrap() > 0.3);
+    assert!(
+        sampled[3 * side + 2].unwrap() < 0.1,
+        "its neighbour darkened"
+    );
+}
+
 #[test]
 fn sampled_texels_are_those_clear_of_every_edge_by_the_guard_band() {
     let sigma = 1.5;
