@@ -409,7 +409,16 @@ impl Measurer {
                     }
                 }
                 if self.run.len() < RUN_FRAMES {
-                    self.run.push((index, crop.clone(), c));
+                    // A run's frames are cropped to its first window: the window follows
+                    // OpenCV's corners, rounded outwards, and changes every frame or two on a
+                    // still marker, while the noise is measured on pixels the frames share.
+                    let rect = self.run.first().map_or(crop.rect, |f| f.1.rect);
+                    let run_crop = if rect == crop.rect {
+                        crop.clone()
+                    } else {
+                        Crop::of(data, w, h, rect)
+                    };
+                    self.run.push((index, run_crop, c));
                 }
             } else {
                 self.close_run();
