@@ -2,8 +2,11 @@
 //! and of `analyze` on rendered frames.
 #![cfg(feature = "opencv-detector")]
 
+mod common;
+
+use common::detections;
 use geneva_vision::pipeline::analyze::{analyze, AnalyzeOptions, Source};
-use geneva_vision::pipeline::frames::{detect_frames, FrameDetection, FrameLoopOptions, FramePath};
+use geneva_vision::pipeline::frames::FramePath;
 use geneva_vision::pipeline::render_job::{render_job, RenderJob};
 use geneva_vision::pipeline::rig::Rig;
 use geneva_vision::pipeline::run::{run, RunOptions};
@@ -12,36 +15,6 @@ use std::path::Path;
 
 fn scenario_from(text: &str) -> Scenario {
     scenario::from_str(text, Path::new("test.toml")).unwrap()
-}
-
-fn detections(
-    rig: &Rig,
-    frames: std::ops::Range<usize>,
-    roi: bool,
-    threads: usize,
-) -> Vec<FrameDetection> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    let mut out = Vec::new();
-    pool.install(|| {
-        detect_frames(
-            rig,
-            frames,
-            FrameLoopOptions {
-                roi,
-                chunk_frames: 8,
-            },
-            |c| {
-                out.extend_from_slice(c);
-                Ok(())
-            },
-            &|_| {},
-        )
-        .unwrap()
-    });
-    out
 }
 
 /// The seed's internal drive at 1080p, noiseless and blur-free, default (geometric) estimator:

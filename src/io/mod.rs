@@ -14,4 +14,5 @@ pub mod timing_log;
 pub mod tracks_csv;
 pub mod truth_csv;
 pub mod video;
+pub mod video_codec;
 pub mod video_out;

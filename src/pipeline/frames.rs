@@ -57,6 +57,9 @@ pub enum FramesError {
     /// The sink could not store a chunk (e.g. `tracks.csv` could not be written).
     #[error(transparent)]
     Output(#[from] crate::io::csv_out::CsvError),
+    /// The scenario's video codec could not encode or decode the clip.
+    #[error(transparent)]
+    Codec(#[from] crate::io::video_codec::CodecError),
 }
 
 /// Options of the frame loop.
@@ -309,6 +312,9 @@ pub fn detect_and_inspect_frames<T: Send>(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(), FramesError> {
     let detector = ArucoDetector::new(&rig.scenario.detector).map_err(FramesError::Detector)?;
+    if rig.scenario.effects.video_codec.enabled {
+        return detect_coded_frames(rig, &detector, frames, options, inspect, sink, progress);
+    }
     let scene = rig.animated();
     let canvas_len = rig.settings.width_px * rig.settings.height_px;
     let chunk = options.chunk_frames.max(1);
@@ -339,4 +345,96 @@ pub fn detect_and_inspect_frames<T: Send>(
         start = end;
     }
     Ok(())
+}
+
+/// [`detect_and_inspect_frames`] for a scenario with a video codec: whole frames through the
+/// codec ([`super::coded_frames`]), then detection on each decoded frame, in the window when the
+/// options allow it (the detector falls back to the whole frame itself).
+fn detect_coded_frames<T: Send>(
+    rig: &Rig,
+    detector: &ArucoDetector,
+    frames: std::ops::Range<usize>,
+    options: FrameLoopOptions,
+    inspect: &Inspector<'_, T>,
+    mut sink: impl FnMut(&[(FrameDetection, T)]) -> Result<(), crate::io::csv_out::CsvError>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(), FramesError> {
+    let scene = rig.animated();
+    let chunk = options.chunk_frames.max(1);
+    let render = |i: usize, buffers: &mut FrameBuffers| -> Result<Vec<u8>, FramesError> {
+        let request = FrameRequest {
+            index: i as u64,
+            t_s: rig.render_time_s(rig.frame_times.as_slice()[i]),
+            window: rig.frame_rect(),
+        };
+        Ok(render_frame_with(&scene, &rig.settings, &request, buffers).data)
+    };
+    let mut pending: Vec<(usize, Vec<u8>)> = Vec::with_capacity(chunk);
+    let mut done = 0;
+    let mut flush = |pending: &mut Vec<(usize, Vec<u8>)>| -> Result<(), FramesError> {
+        let results: Vec<Result<(FrameDetection, T), FrameError>> = pending
+            .par_iter()
+            .map(|(i, data)| detect_decoded(rig, detector, *i, data, options.roi, inspect))
+            .collect();
+        let results: Vec<(FrameDetection, T)> = results.into_iter().collect::<Result<_, _>>()?;
+        sink(&results)?;
+        done += results.len();
+        progress(done);
+        pending.clear();
+        Ok(())
+    };
+    super::coded_frames::through_codec(rig, &render, frames, chunk, &mut |i, data| {
+        pending.push((i, data));
+        if pending.len() == chunk {
+            flush(&mut pending)?;
+        }
+        Ok(())
+    })?;
+    flush(&mut pending)
+}
+
+/// Detection in one decoded frame (valid everywhere: every pixel was decoded).
+fn detect_decoded<T>(
+    rig: &Rig,
+    detector: &ArucoDetector,
+    frame: usize,
+    data: &[u8],
+    roi: bool,
+    inspect: &Inspector<'_, T>,
+) -> Result<(FrameDetection, T), FrameError> {
+    let t_s = rig.frame_times.as_slice()[frame];
+    let cfg = &rig.scenario.detector;
+    let err = |source| FrameError { frame, t_s, source };
+    let view = GrayView::full(data, rig.settings.width_px, rig.settings.height_px);
+    let hint = |bbox| (roi && cfg.roi.enabled).then_some(bbox);
+    let obs = detector
+        .detect_marker(view, cfg.marker_id, hint(rig.marker_bbox_px(t_s)))
+        .map_err(err)?;
+    let reference = match cfg.reference_marker_id {
+        Some(id) if rig.scenario.scene.reference_marker.enabled => {
+            let bbox = rig
+                .scene
+                .reference_marker_corners_px()
+                .map(|c| corners_bbox_px(&c));
+            detector
+                .detect_marker(view, id, bbox.and_then(hint))
+                .map_err(err)?
+                .detection
+                .map(|d| d.corners_px)
+        }
+        _ => None,
+    };
+    let detection = FrameDetection {
+        frame,
+        t_s,
+        corners_px: obs.detection.map(|d| d.corners_px),
+        reference_px: reference,
+        path: match obs.path {
+            DetectionPath::Roi => FramePath::Roi,
+            DetectionPath::FullFrame => FramePath::FullFrame,
+            DetectionPath::RoiFallback(_) => FramePath::RoiThenFullFrame,
+        },
+    };
+    let seen = inspect(view, &detection);
+    Ok((detection, seen))
 }

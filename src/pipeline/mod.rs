@@ -24,6 +24,7 @@ pub mod calibrate_roundtrip;
 mod calibrate_sharpening;
 #[cfg(feature = "opencv-detector")]
 mod calibrate_surroundings;
+pub mod coded_frames;
 #[cfg(feature = "opencv-detector")]
 pub mod decompose;
 #[cfg(feature = "opencv-detector")]

@@ -39,6 +39,12 @@ pub enum RenderJobError {
     },
     #[error("--roi-margin cannot be used with the independent renderer (it draws whole frames)")]
     IndependentRoi,
+    #[error(transparent)]
+    Codec(#[from] crate::io::video_codec::CodecError),
+    #[error(
+        "--roi-margin cannot be used with effects.video_codec (the codec encodes whole frames)"
+    )]
+    CodecRoi,
 }
 
 /// Which renderer draws the frames.
@@ -100,6 +106,9 @@ pub fn render_job(
     if job.renderer == Renderer::Independent && job.roi_margin_px.is_some() {
         return Err(RenderJobError::IndependentRoi);
     }
+    if scenario.effects.video_codec.enabled && job.roi_margin_px.is_some() {
+        return Err(RenderJobError::CodecRoi);
+    }
     std::fs::create_dir_all(out_dir).map_err(|source| RenderJobError::OutDir {
         dir: out_dir.into(),
         source,
@@ -152,18 +161,17 @@ pub fn render_job(
         None => None,
     };
     let mut done = 0;
-    for start in (range.start..range.end).step_by(CHUNK_FRAMES) {
-        let end = (start + CHUNK_FRAMES).min(range.end);
-        // Video frames are always whole frames.
-        let images = render_chunk(&rig, &scene, start..end, job.renderer, &|t_s| {
-            if video.is_some() {
-                full
-            } else {
-                window_for(t_s)
-            }
-        })?;
-        for (k, img) in images.iter().enumerate() {
-            let frame = start + k;
+    let total = range.len();
+    // Video frames are always whole frames.
+    let whole = video.is_some();
+    let window = |t_s: f64| if whole { full } else { window_for(t_s) };
+    each_frame(
+        &rig,
+        &scene,
+        range.clone(),
+        job.renderer,
+        &window,
+        &mut |frame, img| {
             if job.png {
                 let p = out_dir.join(frame_file_name(frame));
                 write_gray_png(
@@ -176,10 +184,13 @@ pub fn render_job(
             if let Some(v) = video.as_mut() {
                 v.write_frame(&img.data)?;
             }
-        }
-        done += end - start;
-        progress(done, range.end - range.start);
-    }
+            done += 1;
+            if done % CHUNK_FRAMES == 0 || done == total {
+                progress(done, total);
+            }
+            Ok(())
+        },
+    )?;
     if let Some(v) = video.take() {
         files.push(v.finish()?);
     }
@@ -209,34 +220,69 @@ fn frame_range(
     Ok(range)
 }
 
-/// Frames `frames` of `rig` drawn by `renderer` in parallel, each in the window `window_for`
-/// gives at its timestamp; every frame's noise is keyed by its index, so the images do not
-/// depend on the chunking or the thread count.
-fn render_chunk(
+/// Frame `i` of `rig` drawn by `renderer` in `window`; every frame's noise is keyed by its
+/// index, so the images do not depend on the chunking or the thread count.
+fn render_one(
     rig: &Rig,
     scene: &dyn crate::render::shapes::SceneAt,
-    frames: std::ops::Range<usize>,
+    i: usize,
+    renderer: Renderer,
+    window: PixelRect,
+    buffers: &mut FrameBuffers,
+) -> Result<GrayImage, RenderJobError> {
+    let t_s = rig.frame_times.as_slice()[i];
+    let request = FrameRequest {
+        index: i as u64,
+        t_s: rig.render_time_s(t_s),
+        window,
+    };
+    match renderer {
+        Renderer::Own => Ok(render_frame_with(scene, &rig.settings, &request, buffers)),
+        Renderer::Independent => {
+            render_frame_independent(scene, &rig.settings, request.index, request.t_s)
+                .map_err(|source| RenderJobError::Independent { frame: i, source })
+        }
+    }
+}
+
+/// Frames `range` of `rig` drawn by `renderer`, each in the window `window_for` gives at its
+/// timestamp, handed to `sink` in frame order: rendered in parallel chunks, or, with a video
+/// codec, whole frames through it ([`super::coded_frames`]).
+fn each_frame(
+    rig: &Rig,
+    scene: &(dyn crate::render::shapes::SceneAt + Sync),
+    range: std::ops::Range<usize>,
     renderer: Renderer,
     window_for: &(dyn Fn(f64) -> PixelRect + Sync),
-) -> Result<Vec<GrayImage>, RenderJobError> {
-    frames
-        .into_par_iter()
-        .map_init(FrameBuffers::default, |buffers, i| {
-            let t_s = rig.frame_times.as_slice()[i];
-            let request = FrameRequest {
-                index: i as u64,
-                t_s: rig.render_time_s(t_s),
-                window: window_for(t_s),
-            };
-            match renderer {
-                Renderer::Own => Ok(render_frame_with(scene, &rig.settings, &request, buffers)),
-                Renderer::Independent => {
-                    render_frame_independent(scene, &rig.settings, request.index, request.t_s)
-                        .map_err(|source| RenderJobError::Independent { frame: i, source })
-                }
-            }
-        })
-        .collect()
+    sink: &mut dyn FnMut(usize, GrayImage) -> Result<(), RenderJobError>,
+) -> Result<(), RenderJobError> {
+    if rig.scenario.effects.video_codec.enabled {
+        let full = rig.frame_rect();
+        let render = |i: usize, buffers: &mut FrameBuffers| {
+            render_one(rig, scene, i, renderer, full, buffers).map(|img| img.data)
+        };
+        return super::coded_frames::through_codec(
+            rig,
+            &render,
+            range,
+            CHUNK_FRAMES,
+            &mut |i, data| sink(i, GrayImage { window: full, data }),
+        );
+    }
+    for start in range.clone().step_by(CHUNK_FRAMES) {
+        let end = (start + CHUNK_FRAMES).min(range.end);
+        let images: Vec<Result<GrayImage, RenderJobError>> = (start..end)
+            .into_par_iter()
+            .map_init(FrameBuffers::default, |buffers, i| {
+                let window = window_for(rig.frame_times.as_slice()[i]);
+                render_one(rig, scene, i, renderer, window, buffers)
+            })
+            .collect();
+        for (k, img) in images.into_iter().enumerate() {
+            sink(start + k, img?)?;
+        }
+    }
+    Ok(())
 }
 
 /// Whole frames `frames` of `scenario`, handed to `sink` one by one in frame order: the pixels
@@ -253,14 +299,16 @@ pub fn render_each(
     let range = frame_range(&rig, Some(frames))?;
     let scene = rig.animated();
     let full = rig.frame_rect();
-    for start in range.clone().step_by(CHUNK_FRAMES) {
-        let end = (start + CHUNK_FRAMES).min(range.end);
-        for image in render_chunk(&rig, &scene, start..end, renderer, &|_| full)? {
-            sink(image);
+    let total = range.len();
+    let mut done = 0;
+    each_frame(&rig, &scene, range, renderer, &|_| full, &mut |_, image| {
+        sink(image);
+        done += 1;
+        if done % CHUNK_FRAMES == 0 || done == total {
+            progress(done, total);
         }
-        progress(end - range.start, range.len());
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 #[cfg(test)]

@@ -111,6 +111,17 @@ pub fn check(s: &Scenario, problems: &mut Problems) {
         }
     }
     times_inside_one_frame(s, problems);
+    let c = &s.effects.video_codec;
+    if c.enabled && (s.camera.width_px % 2 == 1 || s.camera.height_px % 2 == 1) {
+        problems.push(
+            "effects.video_codec.enabled",
+            format!(
+                "a {}×{} px frame cannot be encoded in 4:2:0 (a phone's H.264 or HEVC): \
+                 camera.width_px and camera.height_px must be even",
+                s.camera.width_px, s.camera.height_px
+            ),
+        );
+    }
     if let Ok(camera) = crate::camera::Camera::new(&s.camera) {
         let r_px = s.scene.disc_radius_mm / camera.image_scale_mm_per_px();
         if r_px.is_nan() || r_px > MAX_DISC_RADIUS_PX {

@@ -456,3 +456,36 @@ pub fn render_and_calibrate_fast(
     let log = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
     (truth, cal, log)
 }
+
+/// Render → detect over `frames` of `rig` on a pool of `threads` threads, in chunks of 8 frames.
+#[cfg(feature = "opencv-detector")]
+pub fn detections(
+    rig: &geneva_vision::pipeline::rig::Rig,
+    frames: std::ops::Range<usize>,
+    roi: bool,
+    threads: usize,
+) -> Vec<geneva_vision::pipeline::frames::FrameDetection> {
+    use geneva_vision::pipeline::frames::{detect_frames, FrameLoopOptions};
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut out = Vec::new();
+    pool.install(|| {
+        detect_frames(
+            rig,
+            frames,
+            FrameLoopOptions {
+                roi,
+                chunk_frames: 8,
+            },
+            |c| {
+                out.extend_from_slice(c);
+                Ok(())
+            },
+            &|_| {},
+        )
+        .unwrap()
+    });
+    out
+}

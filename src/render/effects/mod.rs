@@ -4,7 +4,7 @@
 //! Order in the renderer (physical order of image formation): camera vibration and motion blur
 //! (scene sampled across the exposure), rolling shutter (row times), optical blur (PSF), lighting
 //! (illumination), pixel noise (electrons), tone curve, sharpening, 8-bit quantisation,
-//! compression.
+//! compression; then, over the whole clip, the video codec.
 
 pub mod camera_vibration;
 pub mod compression;
@@ -14,6 +14,7 @@ pub mod optical_blur;
 pub mod pixel_noise;
 pub mod rolling_shutter;
 pub mod sharpening;
+pub mod video_codec;
 
 use crate::validation::{join, Problems};
 use serde::{Deserialize, Serialize};
@@ -26,6 +27,7 @@ pub use optical_blur::OpticalBlurConfig;
 pub use pixel_noise::PixelNoiseConfig;
 pub use rolling_shutter::RollingShutterConfig;
 pub use sharpening::SharpeningConfig;
+pub use video_codec::{VideoCodec, VideoCodecConfig};
 
 /// All imaging effects; each sub-table has an `enabled` flag. Defaults reproduce the seed rig's
 /// real 4K frame (see [`crate::render::real_frame`]).
@@ -50,6 +52,10 @@ pub struct EffectsConfig {
     /// written scenario while off and at its defaults, so scenarios without it read as before.
     #[serde(skip_serializing_if = "SharpeningConfig::is_default")]
     pub sharpening: SharpeningConfig,
+    /// H.264 or HEVC over the whole clip (a phone's recording). Left out of a written scenario
+    /// while off and at its defaults.
+    #[serde(skip_serializing_if = "VideoCodecConfig::is_default")]
+    pub video_codec: VideoCodecConfig,
 }
 
 impl EffectsConfig {
@@ -86,6 +92,7 @@ impl EffectsConfig {
                 ..Default::default()
             },
             sharpening: SharpeningConfig::default(),
+            video_codec: VideoCodecConfig::default(),
         }
     }
 
@@ -105,6 +112,8 @@ impl EffectsConfig {
             .validate(&join(path, "compression"), problems);
         self.sharpening
             .validate(&join(path, "sharpening"), problems);
+        self.video_codec
+            .validate(&join(path, "video_codec"), problems);
     }
 }
 
