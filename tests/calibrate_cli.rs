@@ -450,6 +450,17 @@ fn calibrate_reads_a_video_and_warns_when_the_base_does_not_fit_it() {
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
     let toml = std::fs::read_to_string(d.join("cal/scenario.toml")).unwrap();
     assert!(toml.contains("omega1_rad_s = -1.55"), "{toml}");
+    // The container's codec is read (render --video writes lossless H.264, x264's default group
+    // of 250 frames: one key frame in the 60) and written switched off.
+    let s = geneva_vision::scenario::load(&d.join("cal/scenario.toml")).unwrap();
+    let c = &s.effects.video_codec;
+    assert!(!c.enabled);
+    assert_eq!(c.codec, geneva_vision::render::effects::VideoCodec::H264);
+    assert_eq!(c.gop_frames, 60);
+    assert!(c.bitrate_bps.is_some_and(|b| b > 1e5), "{c:?}");
+    let md = std::fs::read_to_string(d.join("cal/calibration.md")).unwrap();
+    assert!(md.contains("video codec: h264 at"), "{md}");
+    assert!(md.contains("one key frame in 60 frames"), "{md}");
     // `fast` is an internal drive: an external base cannot reproduce it.
     std::fs::write(d.join("base.toml"), BASE).unwrap();
     let o = geneva(d, &args);

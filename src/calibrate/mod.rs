@@ -39,6 +39,7 @@
 
 pub mod appearance;
 mod blur_model;
+pub mod codec;
 pub mod exposure;
 mod geometry;
 mod imaging;
@@ -181,6 +182,9 @@ pub struct FootageStats {
     /// The unsharp mask measured on the marker's edges (the edge fits above assume it when it
     /// is significant).
     pub sharpening: Option<sharpening::SharpeningFit>,
+    /// The video codec read from the container (`None`: the footage is not a video; `Err`:
+    /// why it could not be read).
+    pub codec: Option<Result<codec::CodecReading, String>>,
 }
 
 impl FootageStats {
@@ -240,6 +244,8 @@ pub struct Calibration {
     /// The noise by grey level against the electron model, when measured (drawn when it shows
     /// one).
     pub noise_levels: Option<noise_levels::NoiseLevelFit>,
+    /// The video codec read from the container, when the footage is a video that names one.
+    pub codec: Option<codec::CodecReading>,
     /// How the disc around the marker and the background are drawn (sentences for the report;
     /// empty: both uniform).
     pub surroundings: Vec<String>,
@@ -281,6 +287,16 @@ pub fn calibrate(
         Some(fit_motion(&input, &mut notes)?)
     };
     let imaging = fit_imaging(stats, &BaseNoise::of(base), &mut notes)?;
+    match &stats.codec {
+        Some(Ok(r)) => notes.push(format!(
+            "video codec: {}; written switched off in [effects.video_codec]: the noise, blur and \
+             levels above were measured on the decoded footage and already hold what the codec \
+             did to them",
+            r.how
+        )),
+        Some(Err(why)) => notes.push(format!("video codec: not read from the container: {why}")),
+        None => {}
+    }
     Ok(Calibration {
         frames: stats.frames.len(),
         detected_frames: detected,
@@ -292,6 +308,7 @@ pub fn calibrate(
         marker_levels: None,
         noise_levels: None,
         surroundings: Vec::new(),
+        codec: stats.codec.clone().and_then(Result::ok),
         notes,
     })
 }

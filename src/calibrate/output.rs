@@ -268,6 +268,7 @@ pub fn overrides(cal: &Calibration, ctx: &OutputContext, base: &Scenario) -> Vec
         Value::Integer(ctx.height_px as i64),
         "footage",
     ));
+    codec_overrides(cal.codec.as_ref(), &mut o);
     o.push(ov(
         "camera.focal.kind",
         Value::String("image_scale".into()),
@@ -651,6 +652,41 @@ fn exposure_row(e: &ExposureDrift) -> (String, String) {
             "not identifiable".into(),
             format!("{why}; steady light assumed"),
         ),
+    }
+}
+
+fn codec_overrides(codec: Option<&super::codec::CodecReading>, o: &mut Vec<Override>) {
+    if let Some(r) = codec {
+        let c = &r.config;
+        let how = format!("read from the container: {}", r.how);
+        o.push(ov(
+            "effects.video_codec.enabled",
+            Value::Boolean(false),
+            "the footage's noise, blur and levels already hold the codec",
+        ));
+        o.push(ov(
+            "effects.video_codec.codec",
+            Value::String(c.codec.ffprobe_name().into()),
+            how.clone(),
+        ));
+        if let Some(b) = c.bitrate_bps {
+            o.push(ov("effects.video_codec.bitrate_bps", num(b, 0), ""));
+        }
+        o.push(ov(
+            "effects.video_codec.gop_frames",
+            Value::Integer(c.gop_frames as i64),
+            "",
+        ));
+        o.push(ov(
+            "effects.video_codec.b_frames",
+            Value::Integer(c.b_frames as i64),
+            "",
+        ));
+        o.push(ov(
+            "effects.video_codec.preset",
+            Value::String(c.preset.clone()),
+            "assumed",
+        ));
     }
 }
 

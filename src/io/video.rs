@@ -89,6 +89,21 @@ pub struct VideoInfo {
     pub odd_frames: Vec<(usize, String)>,
     /// What ffprobe printed on stderr while succeeding (e.g. "partial file").
     pub probe_warnings: String,
+    /// How the stream was coded, as far as the container tells.
+    pub coding: StreamCoding,
+}
+
+/// The coding of the video stream as ffprobe reports it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StreamCoding {
+    /// `codec_name` (`h264`, `hevc`, `mjpeg`, …).
+    pub codec_name: Option<String>,
+    /// The video stream's `bit_rate`, bit/s.
+    pub stream_bit_rate_bps: Option<f64>,
+    /// The file's `bit_rate` (all its streams), bit/s.
+    pub file_bit_rate_bps: Option<f64>,
+    /// Each decoded frame's picture type in order: `I`, `P`, `B`, or `?` when not stated.
+    pub picture_types: String,
 }
 
 /// A video whose container promises more than decodes.
@@ -231,8 +246,9 @@ pub fn probe_with(path: &Path, ffprobe: &str) -> Result<VideoInfo, VideoError> {
     let out = Command::new(ffprobe)
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
         .arg(
-            "stream=width,height,pix_fmt,nb_frames,duration:stream_tags=rotate:stream_side_data=rotation\
-             :format=duration:frame=pts_time,best_effort_timestamp_time,width,height,pix_fmt",
+            "stream=width,height,pix_fmt,nb_frames,duration,codec_name,bit_rate:stream_tags=rotate\
+             :stream_side_data=rotation:format=duration,bit_rate:frame=pts_time,\
+             best_effort_timestamp_time,width,height,pix_fmt,pict_type",
         )
         .args(["-of", "json"])
         .arg(path)
@@ -314,6 +330,20 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
     let frames = v["frames"].as_array().unwrap_or(&empty);
     let mut timestamps_s = Vec::with_capacity(frames.len());
     let mut odd_frames = Vec::new();
+    let coding = StreamCoding {
+        codec_name: stream["codec_name"].as_str().map(str::to_string),
+        stream_bit_rate_bps: number(&stream["bit_rate"]).filter(|&b| b > 0.0),
+        file_bit_rate_bps: number(&v["format"]["bit_rate"]).filter(|&b| b > 0.0),
+        picture_types: frames
+            .iter()
+            .map(|f| match f["pict_type"].as_str() {
+                Some("I") => 'I',
+                Some("P") => 'P',
+                Some("B") => 'B',
+                _ => '?',
+            })
+            .collect(),
+    };
     for (i, f) in frames.iter().enumerate() {
         if let Some(reason) = odd_frame(f, (coded_w, coded_h), pix_fmt.as_deref()) {
             odd_frames.push((i, reason));
@@ -332,6 +362,7 @@ pub fn parse_probe_json(path: &Path, json: &str) -> Result<VideoInfo, VideoError
         container_duration_s,
         odd_frames,
         probe_warnings: String::new(),
+        coding,
     })
 }
 

@@ -717,12 +717,14 @@ fn read_times(path: &Path) -> Result<Vec<f64>, CalibrateJobError> {
         .map_err(CalibrateJobError::from)
 }
 
-/// Reads the footage frame by frame into `measurer`; returns the timestamps (from the first).
+/// Reads the footage frame by frame into `measurer`; returns the timestamps (from the first)
+/// and, for a video, how its stream was coded.
 fn read_footage(
     footage: &Footage,
     measurer: &mut Measurer,
     progress: &dyn Fn(usize, usize),
-) -> Result<Vec<f64>, CalibrateJobError> {
+) -> Result<(Vec<f64>, Option<crate::io::video::StreamCoding>), CalibrateJobError> {
+    let mut coding = None;
     let mut times = Vec::new();
     match footage {
         Footage::Image(path) => {
@@ -792,6 +794,7 @@ fn read_footage(
         Footage::Video(path) => {
             let mut frames =
                 crate::io::video::VideoFrames::open(path).map_err(CalibrateJobError::from)?;
+            coding = Some(frames.info().coding.clone());
             let (w, h, total) = (
                 frames.info().width_px,
                 frames.info().height_px,
@@ -823,7 +826,7 @@ fn read_footage(
             footage: footage.describe(),
         });
     }
-    Ok(times)
+    Ok((times, coding))
 }
 
 fn frames_hint(footage: &Footage) -> usize {
@@ -887,8 +890,17 @@ fn measure(
     progress: &dyn Fn(usize, usize),
 ) -> Result<Measured, CalibrateJobError> {
     let mut m = Measurer::new(base, frames_hint(footage), single_frame)?;
-    let times = read_footage(footage, &mut m, progress)?;
-    Ok((m.finish(&times), times))
+    let (times, coding) = read_footage(footage, &mut m, progress)?;
+    let mut measured = m.finish(&times);
+    measured.stats.codec = coding.map(|c| {
+        crate::calibrate::codec::read_codec(
+            c.codec_name.as_deref(),
+            c.stream_bit_rate_bps,
+            c.file_bit_rate_bps,
+            &c.picture_types,
+        )
+    });
+    Ok((measured, times))
 }
 
 fn scenario_err(
