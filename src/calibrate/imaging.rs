@@ -3,6 +3,7 @@
 //! parameters (levels and radiances, `optical_blur.sigma_px`, `pixel_noise` electrons).
 
 use super::exposure::{fit_drift, ContrastSample, ExposureDrift};
+use super::noise_levels::QUANTISATION_VAR_DN2;
 use super::{blur_model, CalibrateError, Fitted, FootageStats};
 use crate::imagestats::{EdgeProfile, RegionStats};
 use crate::numeric::robust::{median_in_place as median, sample_sd};
@@ -92,7 +93,8 @@ impl NoiseFit {
 pub fn sensor_sigma(level_dn: f64, black: f64, white: f64, full_well_e: f64, read_e: f64) -> f64 {
     let span = white - black;
     let s = ((level_dn - black) / span).max(0.0);
-    (span * span * (s * full_well_e + read_e * read_e) / (full_well_e * full_well_e) + 1.0 / 12.0)
+    (span * span * (s * full_well_e + read_e * read_e) / (full_well_e * full_well_e)
+        + QUANTISATION_VAR_DN2)
         .sqrt()
 }
 
@@ -658,7 +660,7 @@ pub fn fit_imaging(
         }
         None => ([0.0, 0.0], None),
     };
-    let var = |level: f64, s: f64| (pre(level, s).powi(2) - 1.0 / 12.0).max(0.0);
+    let var = |level: f64, s: f64| (pre(level, s).powi(2) - QUANTISATION_VAR_DN2).max(0.0);
     let (vi, vp) = (
         var(ink_dn.value, ink_sigma.value),
         var(paper_dn.value, paper_sigma.value),

@@ -28,8 +28,19 @@ pub const Z_DEPARTURE: f64 = 4.0;
 /// 8-bit levels hold the region: [`super::imaging::QUANTISATION_LIMITED_DN`]).
 const MIN_SIGMA_DN: f64 = super::imaging::QUANTISATION_LIMITED_DN;
 
-/// Quantisation variance, DN².
-const QUANTISATION_VAR_DN2: f64 = 1.0 / 12.0;
+/// Variance of rounding to whole DN, DN².
+pub const QUANTISATION_VAR_DN2: f64 = 1.0 / 12.0;
+
+/// The total σ (DN) of a sensor σ once rounded to whole DN.
+pub fn with_quantisation_dn(sensor_dn: f64) -> f64 {
+    (sensor_dn * sensor_dn + QUANTISATION_VAR_DN2).sqrt()
+}
+
+/// The sensor's σ (DN) within a total σ that holds the rounding to whole DN (0 when the total is
+/// the rounding's alone or less).
+pub fn without_quantisation_dn(total_dn: f64) -> f64 {
+    (total_dn * total_dn - QUANTISATION_VAR_DN2).max(0.0).sqrt()
+}
 
 /// A level whose noise the tone curve's clipping at either end would cut by more than this
 /// fraction is left out (about 2σ from the end): a fifth of [`MIN_DEPARTURE`], so that clipping
@@ -137,10 +148,8 @@ pub fn fit_noise_levels(
             continue;
         }
         let model = model_sigma_dn(m.level_dn);
-        let model_sensor = (model * model - QUANTISATION_VAR_DN2).max(0.0).sqrt();
-        let sensor = (m.sigma_dn * m.sigma_dn - QUANTISATION_VAR_DN2)
-            .max(0.0)
-            .sqrt();
+        let model_sensor = without_quantisation_dn(model);
+        let sensor = without_quantisation_dn(m.sigma_dn);
         if !(model_sensor > 0.0 && sensor > 0.0) {
             skipped.push(format!(
                 "{} ({:.1} DN): the model draws no noise there",
@@ -217,12 +226,12 @@ mod tests {
     }
 
     fn flat(sensor_dn: f64) -> impl Fn(f64) -> f64 {
-        move |_| (sensor_dn * sensor_dn + QUANTISATION_VAR_DN2).sqrt()
+        move |_| with_quantisation_dn(sensor_dn)
     }
 
     #[test]
     fn factors_are_the_sensor_sigma_over_the_model_pooled_by_level() {
-        let q = |s: f64| (s * s + QUANTISATION_VAR_DN2).sqrt();
+        let q = with_quantisation_dn;
         let fit = fit_noise_levels(
             &[
                 at("ink, first dwell", 48.0, q(3.5)),
@@ -253,7 +262,7 @@ mod tests {
 
     #[test]
     fn noise_as_the_model_draws_it_needs_no_table() {
-        let q = |s: f64| (s * s + QUANTISATION_VAR_DN2).sqrt();
+        let q = with_quantisation_dn;
         // 5 % off, far beyond its standard error: below the departure worth a table.
         let fit = fit_noise_levels(
             &[at("ink", 48.0, q(2.625)), at("paper", 200.0, q(2.5))],

@@ -3,13 +3,13 @@
 //! the electrons the calibration fitted.
 
 use super::calibrate::{float_of, round6};
-use crate::calibrate::noise_levels::{fit_noise_levels, NoiseLevelFit, MIN_DEPARTURE, Z_DEPARTURE};
+use crate::calibrate::noise_levels::{
+    fit_noise_levels, with_quantisation_dn, without_quantisation_dn, NoiseLevelFit, MIN_DEPARTURE,
+    Z_DEPARTURE,
+};
 use crate::calibrate::output::Override;
 use crate::calibrate::{sensor_sigma, Calibration, FootageStats};
 use toml::Value;
-
-/// Quantisation variance, DN².
-const QUANTISATION_VAR_DN2: f64 = 1.0 / 12.0;
 
 /// Measures the footage's noise at every level its static runs hold against the calibrated
 /// noise model (`ovs`' electrons and tone span) and, when it departs, names the table in `ovs`.
@@ -83,14 +83,11 @@ fn model_sigma(stats: &FootageStats, ovs: &[Override]) -> Option<(impl Fn(f64) -
     let read = float_of(ovs, "effects.pixel_noise.read_noise_e")?;
     let analytic = move |level: f64| sensor_sigma(level, black, white, fw, read);
     let anchor = stats.temporal.iter().find(|t| t.what == "disc ink")?;
-    let sensor = |sigma: f64| (sigma * sigma - QUANTISATION_VAR_DN2).max(0.0).sqrt();
+    let sensor = without_quantisation_dn;
     let model_anchor = sensor(analytic(anchor.noise.level_dn));
     let k = sensor(anchor.noise.sigma_dn) / model_anchor;
     (k.is_finite() && k > 0.0).then_some((
-        move |level: f64| {
-            let s = k * sensor(analytic(level));
-            (s * s + QUANTISATION_VAR_DN2).sqrt()
-        },
+        move |level: f64| with_quantisation_dn(k * sensor(analytic(level))),
         black,
         white,
     ))
