@@ -484,10 +484,9 @@ impl Measurer {
         let Some(first) = self.run.first() else {
             return;
         };
-        // The crops of a run differ in window only when the detection moved: use the first's.
-        let rect = first.1.rect;
-        let crops: Vec<&(usize, Crop, Corners)> =
-            self.run.iter().filter(|r| r.1.rect == rect).collect();
+        // Every frame of a run is cropped to its first's window (`observe`).
+        let crops: Vec<&(usize, Crop, Corners)> = self.run.iter().collect();
+        debug_assert!(crops.iter().all(|c| c.1.rect == first.1.rect));
         // Two frames suffice: a clip that starts as a dwell ends shows that dwell's levels on
         // two frames only, and their difference at each of a few hundred pixels pins the σ.
         if crops.len() < 2 {
@@ -569,11 +568,8 @@ impl Measurer {
             .iter()
             .map(|(_, c, k)| (c.clone(), *k))
             .collect();
-        // The crops of a run differ in window only when the detection moved: use the first's.
-        let rect = run.first().map(|r| r.0.rect);
-        let same: Vec<(Crop, Corners)> =
-            run.into_iter().filter(|r| Some(r.0.rect) == rect).collect();
-        add("disc", &same, &self.layout);
+        // Every frame of a run is cropped to its first's window (`observe`).
+        add("disc", &run, &self.layout);
         if let Some(rl) = self.ref_layout.clone() {
             let crops = self.ref_crops.clone();
             add("reference", &crops, &rl);
