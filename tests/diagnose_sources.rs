@@ -11,6 +11,7 @@
 #![cfg(feature = "opencv-detector")]
 
 use common::geneva_ok as geneva;
+use geneva_vision::scenario::effects::Effect;
 use std::path::Path;
 
 mod common;
@@ -152,14 +153,14 @@ fn a_drive_speed_variation_in_a_corner_track_is_explained_and_fitted() {
         .flat_map(|r| r["effects"].as_array().unwrap())
         .filter_map(|e| e.as_str())
         .collect();
-    for image_effect in [
-        "pixel_noise",
-        "optical_blur",
-        "motion_blur",
-        "compression",
-        "lighting",
-    ] {
-        assert!(!ranked.contains(&image_effect), "{ranked:?}");
+    let image_effects: Vec<&str> = Effect::ALL
+        .iter()
+        .filter(|e| e.needs_frames())
+        .map(|e| e.name())
+        .collect();
+    assert!(image_effects.contains(&"video_codec"), "{image_effects:?}");
+    for image_effect in &image_effects {
+        assert!(!ranked.contains(image_effect), "{ranked:?}");
     }
 }
 

@@ -272,7 +272,8 @@ pub struct Diagnosis {
     pub bounded_out: Vec<(Effect, f64)>,
     /// Candidates not tried because of `--max-minutes`.
     pub not_tried: Vec<Effect>,
-    /// Candidates that cannot be judged from the input (image effects from a corner track).
+    /// Candidates that cannot be judged from the input (image effects from a corner track, a
+    /// video codec on frames with an odd side).
     pub not_judged: Vec<Effect>,
     pub pair_tried: bool,
     /// Pairs the pair stage fitted and set aside because their second effect came out where it

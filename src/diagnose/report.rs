@@ -1291,10 +1291,13 @@ pub fn markdown(d: &Diagnosis, figures: &[String]) -> String {
     s.push_str(&second_look_text(d.second_look.as_ref()));
     s.push_str(&not_distinct_text(&d.not_distinct, &d.ranking));
     if !d.not_judged.is_empty() {
-        s.push_str(&format!(
-            "Not judged: {} act on the pixels and cannot be judged from a corner track.\n\n",
-            list(&d.not_judged)
-        ));
+        let why = if d.has_images {
+            "cannot act on these frames (a video codec codes 4:2:0, which needs an even frame \
+             width and height)"
+        } else {
+            "act on the pixels and cannot be judged from a corner track"
+        };
+        s.push_str(&format!("Not judged: {} {why}.\n\n", list(&d.not_judged)));
     }
     if let Some(b) = best {
         s.push_str(&refit_text(b));

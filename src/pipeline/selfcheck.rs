@@ -189,7 +189,7 @@ pub fn timebase_schedule(level: Level, fps: f64) -> crate::timing::VfrModel {
 /// at phase 0, a random shake, one vibration mode, a k1 lens): these cases check that a
 /// diagnosis still names the effect when the data's form differs.
 pub fn apply_other_form(effect: Effect, s: &mut Scenario) -> bool {
-    use crate::render::effects::Sinusoid;
+    use crate::render::effects::{Sinusoid, VideoCodec};
     match effect {
         Effect::AxisRunout => {
             let r = &mut s.dynamics.axis_runout;
@@ -239,6 +239,14 @@ pub fn apply_other_form(effect: Effect, s: &mut Scenario) -> bool {
             let t = &mut s.camera.perspective_tilt;
             t.tilt_x_deg = -8.0;
             t.tilt_y_deg = 15.0;
+        }
+        Effect::VideoCodec => {
+            // HEVC where the candidate codes with the nominal's codec (H.264 by default).
+            let c = &mut s.effects.video_codec;
+            c.codec = match c.codec {
+                VideoCodec::H264 => VideoCodec::Hevc,
+                VideoCodec::Hevc => VideoCodec::H264,
+            };
         }
         _ => return false,
     }
@@ -1999,6 +2007,7 @@ mod tests {
                 "withheld-camera_vibration-form-0",
                 "withheld-lens_distortion-form-0",
                 "withheld-perspective_tilt-form-0",
+                "withheld-video_codec-form-0",
             ]
         );
         for c in &all {

@@ -19,6 +19,7 @@ use crate::diagnose::holdout::judge;
 use crate::diagnose::simulator::SimMeter;
 use crate::diagnose::verdict::{Outcome, Verdict};
 use crate::scenario::effects::Effect;
+use crate::scenario::Scenario;
 use std::cell::RefCell;
 use std::time::Instant;
 
@@ -104,10 +105,12 @@ pub(super) struct Screening {
 /// Screens the candidates `options` names (all by default) against `nominal_gap`: only
 /// effects with a significant cell in their signature are fitted, largest possible share of
 /// the gap first; those that need the frames are not judged on a corner track
-/// (`has_images` false).
+/// (`has_images` false), nor those that cannot act on `nominal`'s frames
+/// ([`Effect::can_act_on`]).
 pub(super) fn screen(
     options: &DiagnoseOptions,
     has_images: bool,
+    nominal: &Scenario,
     nominal_gap: &GapMap,
 ) -> Screening {
     let candidates: Vec<Effect> = options
@@ -116,7 +119,7 @@ pub(super) fn screen(
         .unwrap_or_else(|| Effect::ALL.to_vec());
     let (candidates, not_judged): (Vec<Effect>, Vec<Effect>) = candidates
         .into_iter()
-        .partition(|e| has_images || !e.needs_frames());
+        .partition(|e| (has_images || !e.needs_frames()) && e.can_act_on(nominal));
     let mut screened: Vec<(Effect, f64)> = candidates
         .iter()
         .map(|&e| (e, plan::screening_share(e, nominal_gap)))

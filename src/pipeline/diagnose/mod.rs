@@ -446,7 +446,7 @@ pub fn diagnose_with(
         screened,
         units,
         not_judged,
-    } = candidates::screen(options, real.record.has_images, nominal_gap);
+    } = candidates::screen(options, real.record.has_images, nominal, nominal_gap);
     let stage_outlook = outlook::Outlook::new(fit_seeds.len(), seeds.len());
     let fits = units.len();
     candidates::plan_tail(
