@@ -695,6 +695,8 @@ impl Effect {
         if self.is_on(nominal) {
             let restated = match self {
                 Effect::FrameTiming => matches!(nominal.frame_timing.model, TimingModel::Vfr(_)),
+                // A constant-quality codec states no bitrate: `values` gives the probe.
+                Effect::VideoCodec => nominal.effects.video_codec.bitrate_bps.is_some(),
                 _ => true,
             };
             let values = self.values(nominal);
@@ -1076,6 +1078,19 @@ mod tests {
             assert!(!(e.kind() == EffectKind::Image && e.trial_refits_motion()));
             assert!(!e.bends_the_aligned_angle() || e.trial_refits_motion());
         }
+    }
+
+    /// A nominal's codec is restated by its bitrate; one at a constant quality states none, and
+    /// the probe `values` gives in its place is no nominal value.
+    #[test]
+    fn a_codec_nominal_restates_its_bitrate_only_when_it_states_one() {
+        let mut s = crate::scenario::load_any("fast").unwrap();
+        s.effects.video_codec.enabled = true;
+        assert_eq!(Effect::VideoCodec.nominal_values(&s, 30.0), [None]);
+        s.effects.video_codec.bitrate_bps = Some(2e6);
+        assert_eq!(Effect::VideoCodec.nominal_values(&s, 30.0), [Some(2e6)]);
+        s.effects.video_codec.enabled = false;
+        assert_eq!(Effect::VideoCodec.nominal_values(&s, 30.0), [Some(1e8)]);
     }
 
     /// A video codec acts only on frames with even sides (4:2:0); every other effect on any.
